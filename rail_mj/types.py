@@ -1,0 +1,164 @@
+"""Data that crosses stage boundaries: objects, stable poses, rollout inputs and outcomes.
+
+Frames (used everywhere in rail_mj)
+-----------------------------------
+* **mesh frame** — the object's own frame after units and up-axis conversion
+  (metres, z up). Hull vertices, ``com`` and ``functional_up`` labels live here.
+* **world** — z up, ground plane at z = 0.
+* **stable pose** ``(pos, quat)`` — places the mesh frame in the world so that
+  the object rests on the ground: its world-aligned bounding box is centred at
+  x = y = 0 and its lowest point touches z = 0.
+* **task frame** — the frame agents, trajectories and scoring work in. Its
+  origin is the centre of the object's world-aligned bounding box in the stable
+  pose, its axes are the world axes at placement, and it is rigidly attached to
+  the object (if the object tips over, the frame tips with it). In the task
+  frame the object occupies ``[-h, h]`` per axis, where
+  ``h = Outcomes.object_half_extents``; "up" is +z; the object's top is at
+  ``z = h[2]`` and the ground at ``z = -h[2]``.
+
+Quaternions are MuJoCo's ``(w, x, y, z)``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "RailObject",
+    "StablePose",
+    "StablePoses",
+    "AgentSetup",
+    "Outcomes",
+    "SCORING_ARGS",
+]
+
+
+@dataclass(frozen=True, eq=False)
+class RailObject:
+    """A loaded, repaired, convex-decomposed object (mesh frame, metres)."""
+
+    name: str
+    mesh: Any  # trimesh.Trimesh, kept untyped to avoid importing trimesh here
+    hulls: tuple[np.ndarray, ...]  # each (V, 3) float64 convex-hull vertices, mesh frame
+    mesh_hash: str  # SHA-256 of the source bytes (or of the mesh arrays)
+    obb_dims: np.ndarray  # (3,) oriented-bounding-box extents, metres, sorted descending
+    com: np.ndarray  # (3,) centre of mass, mesh frame
+    mass: float  # kg, from the density
+    density: float  # kg / m^3
+    source: str = ""  # the file it came from, if any
+
+    @property
+    def extents(self) -> np.ndarray:
+        """Axis-aligned extents of the mesh in the mesh frame, (3,)."""
+        lo, hi = np.asarray(self.mesh.bounds)
+        return hi - lo
+
+
+@dataclass(frozen=True)
+class StablePose:
+    """One stable resting pose of an object on the ground."""
+
+    pos: np.ndarray  # (3,) world position of the mesh-frame origin
+    quat: np.ndarray  # (4,) wxyz world orientation of the mesh frame
+    probability: float  # fraction of drops that ended in this pose
+    half_extents: np.ndarray  # (3,) half-sizes of the world-aligned bounding box in this pose
+
+    @property
+    def up_in_mesh_frame(self) -> np.ndarray:
+        """The mesh-frame unit vector that points to world +z in this pose."""
+        w, x, y, z = self.quat
+        # third row of the rotation matrix = R^T e_z
+        return np.array([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)])
+
+
+@dataclass(frozen=True)
+class StablePoses:
+    """The set G_s of stable poses of one object, most probable first."""
+
+    poses: tuple[StablePose, ...]
+    n_drops: int  # how many drops were simulated
+    n_unsettled: int  # drops that were still moving at the time limit
+
+    def __len__(self) -> int:
+        return len(self.poses)
+
+    def __iter__(self):
+        return iter(self.poses)
+
+    def __getitem__(self, i: int) -> StablePose:
+        return self.poses[i]
+
+
+@dataclass(frozen=True)
+class AgentSetup:
+    """What the imagination needs to know about the agents of one profile.
+
+    ``fragment`` is an MJCF ``<mujoco>`` document whose ``<worldbody>`` holds
+    exactly one body (the agent; no joints, the scene adds a free joint).
+    ``offsets`` are the agents' positions relative to the layout centre (task
+    frame axes); every agent has the same orientation as the layout centre.
+    """
+
+    fragment: str
+    offsets: np.ndarray  # (N, 3)
+    collide_agents: bool = True  # agent-agent contacts (droplets pile up; a lone agent does not care)
+
+
+#: Parameter names, in order, of a generated scoring function
+#: ``def score(agent_pos, agent_quat, ...) -> array of shape (B,)``.
+SCORING_ARGS: tuple[str, ...] = (
+    "agent_pos",
+    "agent_quat",
+    "agent_vel",
+    "contacts_object",
+    "contacts_agents",
+    "contacts_ground",
+    "object_pos",
+    "object_tilt",
+    "object_half_extents",
+)
+
+
+@dataclass(frozen=True)
+class Outcomes:
+    """Resultant configurations of a batch of imagination rollouts.
+
+    Leading axis B = stable poses × plans, pose-major: rollout ``b`` is pose
+    ``pose_index[b]`` and plan ``plan_index[b]``. N = number of agents.
+    Positions and orientations are in the task frame (see the module doc) at
+    the end of the rollout.
+    """
+
+    pose_index: np.ndarray  # (B,) int
+    plan_index: np.ndarray  # (B,) int
+    agent_pos: np.ndarray  # (B, N, 3) float, agent centres in the task frame
+    agent_quat: np.ndarray  # (B, N, 4) float, agent orientation in the task frame, wxyz
+    agent_vel: np.ndarray  # (B, N, 3) float, linear velocity, world frame, m/s
+    contacts_object: np.ndarray  # (B, N) int, contact points agent–object
+    contacts_agents: np.ndarray  # (B, N) int, contact points agent–other agents
+    contacts_ground: np.ndarray  # (B, N) int, contact points agent–ground
+    released_early: np.ndarray  # (B, N) bool, released on collision before the trajectory ended
+    object_pos: np.ndarray  # (B, 3) float, displacement of the task-frame origin in the world, m
+    object_quat: np.ndarray  # (B, 4) float, final object orientation relative to placement, wxyz
+    object_tilt: np.ndarray  # (B,) float, angle between task-frame +z and world +z at the end, rad
+    object_half_extents: np.ndarray  # (B, 3) float, the object's half-sizes in the task frame
+    settled: np.ndarray  # (B,) bool, every body slower than the settle threshold at the end
+
+    @property
+    def batch(self) -> int:
+        return int(self.pose_index.shape[0])
+
+    @property
+    def n_agents(self) -> int:
+        return int(self.agent_pos.shape[1])
+
+    def scoring_kwargs(self) -> dict[str, np.ndarray]:
+        """The arrays a generated scoring function receives, by name."""
+        return {name: getattr(self, name) for name in SCORING_ARGS}
+
+    def take(self, index: np.ndarray) -> "Outcomes":
+        """A sub-batch (e.g. one stable pose's rollouts)."""
+        return Outcomes(**{f.name: getattr(self, f.name)[index] for f in fields(self)})
