@@ -1,0 +1,20 @@
+"""Generated scoring code: allow-listed statically, run over whole batches in a sandboxed worker.
+
+See :mod:`rail_mj.scoring.validate` for what source may contain and
+:mod:`rail_mj.scoring.pool` / :mod:`rail_mj.scoring.sandbox` for the worker.
+"""
+
+from rail_mj.scoring.function import ScoringFunction, compile_scoring
+from rail_mj.scoring.pool import close_workers, warm_up, worker_count
+from rail_mj.scoring.validate import RejectedCodeError, check_source, scoring_rules
+
+__all__ = [
+    "ScoringFunction",
+    "compile_scoring",
+    "check_source",
+    "scoring_rules",
+    "RejectedCodeError",
+    "warm_up",
+    "close_workers",
+    "worker_count",
+]

@@ -1,0 +1,277 @@
+"""The scoring worker: runs allow-listed scoring code over arrays in a locked-down process.
+
+This file is executed as a script, in an empty temporary working directory, (``python -P -B sandbox.py ...``) by
+:mod:`rail_mj.scoring.pool`, so it imports nothing but the standard library and
+numpy — never the ``rail_mj`` package, whose ``__init__`` may pull in JAX or
+MuJoCo. The parent imports it too, for the allow-lists below (one source of
+truth for the AST check and the runtime namespace).
+
+Protocol (one request at a time):
+
+* parent → worker: a pickled ``dict`` (trusted direction) carrying the code
+  object the parent compiled from the checked tree (marshal), the input
+  arrays already written into the shared memory file at the offsets it lists;
+* worker → parent: a JSON header (never pickle: the parent must not unpickle
+  what the untrusted side produced), then, on success, the raw ``float64``
+  scores.
+"""
+
+from __future__ import annotations
+
+import builtins
+import json
+import marshal
+import math
+import mmap
+import os
+import pickle
+import resource
+import signal
+import sys
+import types
+import warnings
+from multiprocessing.connection import Connection
+
+import numpy as np
+
+__all__ = [
+    "NUMPY_FUNCTIONS",
+    "NUMPY_CONSTANTS",
+    "LINALG_FUNCTIONS",
+    "SAFE_BUILTINS",
+    "OBJECT_ATTRIBUTES",
+    "SOURCE_FILENAME",
+    "make_globals",
+    "main",
+]
+
+#: ``np.<name>`` callables available to scoring code (pure array maths, no I/O).
+NUMPY_FUNCTIONS: frozenset[str] = frozenset(
+    {
+        "abs", "absolute", "all", "any", "allclose", "amax", "amin", "arange", "arccos",
+        "arcsin", "arctan", "arctan2", "argmax", "argmin", "argsort", "around", "array",
+        "asarray", "atleast_1d", "atleast_2d", "broadcast_to", "cbrt", "ceil", "clip",
+        "column_stack", "concatenate", "cos", "cosh", "count_nonzero", "cross", "cumprod",
+        "cumsum", "deg2rad", "degrees", "diff", "divide", "dot", "einsum", "empty",
+        "empty_like", "equal", "exp", "expand_dims", "fabs", "floor", "fmax", "fmin", "full",
+        "full_like", "greater", "greater_equal", "hypot", "isclose", "isfinite", "isinf",
+        "isnan", "less", "less_equal", "linspace", "log", "log10", "log1p", "log2",
+        "logical_and", "logical_not", "logical_or", "logical_xor", "matmul", "max",
+        "maximum", "mean", "median", "min", "minimum", "mod", "multiply", "nan_to_num",
+        "nanmax", "nanmean", "nanmin", "nansum", "negative", "nonzero", "not_equal", "ones",
+        "ones_like", "outer", "percentile", "power", "prod", "ptp", "quantile", "rad2deg",
+        "radians", "ravel", "reciprocal", "repeat", "reshape", "round", "sign", "sin",
+        "sinh", "sort", "sqrt", "square", "squeeze", "stack", "std", "subtract", "sum",
+        "swapaxes", "take", "take_along_axis", "tan", "tanh", "tile", "trace", "transpose",
+        "tril", "triu", "unique", "var", "vstack", "hstack", "where", "zeros", "zeros_like",
+        "float64", "float32", "int64", "int32", "bool_",
+    }
+)
+#: ``np.<name>`` constants.
+NUMPY_CONSTANTS: frozenset[str] = frozenset({"pi", "e", "inf", "nan", "newaxis"})
+#: ``np.linalg.<name>`` callables.
+LINALG_FUNCTIONS: frozenset[str] = frozenset({"norm", "det", "inv", "solve", "eigh", "svd"})
+#: Builtins in the exec namespace; everything else (open, exec, getattr, type, …) is absent.
+SAFE_BUILTINS: frozenset[str] = frozenset(
+    {
+        "abs", "all", "any", "bool", "divmod", "enumerate", "float", "int", "isinstance",
+        "len", "list", "max", "min", "pow", "range", "reversed", "round", "sorted", "sum",
+        "tuple", "zip", "dict", "set", "True", "False", "None",
+    }
+)
+#: Attribute names allowed on any value other than ``np`` (arrays, lists, dicts).
+#: Deliberately absent: ctypes, base, data, tofile, dump, dumps, view, flags,
+#: setflags, format, tobytes, __anything__.
+OBJECT_ATTRIBUTES: frozenset[str] = frozenset(
+    {
+        "shape", "ndim", "size", "T", "sum", "mean", "min", "max", "any", "all", "astype",
+        "copy", "reshape", "ravel", "flatten", "clip", "std", "var", "prod", "argmax",
+        "argmin", "argsort", "cumsum", "cumprod", "round", "transpose", "squeeze", "dot",
+        "nonzero", "item", "tolist", "sort", "swapaxes", "append", "extend", "insert", "pop",
+        "count", "index", "items", "keys", "values", "get",
+    }
+)
+#: Code objects compiled from scoring source carry this file name (tracebacks → line).
+SOURCE_FILENAME = "<scoring>"
+
+_PROTOCOL_FDS = 3  # argv: request fd, reply fd, shared-memory fd
+_CODE_CACHE_SIZE = 64
+
+
+class _ScoringTimeout(BaseException):
+    """Raised by SIGALRM inside the scoring code; BaseException so nothing the code does masks it."""
+
+
+class _BadOutput(Exception):
+    """The code ran but returned something that is not B finite numbers."""
+
+
+def _numpy_only_import(name, globals=None, locals=None, fromlist=(), level=0):
+    """``__import__`` for numpy's C code, which imports through the caller's builtins.
+
+    Scoring code itself cannot name it (the checker refuses names starting with '_').
+    """
+    if level == 0 and (name == "numpy" or name.startswith("numpy.")):
+        return builtins.__import__(name, globals, locals, fromlist, level)
+    raise ImportError(f"import of {name!r} is not available to scoring code")
+
+
+def make_globals() -> dict:
+    """A fresh exec namespace: restricted builtins and the allow-listed numpy subset."""
+    linalg = types.SimpleNamespace(**{n: getattr(np.linalg, n) for n in sorted(LINALG_FUNCTIONS)})
+    names = {n: getattr(np, n) for n in sorted(NUMPY_FUNCTIONS | NUMPY_CONSTANTS)}
+    return {
+        "__builtins__": {"__import__": _numpy_only_import, **{n: getattr(builtins, n) for n in sorted(SAFE_BUILTINS)}},
+        "np": types.SimpleNamespace(linalg=linalg, **names),
+    }
+
+
+def _vm_bytes() -> int:
+    """Current virtual address-space size of this process (what RLIMIT_AS counts)."""
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
+
+
+def _error_line(tb) -> int | None:
+    """The last line of the scoring source in a traceback (None if it failed elsewhere)."""
+    line = None
+    while tb is not None:
+        if tb.tb_frame.f_code.co_filename == SOURCE_FILENAME:
+            line = tb.tb_lineno
+        tb = tb.tb_next
+    return line
+
+
+def _on_alarm(signum, frame):
+    raise _ScoringTimeout
+
+
+def _lock_down() -> None:
+    """Process-wide limits that no scoring call needs lifted: no files written, no children."""
+    resource.setrlimit(resource.RLIMIT_FSIZE, (0, 0))
+    resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
+    resource.setrlimit(resource.RLIMIT_NPROC, (0, 0))
+
+
+def _limit_call(timeout_s: float, memory_mb: int) -> None:
+    """Per-call limits: extra address space, CPU seconds (SIGXCPU kills) and a wall-time alarm."""
+    _, as_hard = resource.getrlimit(resource.RLIMIT_AS)
+    resource.setrlimit(resource.RLIMIT_AS, (_vm_bytes() + memory_mb * 2**20, as_hard))
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    cpu_now = usage.ru_utime + usage.ru_stime
+    _, cpu_hard = resource.getrlimit(resource.RLIMIT_CPU)
+    resource.setrlimit(resource.RLIMIT_CPU, (math.ceil(cpu_now + timeout_s) + 1, cpu_hard))
+    signal.setitimer(signal.ITIMER_REAL, timeout_s)
+
+
+def _unlimit_call() -> None:
+    signal.setitimer(signal.ITIMER_REAL, 0)
+    _, as_hard = resource.getrlimit(resource.RLIMIT_AS)
+    resource.setrlimit(resource.RLIMIT_AS, (as_hard, as_hard))
+    _, cpu_hard = resource.getrlimit(resource.RLIMIT_CPU)
+    resource.setrlimit(resource.RLIMIT_CPU, (cpu_hard, cpu_hard))
+
+
+def _check_output(out, batch: int) -> np.ndarray:
+    """Coerce to float64 (B,) or raise _BadOutput saying what was returned."""
+    try:
+        arr = np.asarray(out)
+    except (ValueError, TypeError) as exc:
+        raise _BadOutput(f"score must return a numeric array of shape ({batch},); got a {type(out).__name__} "
+                         f"numpy cannot convert ({exc})") from None
+    if arr.dtype.kind not in "biuf":
+        raise _BadOutput(f"score must return a numeric array; got dtype {arr.dtype} ({type(out).__name__})")
+    if arr.shape != (batch,):
+        raise _BadOutput(f"score must return shape ({batch},) — one score per rollout; got shape {arr.shape}")
+    arr = arr.astype(np.float64)
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        raise _BadOutput(
+            f"score returned {int(bad.sum())} non-finite values (NaN or inf), first at rollout {int(np.argmax(bad))}"
+        )
+    return arr
+
+
+class _Worker:
+    def __init__(self, request: Connection, reply: Connection, shm_fd: int) -> None:
+        self.request = request
+        self.reply = reply
+        self.shm_fd = shm_fd
+        self.shm: mmap.mmap | None = None
+        self.code: dict[str, types.CodeType] = {}
+
+    def _map(self, size: int) -> memoryview:
+        if self.shm is None or len(self.shm) != size:
+            # an old map still exported to arrays stays alive until those die; just drop it
+            self.shm = mmap.mmap(self.shm_fd, size)
+        return memoryview(self.shm)
+
+    def _code(self, digest: str, payload: bytes) -> types.CodeType:
+        code = self.code.get(digest)
+        if code is None:
+            if len(self.code) >= _CODE_CACHE_SIZE:
+                self.code.pop(next(iter(self.code)))
+            code = self.code[digest] = marshal.loads(payload)
+        return code
+
+    def _run(self, req: dict) -> dict:
+        view = self._map(req["shm_size"])
+        arrays = {
+            name: np.frombuffer(view, dtype=np.dtype(dtype), count=math.prod(shape), offset=offset).reshape(shape)
+            for name, dtype, shape, offset in req["arrays"]
+        }
+        namespace = make_globals()
+        try:
+            exec(self._code(req["digest"], req["code"]), namespace)
+            _limit_call(req["timeout_s"], req["memory_mb"])
+            try:
+                return {"ok": True, "scores": _check_output(namespace["score"](**arrays), req["batch"])}
+            finally:
+                _unlimit_call()
+        except _ScoringTimeout:
+            return {"ok": False, "kind": "timeout", "message": f"exceeded the wall-time limit of {req['timeout_s']} s"}
+        except _BadOutput as exc:
+            return {"ok": False, "kind": "output", "message": str(exc)}
+        except RecursionError as exc:
+            return {"ok": False, "kind": "recursion", "message": f"recursion too deep ({exc})",
+                    "line": _error_line(exc.__traceback__)}
+        except MemoryError as exc:
+            return {"ok": False, "kind": "memory",
+                    "message": f"exceeded the memory limit of {req['memory_mb']} MB ({type(exc).__name__}: {exc})",
+                    "line": _error_line(exc.__traceback__)}
+        except Exception as exc:
+            return {"ok": False, "kind": "exception", "message": f"{type(exc).__name__}: {exc}",
+                    "line": _error_line(exc.__traceback__)}
+        finally:
+            # idempotent; also covers an alarm that fired inside the inner finally
+            _unlimit_call()
+
+    def serve(self) -> None:
+        self.reply.send_bytes(json.dumps({"ready": True, "pid": os.getpid()}).encode())
+        while True:
+            try:
+                req = pickle.loads(self.request.recv_bytes())
+            except EOFError:
+                return
+            result = self._run(req)
+            scores = result.pop("scores", None)
+            self.reply.send_bytes(json.dumps(result).encode())
+            if scores is not None:
+                self.reply.send_bytes(memoryview(scores))
+
+
+def main(argv: list[str]) -> None:
+    """Entry point: ``sandbox.py REQUEST_FD REPLY_FD SHM_FD``."""
+    if len(argv) != _PROTOCOL_FDS:
+        raise SystemExit(f"usage: sandbox.py REQUEST_FD REPLY_FD SHM_FD (got {argv})")
+    request_fd, reply_fd, shm_fd = (int(a) for a in argv)
+    warnings.simplefilter("ignore")
+    np.seterr(all="ignore")
+    signal.signal(signal.SIGALRM, _on_alarm)
+    make_globals()  # resolve every allow-listed numpy name now, before the limits
+    _lock_down()
+    _Worker(Connection(request_fd, writable=False), Connection(reply_fd, readable=False), shm_fd).serve()
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
