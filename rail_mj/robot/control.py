@@ -1,0 +1,212 @@
+"""Torque-controlled Panda, Cartesian impedance control with force limits, and differential IK.
+
+The Menagerie Panda drives its joints with position servos. Here the seven arm
+actuators become torque motors whose limits are the model's own ``forcerange``
+(87 N·m for joints 1–4, 12 N·m for 5–7), gravity is compensated by MuJoCo
+(``gravcomp`` on every robot body), and a Cartesian impedance law moves a
+control site (the held agent's centre) with its spring force capped, so the
+robot can never push harder than the configured contact-force limit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import mujoco
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from rail_mj.errors import RobotError
+
+__all__ = [
+    "RobotConfig",
+    "ARM_JOINTS",
+    "HOME_QPOS",
+    "MONITORED_BODIES",
+    "make_torque_controlled",
+    "ArmIndex",
+    "impedance_torque",
+    "contact_force",
+    "solve_ik",
+    "quat_error",
+]
+
+ARM_JOINTS: tuple[str, ...] = tuple(f"joint{i}" for i in range(1, 8))
+#: The Menagerie "home" keyframe's arm joints.
+HOME_QPOS = np.array([0.0, 0.0, 0.0, -1.57079, 0.0, 1.57079, -0.7853])
+#: Bodies whose contact forces count as "hand contact" (plus the held agent).
+MONITORED_BODIES: tuple[str, ...] = ("link6", "link7", "hand", "left_finger", "right_finger")
+
+
+class RobotConfig(BaseModel):
+    """Execution settings (SI units)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    force_limit: float = Field(15.0, gt=0, description="contact force on hand + held agent that stops the motion, N")
+    on_force_limit: Literal["hold", "retreat"] = "hold"
+    retreat_distance: float = Field(0.02, ge=0, description="how far to back off on a force-limit event, m")
+    stiffness: float = Field(1000.0, gt=0, description="translational impedance, N/m")
+    rot_stiffness: float = Field(40.0, gt=0, description="rotational impedance, N·m/rad")
+    damping_ratio: float = Field(1.0, gt=0)
+    nullspace_stiffness: float = Field(10.0, ge=0, description="posture spring, N·m/rad")
+    speed: float = Field(0.1, gt=0, description="end-effector speed along the trajectory, m/s")
+    angular_speed: float = Field(1.0, gt=0, description="rad/s")
+    dt: float = Field(0.002, gt=0, le=0.005)
+    hold_time: float = Field(0.3, ge=0, description="pause at the end of the trajectory before release, s")
+    lift_after_release: float = Field(0.08, ge=0, description="hand moves up this far after releasing, m")
+    settle_time: float = Field(3.0, gt=0, description="longest wait for the agent to come to rest, s")
+    settle_speed: float = Field(0.01, gt=0, description="agent/object speed counted as at rest, m/s")
+    ik_pos_tol: float = Field(0.005, gt=0, description="IK residual above which a pose is unreachable, m")
+    ik_rot_tol: float = Field(0.05, gt=0, description="rad")
+    table_height: float = Field(0.1, gt=0, description="table top above the floor, m")
+    table_half_size: tuple[float, float] = (0.3, 0.45)
+    object_xy: tuple[float, float] = Field((0.55, 0.0), description="where the object's task frame sits, m")
+    clearance: float = Field(0.08, ge=0, description="approach height above the object top, m")
+    agent_size: tuple[float, float] = Field((0.03, 0.045), description="graspable agent size range, m")
+    visual: bool = Field(False, description="load the render meshes (slower compile); forced on when rendering")
+
+
+def make_torque_controlled(spec: mujoco.MjSpec) -> None:
+    """Turn the arm's position servos into torque motors with the same force range; compensate gravity."""
+    arm = set(ARM_JOINTS)
+    found = 0
+    for act in spec.actuators:
+        if act.target in arm:
+            lo, hi = act.forcerange
+            act.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+            act.gainprm[:] = 0
+            act.gainprm[0] = 1.0
+            act.biastype = mujoco.mjtBias.mjBIAS_NONE
+            act.biasprm[:] = 0
+            act.ctrlrange = [lo, hi]
+            act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
+            found += 1
+    if found != len(ARM_JOINTS):
+        raise RobotError(f"expected actuators on {ARM_JOINTS}, found {found}: is this the Menagerie Panda?")
+    for name in ("link0", "link1", "link2", "link3", "link4", "link5", "link6", "link7",
+                 "hand", "left_finger", "right_finger"):
+        spec.body(name).gravcomp = 1.0
+
+
+@dataclass(frozen=True)
+class ArmIndex:
+    """MuJoCo ids the controller needs, computed once per compiled model."""
+
+    qpos: np.ndarray  # (7,) qpos addresses of the arm joints
+    dof: np.ndarray  # (7,) dof addresses
+    act: np.ndarray  # (7,) actuator ids
+    gripper_act: int
+    site: int  # the control site (held agent's centre)
+    lo: np.ndarray  # (7,) joint lower limits
+    hi: np.ndarray
+    tau_max: np.ndarray  # (7,) torque limits from the actuator force range
+
+    @staticmethod
+    def of(model: mujoco.MjModel, site: str) -> "ArmIndex":
+        jids = [model.joint(n).id for n in ARM_JOINTS]
+        acts = [int(np.flatnonzero((model.actuator_trntype == mujoco.mjtTrn.mjTRN_JOINT)
+                                   & (model.actuator_trnid[:, 0] == j))[0]) for j in jids]
+        return ArmIndex(
+            qpos=model.jnt_qposadr[jids].copy(),
+            dof=model.jnt_dofadr[jids].copy(),
+            act=np.array(acts),
+            gripper_act=model.actuator("actuator8").id,
+            site=model.site(site).id,
+            lo=model.jnt_range[jids, 0].copy(),
+            hi=model.jnt_range[jids, 1].copy(),
+            tau_max=model.actuator_ctrlrange[acts, 1].copy(),
+        )
+
+
+def quat_error(target: np.ndarray, current_mat: np.ndarray) -> np.ndarray:
+    """Rotation vector (world frame) that turns the current orientation into the target."""
+    cur = np.empty(4)
+    mujoco.mju_mat2Quat(cur, current_mat.ravel())
+    inv = np.empty(4)
+    mujoco.mju_negQuat(inv, cur)
+    dq = np.empty(4)
+    mujoco.mju_mulQuat(dq, target, inv)
+    err = np.empty(3)
+    mujoco.mju_quat2Vel(err, dq, 1.0)
+    return err
+
+
+def _jacobian(model: mujoco.MjModel, data: mujoco.MjData, idx: ArmIndex) -> np.ndarray:
+    jp = np.zeros((3, model.nv))
+    jr = np.zeros((3, model.nv))
+    mujoco.mj_jacSite(model, data, jp, jr, idx.site)
+    return np.vstack([jp[:, idx.dof], jr[:, idx.dof]])
+
+
+def _clip_norm(v: np.ndarray, limit: float) -> np.ndarray:
+    n = float(np.linalg.norm(v))
+    return v if n <= limit else v * (limit / n)
+
+
+def impedance_torque(model: mujoco.MjModel, data: mujoco.MjData, idx: ArmIndex, cfg: RobotConfig,
+                     pos: np.ndarray, quat: np.ndarray, vel: np.ndarray, posture: np.ndarray) -> np.ndarray:
+    """Arm torques driving the control site to (pos, quat) at velocity ``vel``, force capped, torque clipped.
+
+    The commanded Cartesian force is capped at 1.1 × force_limit and the moment
+    at that force times 0.15 m (the grasp lever), so a blocked motion presses
+    with a bounded force and trips the force-limit check instead of pushing on.
+    """
+    J = _jacobian(model, data, idx)
+    qd = data.qvel[idx.dof]
+    twist = J @ qd
+    kp, kr = cfg.stiffness, cfg.rot_stiffness
+    # critical damping for an effective mass of ~2 kg and inertia of ~0.05 kg·m²
+    dp = 2 * cfg.damping_ratio * np.sqrt(kp * 2.0)
+    dr = 2 * cfg.damping_ratio * np.sqrt(kr * 0.05)
+    f_cap = 1.1 * cfg.force_limit
+    force = _clip_norm(kp * (pos - data.site_xpos[idx.site]) + dp * (vel - twist[:3]), f_cap)
+    moment = _clip_norm(kr * quat_error(quat, data.site_xmat[idx.site]) - dr * twist[3:], 0.15 * f_cap)
+    tau = J.T @ np.concatenate([force, moment])
+    # posture spring in the null space of the task Jacobian (redundancy resolution)
+    pinv = J.T @ np.linalg.inv(J @ J.T + 1e-4 * np.eye(6))
+    null = np.eye(7) - pinv @ J
+    q = data.qpos[idx.qpos]
+    kn = cfg.nullspace_stiffness
+    tau += null @ (kn * (posture - q) - 2 * np.sqrt(kn * 0.5) * qd)
+    return np.clip(tau, -idx.tau_max, idx.tau_max)
+
+
+def contact_force(model: mujoco.MjModel, data: mujoco.MjData, geom_mask: np.ndarray) -> float:
+    """Norm of the net contact force the environment exerts on the masked geoms, N."""
+    total = np.zeros(3)
+    wrench = np.zeros(6)
+    for i in range(data.ncon):
+        con = data.contact[i]
+        in1, in2 = geom_mask[con.geom1], geom_mask[con.geom2]
+        if in1 == in2:
+            continue
+        mujoco.mj_contactForce(model, data, i, wrench)
+        # contact frame rows: normal first; the force acts on geom2 along +normal
+        f_world = con.frame.reshape(3, 3).T @ wrench[:3]
+        total += f_world if in2 else -f_world
+    return float(np.linalg.norm(total))
+
+
+def solve_ik(model: mujoco.MjModel, data: mujoco.MjData, idx: ArmIndex, pos: np.ndarray, quat: np.ndarray,
+             q0: np.ndarray, *, iters: int = 200) -> tuple[np.ndarray, float, float]:
+    """Damped-least-squares IK for the control site within joint limits: (q, pos residual, rot residual)."""
+    q = q0.copy()
+    for _ in range(iters):
+        data.qpos[idx.qpos] = q
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_comPos(model, data)
+        err = np.concatenate([pos - data.site_xpos[idx.site], quat_error(quat, data.site_xmat[idx.site])])
+        if np.linalg.norm(err[:3]) < 1e-4 and np.linalg.norm(err[3:]) < 1e-3:
+            break
+        J = _jacobian(model, data, idx)
+        pinv = J.T @ np.linalg.inv(J @ J.T + 1e-3 * np.eye(6))
+        # a pull towards the home posture, in the null space, keeps the elbow away from the limits
+        dq = pinv @ err + (np.eye(7) - pinv @ J) @ (0.05 * (HOME_QPOS - q))
+        q = np.clip(q + _clip_norm(dq, 0.3), idx.lo, idx.hi)
+    data.qpos[idx.qpos] = q
+    mujoco.mj_kinematics(model, data)
+    res_p = float(np.linalg.norm(pos - data.site_xpos[idx.site]))
+    res_r = float(np.linalg.norm(quat_error(quat, data.site_xmat[idx.site])))
+    return q, res_p, res_r

@@ -1,0 +1,221 @@
+"""The robot demo: table-top objects × affordances, executed by the Panda and judged.
+
+Until ``rail_mj.pipeline.classify`` is wired in, :func:`plan_offline` stands in
+for it: it returns the same fields as :class:`rail_mj.results.AffordanceResult`
+(functional pose, best plan via-poses, agent fragment, scoring) for objects
+built here from convex parts (so no decomposition is needed), sized for the
+Panda's table-top workspace (the chair, table and stool are doll-sized).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import trimesh
+
+from rail_mj.errors import ConfigError
+from rail_mj.robot.control import RobotConfig
+from rail_mj.robot.execute import ExecutionResult, ScoringFunction, execute
+from rail_mj.types import Outcomes, RailObject, StablePose
+
+__all__ = ["DEMO_AFFORDANCES", "DemoCase", "make_object", "upright_pose", "plan_offline", "run_demo"]
+
+_BALL = ('<mujoco><worldbody><body name="ball"><geom type="sphere" size="{r}" density="{rho}" '
+         'rgba="0.2 0.4 0.9 1"/></body></worldbody></mujoco>')
+_BLOCK = ('<mujoco><worldbody><body name="block"><geom type="box" size="{a} {a} {b}" density="{rho}" '
+          'rgba="0.2 0.7 0.3 1"/></body></worldbody></mujoco>')
+
+
+def _box_hull(lo, hi) -> np.ndarray:
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    corners = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], float)
+    return lo + corners * (hi - lo)
+
+
+def _disk_hull(r: float, z0: float, z1: float, n: int = 24) -> np.ndarray:
+    a = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    ring = np.stack([r * np.cos(a), r * np.sin(a)], 1)
+    return np.vstack([np.c_[ring, np.full(n, z0)], np.c_[ring, np.full(n, z1)]])
+
+
+def _ring_walls(r_in: float, wall: float, z0: float, z1: float, n: int = 16) -> list[np.ndarray]:
+    """A round wall as n boxes tangent to the circle of radius r_in (no gaps: they overlap slightly)."""
+    hulls = []
+    half = (r_in + wall) * np.tan(np.pi / n) * 1.05
+    for k in range(n):
+        a = 2 * np.pi * k / n
+        box = _box_hull([r_in, -half, z0], [r_in + wall, half, z1])
+        c, s = np.cos(a), np.sin(a)
+        hulls.append(box @ np.array([[c, s, 0], [-s, c, 0], [0, 0, 1]]))
+    return hulls
+
+
+def _square_walls(hx: float, hy: float, wall: float, z0: float, z1: float) -> list[np.ndarray]:
+    return [_box_hull([-hx, -hy, z0], [-hx + wall, hy, z1]), _box_hull([hx - wall, -hy, z0], [hx, hy, z1]),
+            _box_hull([-hx, -hy, z0], [hx, -hy + wall, z1]), _box_hull([-hx, hy - wall, z0], [hx, hy, z1])]
+
+
+def _legged(top_hx: float, top_hy: float, height: float, top_t: float, leg: float) -> list[np.ndarray]:
+    hulls = [_box_hull([-top_hx, -top_hy, height - top_t], [top_hx, top_hy, height])]
+    for sx in (-1, 1):
+        for sy in (-1, 1):
+            x, y = sx * (top_hx - leg), sy * (top_hy - leg)
+            hulls.append(_box_hull([x - leg / 2, y - leg / 2, 0], [x + leg / 2, y + leg / 2, height - top_t]))
+    return hulls
+
+
+def _parts(kind: str, rng: np.random.Generator) -> list[np.ndarray]:
+    u = lambda lo, hi: float(rng.uniform(lo, hi))  # noqa: E731 - short local sampler
+    if kind in ("cup", "vase", "pen_holder", "pot", "bowl"):
+        r, h = {"cup": (u(0.035, 0.045), u(0.08, 0.11)), "vase": (u(0.035, 0.045), u(0.14, 0.18)),
+                "pen_holder": (u(0.03, 0.035), u(0.10, 0.12)), "pot": (u(0.06, 0.075), u(0.09, 0.12)),
+                "bowl": (u(0.06, 0.08), u(0.045, 0.06))}[kind]
+        return [_disk_hull(r + 0.005, 0, 0.006)] + _ring_walls(r, 0.005, 0, h)
+    if kind in ("basket", "tray"):
+        hx, hy, h = (u(0.07, 0.09), u(0.06, 0.08), u(0.07, 0.09)) if kind == "basket" else \
+            (u(0.09, 0.11), u(0.07, 0.09), u(0.02, 0.03))
+        return [_box_hull([-hx, -hy, 0], [hx, hy, 0.006])] + _square_walls(hx, hy, 0.006, 0, h)
+    if kind == "plate":
+        r = u(0.08, 0.1)
+        return [_disk_hull(r, 0, 0.008)] + _ring_walls(r - 0.004, 0.004, 0, 0.018, n=24)
+    if kind == "table":
+        return _legged(u(0.08, 0.1), u(0.06, 0.08), u(0.08, 0.1), 0.01, 0.012)
+    if kind == "stool":
+        return _legged(u(0.05, 0.06), u(0.05, 0.06), u(0.07, 0.09), 0.01, 0.01)
+    if kind == "chair":
+        parts = _legged(u(0.05, 0.06), u(0.05, 0.06), u(0.06, 0.08), 0.01, 0.01)
+        seat = parts[0]
+        hx, top = float(seat[:, 0].max()), float(seat[:, 2].max())
+        hy = float(seat[:, 1].max())
+        return parts + [_box_hull([-hx, hy - 0.01, top], [hx, hy, top + u(0.06, 0.08)])]
+    raise ConfigError(f"unknown demo object {kind!r}; known: {', '.join(DEMO_AFFORDANCES)}")
+
+
+def make_object(kind: str, seed: int = 0, density: float = 600.0) -> RailObject:
+    """A table-top object of ``kind`` built from convex parts (mesh frame: upright, base at z = 0)."""
+    hulls = tuple(_parts(kind, np.random.default_rng(seed)))
+    mesh = trimesh.util.concatenate([trimesh.convex.convex_hull(h) for h in hulls])
+    volume = float(sum(trimesh.convex.convex_hull(h).volume for h in hulls))
+    return RailObject(name=f"{kind}_{seed}", mesh=mesh, hulls=hulls, mesh_hash=f"demo:{kind}:{seed}",
+                      obb_dims=np.sort(mesh.extents)[::-1].copy(), com=np.asarray(mesh.center_mass, float),
+                      mass=volume * density, density=density)
+
+
+def upright_pose(obj: RailObject) -> StablePose:
+    """The functional (upright) stable pose: bbox centred on x = y = 0, lowest point at z = 0."""
+    lo, hi = np.asarray(obj.mesh.bounds)
+    centre = (lo + hi) / 2
+    return StablePose(pos=np.array([-centre[0], -centre[1], -lo[2]]), quat=np.array([1.0, 0, 0, 0]),
+                      probability=1.0, half_extents=(hi - lo) / 2)
+
+
+def _inside(margin: float) -> ScoringFunction:
+    """Containment: the agent ends within the object's footprint, below its rim, on the object, upright object."""
+    def score(o: Outcomes) -> np.ndarray:
+        h = o.object_half_extents[:, None, :]
+        p = o.agent_pos
+        inside = (np.abs(p[..., 0]) < h[..., 0] - margin) & (np.abs(p[..., 1]) < h[..., 1] - margin) \
+            & (p[..., 2] < h[..., 2]) & (o.contacts_object > 0) & (o.contacts_ground == 0)
+        return inside.mean(axis=1) * (o.object_tilt < 0.3) - 0.5
+    return score
+
+
+def _on_top(o: Outcomes) -> np.ndarray:
+    """Support: the agent rests on the object's top surface, not on the ground, object upright."""
+    h = o.object_half_extents[:, None, :]
+    p = o.agent_pos
+    on = (np.abs(p[..., 0]) < h[..., 0]) & (np.abs(p[..., 1]) < h[..., 1]) & (p[..., 2] > h[..., 2] - 0.03) \
+        & (o.contacts_object > 0) & (o.contacts_ground == 0)
+    return on.mean(axis=1) * (o.object_tilt < 0.3) - 0.5
+
+
+#: affordance -> (object kind, agent kind, scoring)
+DEMO_AFFORDANCES: dict[str, tuple[str, str, ScoringFunction]] = {
+    "cup": ("cup", "ball", _inside(0.0)),
+    "bowl": ("bowl", "ball", _inside(0.0)),
+    "vase": ("vase", "ball", _inside(0.0)),
+    "pen_holder": ("pen_holder", "ball", _inside(0.0)),
+    "pot": ("pot", "ball", _inside(0.0)),
+    "basket": ("basket", "ball", _inside(0.0)),
+    "tray": ("tray", "block", _on_top),
+    "plate": ("plate", "block", _on_top),
+    "table": ("table", "block", _on_top),
+    "stool": ("stool", "block", _on_top),
+    "chair": ("chair", "block", _on_top),
+}
+
+
+@dataclass(frozen=True)
+class DemoCase:
+    """The fields of rail_mj.results.AffordanceResult that execution needs, for one object."""
+
+    object: str
+    affordance: str
+    functional: bool
+    pose: StablePose
+    via_poses: np.ndarray  # (K, 7) task frame
+    agent_fragment: str
+    scoring: ScoringFunction
+
+
+def plan_offline(obj: RailObject, affordance: str) -> DemoCase:
+    """Stand-in for classify: upright pose, a drop-in or set-down plan above the object's opening/top."""
+    if affordance not in DEMO_AFFORDANCES:
+        raise ConfigError(f"no demo plan for {affordance!r}; known: {', '.join(DEMO_AFFORDANCES)}")
+    _, agent, scoring = DEMO_AFFORDANCES[affordance]
+    pose = upright_pose(obj)
+    h = pose.half_extents
+    ident = [1.0, 0, 0, 0]
+    if agent == "ball":
+        fragment = _BALL.format(r=0.006, rho=1000)
+        # from above the opening down to just under the rim, then release (the ball drops in)
+        via = [[0, 0, h[2] + 0.06, *ident], [0, 0, h[2] + 0.01, *ident]]
+    else:
+        fragment = _BLOCK.format(a=0.02, b=0.015, rho=500)
+        # seat area of a chair is in front of its back (+y side is the back)
+        y = -0.01 if affordance == "chair" else 0.0
+        top = h[2] if affordance != "chair" else float(obj.hulls[0][:, 2].max()) + pose.pos[2] - h[2]
+        via = [[0, y, top + 0.06, *ident], [0, y, top + 0.022, *ident]]
+    return DemoCase(obj.name, affordance, True, pose, np.asarray(via, float), fragment, scoring)
+
+
+def run_demo(affordances: list[str] | None = None, trials: int = 4, *, config: RobotConfig | None = None,
+             json_path: Path | None = None, video: Path | None = None,
+             progress: Callable[[str], None] | None = print) -> dict:
+    """Execute ``trials`` objects per affordance; return (and optionally write) the summary."""
+    names = affordances or list(DEMO_AFFORDANCES)
+    cfg = config or RobotConfig()
+    rows = []
+    for name in names:
+        if name not in DEMO_AFFORDANCES:
+            raise ConfigError(f"no demo plan for {name!r}; known: {', '.join(DEMO_AFFORDANCES)}")
+        for seed in range(trials):
+            obj = make_object(DEMO_AFFORDANCES[name][0], seed)
+            case = plan_offline(obj, name)
+            t0 = time.perf_counter()
+            render = video / f"{obj.name}" if video is not None and seed == 0 else None
+            res: ExecutionResult = execute(obj, case.pose, case.agent_fragment, case.via_poses, case.scoring,
+                                           config=cfg, render=render)
+            row = {"object": obj.name, "affordance": name, **res.to_dict(), "seconds": time.perf_counter() - t0}
+            rows.append(row)
+            if progress:
+                progress(f"{name:11s} {obj.name:14s} success={res.success!s:5s} score={res.score:+.2f} "
+                         f"peak={res.peak_force:5.1f} N events={len(res.force_events)} {res.message}")
+    n_ok = sum(r["success"] for r in rows)
+    summary = {
+        "success_rate": n_ok / max(1, len(rows)),
+        "n_trials": len(rows),
+        "n_affordances": len(names),
+        "force_limit": cfg.force_limit,
+        "max_peak_force": max((r["peak_force"] for r in rows), default=0.0),
+        "n_force_events": sum(len(r["force_events"]) for r in rows),
+        "trials": rows,
+    }
+    if json_path is not None:
+        Path(json_path).write_text(json.dumps(summary, indent=2))
+    return summary

@@ -1,0 +1,572 @@
+"""The Panda executes an imagined interaction: place the object, carry the agent, release, judge.
+
+The object rests on a table in its stable pose; the agent (scaled to a graspable
+size) is welded below the fingertips; the via-poses are followed with Cartesian
+impedance control; a contact force above ``RobotConfig.force_limit`` on the
+hand or the held agent stops the motion (hold or retreat) and the agent is
+released there, as the imagination releases agents on first collision. The
+end state is turned into a one-rollout :class:`rail_mj.types.Outcomes` (N = 1,
+the table plays the ground) and scored with the plan's scoring function.
+"""
+
+from __future__ import annotations
+
+import time
+import zlib
+import struct
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import mujoco
+import numpy as np
+
+from rail_mj.errors import FragmentError, RobotError
+from rail_mj.robot.control import (
+    HOME_QPOS,
+    MONITORED_BODIES,
+    ArmIndex,
+    RobotConfig,
+    contact_force,
+    impedance_torque,
+    make_torque_controlled,
+    solve_ik,
+)
+from rail_mj.robot.model import load_panda_spec
+from rail_mj.types import Outcomes, RailObject, StablePose
+
+__all__ = [
+    "ScoringFunction",
+    "ForceEvent",
+    "ExecutionResult",
+    "RobotScene",
+    "build_scene",
+    "execute",
+]
+
+#: A compiled scoring function: outcomes of B rollouts -> (B,) scores, success where > 0.
+ScoringFunction = Callable[[Outcomes], np.ndarray]
+
+#: Hand z below the hand frame where the fingertips end (Menagerie finger mesh), m.
+_FINGERTIP_Z = 0.1125
+#: Agent frame -> hand frame: the hand points down (its z = the agent's -z).
+_GRASP_QUAT = np.array([0.0, 1.0, 0.0, 0.0])
+_AGENT_GROUP = 1
+_PRIMITIVES = (mujoco.mjtGeom.mjGEOM_SPHERE, mujoco.mjtGeom.mjGEOM_BOX, mujoco.mjtGeom.mjGEOM_CAPSULE,
+               mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_ELLIPSOID)
+
+
+@dataclass(frozen=True)
+class ForceEvent:
+    """One crossing of the contact-force limit."""
+
+    time: float  # s since the start of the execution
+    force: float  # N, measured when the limit was crossed
+    phase: str  # approach | trajectory | hold | lift
+    waypoint: int  # index of the via-pose being approached (-1 before the trajectory)
+    action: str  # hold | retreat | none (after release nothing is pushing)
+
+
+@dataclass(frozen=True)
+class ExecutionResult:
+    """What happened when the robot executed one plan."""
+
+    success: bool
+    score: float  # nan when not scored (unreachable, or scoring=None)
+    reachable: bool
+    message: str
+    peak_force: float  # N, peak net contact force on hand + held agent
+    force_limit: float
+    force_events: tuple[ForceEvent, ...]
+    agent_pos: np.ndarray  # (3,) final agent centre, task frame
+    agent_quat: np.ndarray  # (4,) wxyz, task frame
+    object_tilt: float  # rad
+    outcomes: Outcomes | None
+    ik_residual: float  # worst IK position residual over the waypoints, m
+    agent_scale: float  # factor applied to the agent fragment
+    timings: dict[str, float] = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        """JSON-ready summary (no arrays of the outcomes)."""
+        return {
+            "success": self.success,
+            "score": None if np.isnan(self.score) else float(self.score),
+            "reachable": self.reachable,
+            "message": self.message,
+            "peak_force": self.peak_force,
+            "force_limit": self.force_limit,
+            "force_events": [vars(e) for e in self.force_events],
+            "agent_pos": self.agent_pos.tolist(),
+            "object_tilt": self.object_tilt,
+            "ik_residual": self.ik_residual,
+            "agent_scale": self.agent_scale,
+            "timings": self.timings,
+        }
+
+
+@dataclass(frozen=True)
+class RobotScene:
+    """A compiled robot + table (+ object + agent) scene and the ids used during execution."""
+
+    model: mujoco.MjModel
+    arm: ArmIndex
+    agent_body: int  # -1 without agent
+    weld: int  # -1 without agent
+    agent_qpos: int  # qpos address of the agent's free joint
+    agent_dof: int
+    object_body: int  # -1 without object
+    object_qpos: int
+    object_dof: int
+    monitored: np.ndarray  # (ngeom,) bool: hand geoms
+    agent_geoms: np.ndarray  # (ngeom,) bool
+    object_geoms: np.ndarray  # (ngeom,) bool
+    ground_geoms: np.ndarray  # (ngeom,) bool: table and floor
+    task_origin: np.ndarray  # (3,) world position of the task frame at placement
+    half_extents: np.ndarray  # (3,)
+    agent_scale: float
+
+
+def _fragment_body(fragment: str) -> mujoco.MjsBody:
+    try:
+        spec = mujoco.MjSpec.from_string(fragment)
+        spec.compile()
+    except Exception as exc:  # MuJoCo's parse/compile errors
+        raise FragmentError(f"agent fragment does not compile: {exc}") from exc
+    bodies = list(spec.worldbody.bodies)
+    if len(bodies) != 1:
+        raise FragmentError(f"agent fragment must hold exactly one body in <worldbody>, found {len(bodies)}")
+    return bodies[0]
+
+
+def _agent_extent(fragment: str) -> np.ndarray:
+    """Full size of the agent body's axis-aligned box in its own frame, (3,)."""
+    spec = mujoco.MjSpec.from_string(fragment)
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    body = model.body(list(spec.worldbody.bodies)[0].name).id
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    for g in np.flatnonzero(model.geom_bodyid == body):
+        rot = data.geom_xmat[g].reshape(3, 3)
+        centre = data.geom_xpos[g] + rot @ model.geom_aabb[g, :3] - data.xpos[body]
+        half = np.abs(rot) @ model.geom_aabb[g, 3:]
+        lo, hi = np.minimum(lo, centre - half), np.maximum(hi, centre + half)
+    if not np.all(np.isfinite(lo)):
+        raise FragmentError("agent fragment's body has no geoms")
+    return hi - lo
+
+
+def _add_agent(spec: mujoco.MjSpec, fragment: str, scale: float) -> None:
+    src = _fragment_body(fragment)
+    body = spec.worldbody.add_body(name="agent")
+    body.add_freejoint(name="agent_free")
+    for i, g in enumerate(src.geoms):
+        if g.type not in _PRIMITIVES:
+            raise FragmentError(f"agent geom {i} has type {g.type.name}; the robot carries primitive agents only "
+                                f"({', '.join(t.name for t in _PRIMITIVES)})")
+        geom = body.add_geom(name=f"agent_geom{i}", type=g.type, pos=np.asarray(g.pos) * scale, quat=g.quat,
+                             size=np.asarray(g.size) * scale, rgba=g.rgba, friction=g.friction,
+                             group=_AGENT_GROUP, condim=g.condim)
+        if not np.isnan(g.fromto[0]):
+            geom.fromto = np.asarray(g.fromto) * scale
+        if not np.isnan(g.mass):
+            geom.mass = g.mass * scale**3
+        else:
+            geom.density = g.density
+
+
+def _add_object(spec: mujoco.MjSpec, obj: RailObject, pos: np.ndarray, quat: np.ndarray) -> None:
+    body = spec.worldbody.add_body(name="object", pos=pos, quat=quat)
+    body.add_freejoint(name="object_free")
+    for i, hull in enumerate(obj.hulls):
+        spec.add_mesh(name=f"object_hull{i}", uservert=np.asarray(hull, dtype=float).ravel())
+        body.add_geom(name=f"object_geom{i}", type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"object_hull{i}",
+                      density=obj.density, rgba=[0.8, 0.5, 0.3, 1.0])
+
+
+def build_scene(cfg: RobotConfig, *, obj: RailObject | None = None, pose: StablePose | None = None,
+                agent_fragment: str | None = None, agent_scale: float = 1.0,
+                boxes: tuple[tuple[np.ndarray, np.ndarray], ...] = (), visual: bool | None = None) -> RobotScene:
+    """Compile the torque-controlled Panda on a floor, a table, the placed object and the welded agent.
+
+    ``boxes`` adds fixed boxes ``(centre, half_size)`` in the world (used for scripted collisions).
+    """
+    spec = load_panda_spec(visual=cfg.visual if visual is None else visual)
+    make_torque_controlled(spec)
+    spec.option.timestep = cfg.dt
+    spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[2, 2, 0.05],
+                            rgba=[0.3, 0.35, 0.4, 1])
+    tx, ty = cfg.object_xy
+    th = cfg.table_height
+    sx, sy = cfg.table_half_size
+    spec.worldbody.add_geom(name="table", type=mujoco.mjtGeom.mjGEOM_BOX, size=[sx, sy, th / 2],
+                            pos=[tx, ty, th / 2], rgba=[0.6, 0.6, 0.55, 1])
+    for i, (centre, half) in enumerate(boxes):
+        spec.worldbody.add_geom(name=f"box{i}", type=mujoco.mjtGeom.mjGEOM_BOX, size=half, pos=centre,
+                                rgba=[0.7, 0.2, 0.2, 1])
+    half_extents = np.zeros(3)
+    shift = np.array([tx, ty, th])
+    if obj is not None:
+        if pose is None:
+            raise RobotError("build_scene: an object needs its stable pose")
+        half_extents = np.asarray(pose.half_extents, dtype=float)
+        _add_object(spec, obj, np.asarray(pose.pos, dtype=float) + shift, np.asarray(pose.quat, dtype=float))
+    grip_z = _FINGERTIP_Z
+    if agent_fragment is not None:
+        _add_agent(spec, agent_fragment, agent_scale)
+        grip_z += _agent_extent(agent_fragment)[2] * agent_scale / 2 + 0.002
+        for name in ("hand", "left_finger", "right_finger"):
+            spec.add_exclude(bodyname1=name, bodyname2="agent")
+        spec.add_equality(type=mujoco.mjtEq.mjEQ_WELD, objtype=mujoco.mjtObj.mjOBJ_BODY, name="hold",
+                          name1="hand", name2="agent",
+                          data=[0, 0, 0, 0, 0, grip_z, *_GRASP_QUAT, 1, 0])
+    spec.body("hand").add_site(name="grip", pos=[0, 0, grip_z], quat=_GRASP_QUAT)
+    try:
+        model = spec.compile()
+    except Exception as exc:  # MuJoCo compile errors
+        raise RobotError(f"robot scene does not compile: {exc}") from exc
+
+    def geoms_of(bodies: list[int]) -> np.ndarray:
+        return np.isin(model.geom_bodyid, bodies)
+
+    has_agent = agent_fragment is not None
+    agent = model.body("agent").id if has_agent else -1
+    objb = model.body("object").id if obj is not None else -1
+    ground = np.zeros(model.ngeom, bool)
+    ground[[model.geom("floor").id, model.geom("table").id]] = True
+    return RobotScene(
+        model=model,
+        arm=ArmIndex.of(model, "grip"),
+        agent_body=agent,
+        weld=model.equality("hold").id if has_agent else -1,
+        agent_qpos=int(model.jnt_qposadr[model.joint("agent_free").id]) if has_agent else -1,
+        agent_dof=int(model.jnt_dofadr[model.joint("agent_free").id]) if has_agent else -1,
+        object_body=objb,
+        object_qpos=int(model.jnt_qposadr[model.joint("object_free").id]) if obj is not None else -1,
+        object_dof=int(model.jnt_dofadr[model.joint("object_free").id]) if obj is not None else -1,
+        monitored=geoms_of([model.body(n).id for n in MONITORED_BODIES]),
+        agent_geoms=geoms_of([agent]) if has_agent else np.zeros(model.ngeom, bool),
+        object_geoms=geoms_of([objb]) if obj is not None else np.zeros(model.ngeom, bool),
+        ground_geoms=ground,
+        task_origin=shift + np.array([0.0, 0.0, half_extents[2]]),
+        half_extents=half_extents,
+        agent_scale=agent_scale,
+    )
+
+
+def _slerp(q0: np.ndarray, q1: np.ndarray, t: float) -> np.ndarray:
+    d = float(np.dot(q0, q1))
+    if d < 0:
+        q1, d = -q1, -d
+    if d > 0.9995:
+        q = q0 + t * (q1 - q0)
+        return q / np.linalg.norm(q)
+    th = np.arccos(d)
+    return (np.sin((1 - t) * th) * q0 + np.sin(t * th) * q1) / np.sin(th)
+
+
+def _quat_angle(q0: np.ndarray, q1: np.ndarray) -> float:
+    return float(2 * np.arccos(min(1.0, abs(float(np.dot(q0, q1))))))
+
+
+class _Sim:
+    """One execution's mutable state: data, force bookkeeping, optional frame capture."""
+
+    def __init__(self, scene: RobotScene, cfg: RobotConfig, render: Path | None):
+        self.scene, self.cfg = scene, cfg
+        self.model = scene.model
+        self.data = mujoco.MjData(self.model)
+        self.posture = HOME_QPOS.copy()
+        self.gripper = 0.0
+        self.held = scene.agent_body >= 0
+        self.peak = 0.0
+        self.events: list[ForceEvent] = []
+        self.over = False  # currently above the limit (an event is logged once per crossing)
+        self.frames: list[np.ndarray] = []
+        self.renderer = mujoco.Renderer(self.model, 240, 320) if render is not None else None
+        self.frame_every = max(1, int(round(1 / (25 * cfg.dt))))
+        self.steps = 0
+
+    def site_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        q = np.empty(4)
+        mujoco.mju_mat2Quat(q, self.data.site_xmat[self.scene.arm.site])
+        return self.data.site_xpos[self.scene.arm.site].copy(), q
+
+    def step(self, pos: np.ndarray, quat: np.ndarray, vel: np.ndarray) -> float:
+        arm = self.scene.arm
+        self.data.ctrl[arm.act] = impedance_torque(self.model, self.data, arm, self.cfg, pos, quat, vel,
+                                                   self.posture)
+        self.data.ctrl[arm.gripper_act] = self.gripper
+        mujoco.mj_step(self.model, self.data)
+        self.steps += 1
+        mask = self.scene.monitored | (self.scene.agent_geoms if self.held else False)
+        force = contact_force(self.model, self.data, mask)
+        self.peak = max(self.peak, force)
+        if self.renderer is not None and self.steps % self.frame_every == 0:
+            self.renderer.update_scene(self.data, camera=_camera(self.scene))
+            self.frames.append(self.renderer.render().copy())
+        return force
+
+    def crossed(self, force: float, phase: str, waypoint: int, action: str) -> bool:
+        """Log a force-limit event when the force crosses the limit (with 20 % hysteresis)."""
+        limit = self.cfg.force_limit
+        if force > limit and not self.over:
+            self.over = True
+            self.events.append(ForceEvent(self.data.time, force, phase, waypoint, action))
+            return True
+        if force < 0.8 * limit:
+            self.over = False
+        return False
+
+
+def _camera(scene: RobotScene) -> mujoco.MjvCamera:
+    cam = mujoco.MjvCamera()
+    cam.lookat[:] = scene.task_origin
+    cam.distance, cam.azimuth, cam.elevation = 1.1, 150.0, -25.0
+    return cam
+
+
+def _follow(sim: _Sim, waypoints: list[tuple[np.ndarray, np.ndarray]], postures: list[np.ndarray],
+            phase: str, first_index: int) -> bool:
+    """Move through the waypoints; on a force-limit crossing stop (hold/retreat). True if stopped early."""
+    cfg = sim.cfg
+    p0, q0 = sim.site_pose()
+    for k, ((p1, q1), posture) in enumerate(zip(waypoints, postures)):
+        sim.posture = posture
+        dist = float(np.linalg.norm(p1 - p0))
+        duration = max(dist / cfg.speed, _quat_angle(q0, q1) / cfg.angular_speed, cfg.dt)
+        n = int(np.ceil(duration / cfg.dt))
+        vel = (p1 - p0) / duration
+        for i in range(1, n + 1):
+            t = i / n
+            force = sim.step(p0 + t * (p1 - p0), _slerp(q0, q1, t), vel)
+            index = first_index + k if first_index >= 0 else -1
+            if sim.crossed(force, phase, index, cfg.on_force_limit):
+                _stop(sim, vel)
+                return True
+        p0, q0 = p1, q1
+    return False
+
+
+def _stop(sim: _Sim, vel: np.ndarray) -> None:
+    """The safety rule: stop pushing — hold where the hand is, or back off along the motion."""
+    cfg = sim.cfg
+    pos, quat = sim.site_pose()
+    if cfg.on_force_limit == "retreat":
+        speed = float(np.linalg.norm(vel))
+        away = -vel / speed if speed > 0 else np.array([0.0, 0.0, 1.0])
+        pos = pos + cfg.retreat_distance * away
+    _hold(sim, pos, quat, cfg.hold_time, "hold")
+
+
+def _hold(sim: _Sim, pos: np.ndarray, quat: np.ndarray, seconds: float, phase: str) -> None:
+    for _ in range(int(np.ceil(seconds / sim.cfg.dt))):
+        sim.crossed(sim.step(pos, quat, np.zeros(3)), phase, -1, "none")
+
+
+def _ik_plan(scene: RobotScene, cfg: RobotConfig, targets: list[tuple[np.ndarray, np.ndarray]]
+             ) -> tuple[list[np.ndarray], float, str]:
+    """Joint solutions for every target (chained), the worst residual, and why a target is unreachable."""
+    data = mujoco.MjData(scene.model)
+    q = HOME_QPOS.copy()
+    sols, worst = [], 0.0
+    for k, (p, quat) in enumerate(targets):
+        q, res_p, res_r = solve_ik(scene.model, data, scene.arm, p, quat, q)
+        worst = max(worst, res_p)
+        if res_p > cfg.ik_pos_tol or res_r > cfg.ik_rot_tol:
+            return sols, worst, (f"waypoint {k} at world {np.round(p, 3).tolist()} is unreachable: IK residual "
+                                 f"{res_p * 1000:.1f} mm / {res_r:.3f} rad (tolerance {cfg.ik_pos_tol * 1000:.1f} mm"
+                                 f" / {cfg.ik_rot_tol} rad)")
+        sols.append(q.copy())
+    return sols, worst, ""
+
+
+def _home_grip(scene: RobotScene) -> tuple[np.ndarray, np.ndarray]:
+    data = mujoco.MjData(scene.model)
+    data.qpos[scene.arm.qpos] = HOME_QPOS
+    mujoco.mj_kinematics(scene.model, data)
+    q = np.empty(4)
+    mujoco.mju_mat2Quat(q, data.site_xmat[scene.arm.site])
+    return data.site_xpos[scene.arm.site].copy(), q
+
+
+def _agent_scale(fragment: str, half_extents: np.ndarray, cfg: RobotConfig) -> float:
+    """Scale that makes the agent graspable (cfg.agent_size) but smaller than the object's footprint."""
+    size = float(np.max(_agent_extent(fragment)))
+    lo, hi = cfg.agent_size
+    target = min(max(size, lo), hi, 0.5 * 2 * float(np.min(half_extents[:2])))
+    return target / size
+
+
+def _outcomes(sim: _Sim, obj_pos0: np.ndarray, obj_quat0: np.ndarray) -> Outcomes:
+    scene, data, model = sim.scene, sim.data, sim.model
+    obj_pos = data.xpos[scene.object_body].copy()
+    obj_quat = data.xquat[scene.object_body].copy()
+    inv0 = np.empty(4)
+    mujoco.mju_negQuat(inv0, obj_quat0)
+    q_rel = np.empty(4)
+    mujoco.mju_mulQuat(q_rel, obj_quat, inv0)
+    r_rel = np.empty(9)
+    mujoco.mju_quat2Mat(r_rel, q_rel)
+    r_rel = r_rel.reshape(3, 3)
+    origin = obj_pos + r_rel @ (scene.task_origin - obj_pos0)
+    a_pos = r_rel.T @ (data.xpos[scene.agent_body] - origin)
+    inv_rel = np.empty(4)
+    mujoco.mju_negQuat(inv_rel, q_rel)
+    a_quat = np.empty(4)
+    mujoco.mju_mulQuat(a_quat, inv_rel, data.xquat[scene.agent_body])
+    n_obj = n_ground = 0
+    for i in range(data.ncon):
+        g1, g2 = data.contact[i].geom1, data.contact[i].geom2
+        if scene.agent_geoms[g1] == scene.agent_geoms[g2]:
+            continue
+        other = g2 if scene.agent_geoms[g1] else g1
+        n_obj += int(scene.object_geoms[other])
+        n_ground += int(scene.ground_geoms[other])
+    speed = max(np.linalg.norm(data.qvel[scene.agent_dof:scene.agent_dof + 3]),
+                np.linalg.norm(data.qvel[scene.object_dof:scene.object_dof + 3]))
+    return Outcomes(
+        pose_index=np.zeros(1, int),
+        plan_index=np.zeros(1, int),
+        agent_pos=a_pos[None, None],
+        agent_quat=a_quat[None, None],
+        agent_vel=data.qvel[scene.agent_dof:scene.agent_dof + 3].copy()[None, None],
+        contacts_object=np.array([[n_obj]]),
+        contacts_agents=np.zeros((1, 1), int),
+        contacts_ground=np.array([[n_ground]]),
+        released_early=np.array([[bool(sim.events)]]),
+        object_pos=(origin - scene.task_origin)[None],
+        object_quat=q_rel[None],
+        object_tilt=np.array([float(np.arccos(np.clip(r_rel[2, 2], -1.0, 1.0)))]),
+        object_half_extents=scene.half_extents[None],
+        settled=np.array([speed < sim.cfg.settle_speed]),
+    )
+
+
+def _resolve_scoring(scoring: ScoringFunction | str | None) -> ScoringFunction | None:
+    if scoring is None or callable(scoring):
+        return scoring
+    try:
+        from rail_mj.scoring import compile_scoring
+    except ImportError as exc:
+        raise RobotError("scoring source given but rail_mj.scoring.compile_scoring is not available; "
+                         "pass a callable(outcomes) -> (B,) scores instead") from exc
+    return compile_scoring(scoring)
+
+
+def _write_frames(frames: list[np.ndarray], path: Path) -> None:
+    """PNG sequence in ``path`` (a folder), or an mp4 when the path ends in .mp4 and imageio-ffmpeg exists."""
+    if path.suffix == ".mp4":
+        try:
+            import imageio.v2 as imageio
+        except ImportError as exc:
+            raise RobotError(f"writing {path} needs imageio + imageio-ffmpeg; give a folder for PNG frames") from exc
+        imageio.mimwrite(path, frames, fps=25)
+        return
+    path.mkdir(parents=True, exist_ok=True)
+    for i, img in enumerate(frames):
+        h, w, _ = img.shape
+        raw = b"".join(b"\x00" + img[r].tobytes() for r in range(h))
+
+        def chunk(tag: bytes, body: bytes) -> bytes:
+            return struct.pack(">I", len(body)) + tag + body + struct.pack(">I", zlib.crc32(tag + body))
+
+        png = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0))
+               + chunk(b"IDAT", zlib.compress(raw, 6)) + chunk(b"IEND", b""))
+        (path / f"frame_{i:05d}.png").write_bytes(png)
+
+
+def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: np.ndarray,
+            scoring: ScoringFunction | str | None, *, config: RobotConfig | None = None,
+            render: Path | None = None) -> ExecutionResult:
+    """Carry the agent along ``trajectory`` ((K, 7) via-poses of its centre, task frame), release, judge."""
+    cfg = config or RobotConfig()
+    traj = np.asarray(trajectory, dtype=float)
+    if traj.ndim != 2 or traj.shape[1] != 7 or traj.shape[0] < 1 or not np.all(np.isfinite(traj)):
+        raise RobotError(f"trajectory must be a finite (K, 7) array of via-poses (pos, wxyz quat), got {traj.shape}")
+    score_fn = _resolve_scoring(scoring)
+    timings: dict[str, float] = {}
+    t0 = time.perf_counter()
+    half = np.asarray(pose.half_extents, dtype=float)
+    scale = _agent_scale(agent_fragment, half, cfg)
+    scene = build_scene(cfg, obj=obj, pose=pose, agent_fragment=agent_fragment, agent_scale=scale,
+                        visual=True if render is not None else None)
+    timings["build"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    quats = traj[:, 3:] / np.linalg.norm(traj[:, 3:], axis=1, keepdims=True)
+    path = [(scene.task_origin + p, q) for p, q in zip(traj[:, :3], quats)]
+    top = scene.task_origin[2] + half[2]
+    above = path[0][0].copy()
+    above[2] = max(above[2], top + cfg.clearance)
+    home = _home_grip(scene)
+    # rise (or stay) to the approach height first so the straight approach clears the object
+    rise = np.array([home[0][0], home[0][1], max(home[0][2], above[2])])
+    targets = [(rise, path[0][1]), (above, path[0][1])] + path
+    sols, worst, why = _ik_plan(scene, cfg, targets)
+    timings["ik"] = time.perf_counter() - t0
+
+    def result(success: bool, score: float, reachable: bool, message: str, sim: _Sim | None,
+               outcomes: Outcomes | None) -> ExecutionResult:
+        nan3 = np.full(3, np.nan)
+        return ExecutionResult(
+            success=success, score=score, reachable=reachable, message=message,
+            peak_force=sim.peak if sim else 0.0, force_limit=cfg.force_limit,
+            force_events=tuple(sim.events) if sim else (),
+            agent_pos=outcomes.agent_pos[0, 0] if outcomes else nan3,
+            agent_quat=outcomes.agent_quat[0, 0] if outcomes else np.full(4, np.nan),
+            object_tilt=float(outcomes.object_tilt[0]) if outcomes else float("nan"),
+            outcomes=outcomes, ik_residual=worst, agent_scale=scale, timings=timings)
+
+    if why:
+        return result(False, float("nan"), False, why, None, None)
+
+    t0 = time.perf_counter()
+    sim = _Sim(scene, cfg, render)
+    data = sim.data
+    data.qpos[scene.arm.qpos] = HOME_QPOS
+    mujoco.mj_kinematics(scene.model, data)
+    grip_pos, grip_quat = sim.site_pose()
+    data.qpos[scene.agent_qpos:scene.agent_qpos + 3] = grip_pos
+    data.qpos[scene.agent_qpos + 3:scene.agent_qpos + 7] = grip_quat
+    mujoco.mj_forward(scene.model, data)
+    obj_pos0 = data.xpos[scene.object_body].copy()
+    obj_quat0 = data.xquat[scene.object_body].copy()
+
+    _hold(sim, grip_pos, grip_quat, 0.1, "approach")
+    n_app = len(targets) - len(path)
+    stopped = _follow(sim, targets[:n_app], sols[:n_app], "approach", -1)
+    if not stopped:
+        stopped = _follow(sim, targets[n_app:], sols[n_app:], "trajectory", 0)
+    if not stopped:
+        _hold(sim, *path[-1], cfg.hold_time, "hold")
+
+    # release: the weld lets go, the fingers open, the hand lifts straight up
+    data.eq_active[scene.weld] = 0
+    sim.held = False
+    sim.gripper = 255.0
+    pos, quat = sim.site_pose()
+    _follow(sim, [(pos + np.array([0.0, 0.0, cfg.lift_after_release]), quat)], [sim.posture], "lift", -1)
+
+    pos, quat = sim.site_pose()
+    for _ in range(int(np.ceil(cfg.settle_time / cfg.dt))):
+        sim.crossed(sim.step(pos, quat, np.zeros(3)), "settle", -1, "none")
+        speed = max(np.linalg.norm(data.qvel[scene.agent_dof:scene.agent_dof + 3]),
+                    np.linalg.norm(data.qvel[scene.object_dof:scene.object_dof + 3]))
+        if speed < cfg.settle_speed and data.time > 0.5:
+            break
+    timings["simulate"] = time.perf_counter() - t0
+    timings["sim_time"] = float(data.time)
+
+    outcomes = _outcomes(sim, obj_pos0, obj_quat0)
+    if render is not None:
+        _write_frames(sim.frames, Path(render))
+    if score_fn is None:
+        return result(False, float("nan"), True, "executed, not scored", sim, outcomes)
+    t0 = time.perf_counter()
+    scores = np.asarray(score_fn(outcomes), dtype=float).reshape(-1)
+    timings["score"] = time.perf_counter() - t0
+    if scores.shape != (1,):
+        raise RobotError(f"scoring function returned shape {scores.shape}, expected (1,) for one rollout")
+    score = float(scores[0])
+    return result(bool(score > 0), score, True, "executed", sim, outcomes)
