@@ -247,7 +247,7 @@ def build_scene_model(
         obj_body.explicitinertial = True
         obj_body.mass, obj_body.ipos, obj_body.inertia, obj_body.iquat = mass, ipos, inertia, iquat
     if joint_damping or rolling_friction:
-        spec.joint("object").damping = joint_damping
+        spec.joint("object").damping = [joint_damping, 0.0, 0.0]
         for g in obj_body.geoms:
             g.condim = 6
             g.friction = [cfg.friction, rolling_friction, rolling_friction]

@@ -1,0 +1,234 @@
+"""Stable poses G_s: drop the object from many orientations in one batched simulation and cluster where it rests.
+
+Each settled drop gives the mesh-frame direction that ends up pointing to world +z ("up"). Ups closer than
+``tolerance_deg`` form one pose; its orientation is snapped to the nearest quasi-static pose from trimesh (an
+exact face/rim contact) when one lies within the tolerance, and its yaw is normalised (shortest rotation that
+takes the up direction to +z). Drops that never stop (round objects rolling) are counted, not clustered.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+import mujoco
+import mujoco.batch
+import numpy as np
+import trimesh
+
+from rail_mj.errors import ConfigError, StablePoseError
+from rail_mj.imagination.common import ImaginationConfig, at_rest, build_scene_model
+from rail_mj.paths import cache_dir
+from rail_mj.types import RailObject, StablePose, StablePoses
+
+__all__ = ["find_stable_poses", "pose_from_up", "STABLE_POSE_BACKENDS"]
+
+STABLE_POSE_BACKENDS = ("auto", "native")
+#: bump when the algorithm changes, so old cache entries are ignored
+_CACHE_VERSION = 1
+#: two resting shapes match when their height signatures differ by less than this fraction of the object size
+_CONGRUENT = 0.02
+
+
+def _uniform_quats(rng: np.random.Generator, n: int) -> np.ndarray:
+    q = rng.normal(size=(n, 4))
+    return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+
+def _rotation_to_z(up: np.ndarray) -> np.ndarray:
+    """Quaternion (wxyz) of the shortest rotation taking the unit vector ``up`` to +z."""
+    up = up / np.linalg.norm(up)
+    z = np.array([0.0, 0.0, 1.0])
+    c = float(up @ z)
+    if c < -1 + 1e-12:
+        return np.array([0.0, 1.0, 0.0, 0.0])
+    axis = np.cross(up, z)
+    q = np.array([1.0 + c, *axis])
+    return q / np.linalg.norm(q)
+
+
+def pose_from_up(obj: RailObject, up: np.ndarray, probability: float) -> StablePose:
+    """The yaw-normalised stable pose whose mesh-frame ``up`` points to world +z, AABB centred, bottom at z = 0."""
+    quat = _rotation_to_z(np.asarray(up, dtype=np.float64))
+    rot = np.zeros(9)
+    mujoco.mju_quat2Mat(rot, quat)
+    verts = np.asarray(obj.mesh.vertices) @ rot.reshape(3, 3).T
+    lo, hi = verts.min(axis=0), verts.max(axis=0)
+    centre = (lo + hi) / 2
+    pos = np.array([-centre[0], -centre[1], -lo[2]])
+    return StablePose(pos=pos, quat=quat, probability=probability, half_extents=(hi - lo) / 2)
+
+
+def _ups(quats: np.ndarray) -> np.ndarray:
+    w, x, y, z = quats.T
+    return np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=1)
+
+
+def _cluster(ups: np.ndarray, tol: float) -> list[np.ndarray]:
+    """Greedy clustering: the up with most unassigned neighbours within ``tol`` (rad) seeds the next cluster."""
+    close = ups @ ups.T > np.cos(tol)
+    free = np.ones(len(ups), dtype=bool)
+    clusters = []
+    while free.any():
+        counts = (close & free[None, :]).sum(axis=1) * free
+        seed = int(np.argmax(counts))
+        members = np.nonzero(close[seed] & free)[0]
+        clusters.append(members)
+        free[members] = False
+    return clusters
+
+
+def _signature(obj: RailObject, up: np.ndarray) -> np.ndarray:
+    """Yaw-invariant shape of a resting pose: centre-of-mass height and area-weighted surface height quantiles."""
+    mesh = obj.mesh
+    heights = np.asarray(mesh.triangles_center) @ up
+    order = np.argsort(heights)
+    cdf = np.cumsum(np.asarray(mesh.area_faces)[order])
+    quantiles = heights[order][np.searchsorted(cdf, cdf[-1] * np.linspace(0.05, 0.95, 10))]
+    base = np.asarray(mesh.vertices) @ up
+    return np.concatenate([[float(obj.com @ up) - base.min()], quantiles - base.min()])
+
+
+def _merge_symmetric(obj: RailObject, reps: list[np.ndarray], tol: float) -> list[list[int]]:
+    """Groups of clusters that are one pose rolled about a symmetry axis (a cup on its side at any angle).
+
+    Two clusters join when their resting shapes match and their ups are less than 100° apart, so chains of
+    neighbours along a round side merge, while opposite faces (a box's top and bottom) stay apart.
+    """
+    size = float(np.max(obj.extents))
+    sigs = [_signature(obj, u) for u in reps]
+    parent = list(range(len(reps)))
+
+    def find(i: int) -> int:
+        while parent[i] != i:
+            i = parent[i]
+        return i
+
+    for i in range(len(reps)):
+        for j in range(i + 1, len(reps)):
+            if reps[i] @ reps[j] > np.cos(np.deg2rad(100)) and np.max(np.abs(sigs[i] - sigs[j])) < tol * size:
+                parent[find(j)] = find(i)
+    groups: dict[int, list[int]] = {}
+    for i in range(len(reps)):
+        groups.setdefault(find(i), []).append(i)
+    return list(groups.values())
+
+
+def _quasi_static_ups(obj: RailObject) -> np.ndarray:
+    """Mesh-frame ups of trimesh's quasi-static poses (exact contacts, symmetric copies listed separately)."""
+    transforms, _ = trimesh.poses.compute_stable_poses(obj.mesh, center_mass=obj.com)
+    return np.array([t[2, :3] for t in transforms]).reshape(-1, 3)
+
+
+def _drop(obj: RailObject, n_drops: int, seed: int, settle_time: float, drop_height: float) -> tuple[np.ndarray, np.ndarray]:
+    """Simulate every drop in one batch; return the final orientations (n, 4) and whether each settled (n,)."""
+    cfg = ImaginationConfig(settle_speed=0.005)
+    size = float(np.max(obj.extents))
+    mass_scale = max(obj.mass, 1e-3)
+    # damping and rolling friction let round objects (a cup on its side) come to rest within the settle time
+    scene = build_scene_model(obj, None, cfg, joint_damping=0.05 * mass_scale, rolling_friction=0.01 * size)
+    quats = _uniform_quats(np.random.default_rng(seed), n_drops)
+    verts = np.concatenate([np.asarray(h) for h in obj.hulls])
+    qpos0 = np.tile(scene.model.qpos0, (n_drops, 1))
+    for i, q in enumerate(quats):
+        rot = np.zeros(9)
+        mujoco.mju_quat2Mat(rot, q)
+        qpos0[i, 2] = drop_height - (verts @ rot.reshape(3, 3).T)[:, 2].min()
+    qpos0[:, 3:7] = quats
+    batch = mujoco.batch.Batch(scene.model, n_drops, nthread=0)
+    qpos, qvel = batch.bind("qpos"), batch.bind("qvel")
+    batch.reset(stage=mujoco.mjtStage.mjSTAGE_NONE)
+    qpos[:] = qpos0
+    qvel[:] = 0.0
+    batch.forward()
+    settled = np.zeros(n_drops, dtype=bool)
+    quiet = np.zeros(n_drops, dtype=bool)
+    steps, limit = 0, int(np.ceil(settle_time / cfg.timestep))
+    while steps < limit:
+        running = np.nonzero(~settled)[0]
+        if len(running) == 0:
+            break
+        batch.step(ids=running, nstep=cfg.check_every)
+        steps += cfg.check_every
+        rest = at_rest(qvel, scene, cfg)
+        settled |= rest & quiet
+        quiet = rest
+    final = np.array(qpos[:, 3:7])
+    return final / np.linalg.norm(final, axis=1, keepdims=True), settled
+
+
+def _cache_path(obj: RailObject, params: dict) -> Path:
+    key = json.dumps({"mesh": obj.mesh_hash, "version": _CACHE_VERSION, **params}, sort_keys=True)
+    return cache_dir("stable_poses") / f"{hashlib.sha256(key.encode()).hexdigest()[:32]}.json"
+
+
+def _to_json(poses: StablePoses) -> str:
+    return json.dumps({
+        "n_drops": poses.n_drops,
+        "n_unsettled": poses.n_unsettled,
+        "poses": [{"pos": p.pos.tolist(), "quat": p.quat.tolist(), "probability": p.probability,
+                   "half_extents": p.half_extents.tolist()} for p in poses],
+    })
+
+
+def _from_json(text: str) -> StablePoses:
+    raw = json.loads(text)
+    poses = tuple(StablePose(pos=np.array(p["pos"]), quat=np.array(p["quat"]), probability=float(p["probability"]),
+                             half_extents=np.array(p["half_extents"])) for p in raw["poses"])
+    return StablePoses(poses=poses, n_drops=int(raw["n_drops"]), n_unsettled=int(raw["n_unsettled"]))
+
+
+def find_stable_poses(
+    obj: RailObject,
+    *,
+    n_drops: int = 128,
+    seed: int = 0,
+    backend: str = "auto",
+    settle_time: float = 3.0,
+    drop_height: float = 0.01,
+    tolerance_deg: float = 10.0,
+    min_probability: float = 0.0,
+    use_cache: bool = True,
+) -> StablePoses:
+    """Stable poses of ``obj``, most probable first; poses rarer than ``min_probability`` are dropped."""
+    if backend not in STABLE_POSE_BACKENDS:
+        raise ConfigError(f"unknown stable-pose backend {backend!r}; valid: {', '.join(STABLE_POSE_BACKENDS)}")
+    if n_drops < 1 or settle_time <= 0 or not 0 < tolerance_deg < 90 or drop_height < 0:
+        raise ConfigError(
+            f"need n_drops >= 1, settle_time > 0, 0 < tolerance_deg < 90, drop_height >= 0; got {n_drops}, "
+            f"{settle_time}, {tolerance_deg}, {drop_height}"
+        )
+    params = dict(n_drops=n_drops, seed=seed, settle_time=settle_time, drop_height=drop_height,
+                  tolerance_deg=tolerance_deg, min_probability=min_probability)
+    path = _cache_path(obj, params)
+    if use_cache and path.exists():
+        return _from_json(path.read_text())
+    quats, settled = _drop(obj, n_drops, seed, settle_time, drop_height)
+    if not settled.any():
+        raise StablePoseError(
+            f"none of {n_drops} drops of {obj.name!r} came to rest within {settle_time} s; raise settle_time"
+        )
+    tol = np.deg2rad(tolerance_deg)
+    ups = _ups(quats[settled])
+    exact = _quasi_static_ups(obj)
+    reps, counts = [], []
+    for members in _cluster(ups, tol):
+        mean = ups[members].mean(axis=0)
+        up = ups[members[np.argmax(ups[members] @ mean)]]
+        if len(exact):
+            nearest = exact[np.argmax(exact @ up)]
+            up = nearest if nearest @ up > np.cos(tol) else up
+        reps.append(up)
+        counts.append(len(members))
+    poses = []
+    for group in _merge_symmetric(obj, reps, _CONGRUENT):
+        best = max(group, key=lambda i: counts[i])
+        probability = sum(counts[i] for i in group) / n_drops
+        if probability >= min_probability:
+            poses.append(pose_from_up(obj, reps[best], probability))
+    poses.sort(key=lambda p: -p.probability)
+    result = StablePoses(poses=tuple(poses), n_drops=n_drops, n_unsettled=int((~settled).sum()))
+    if use_cache:
+        path.write_text(_to_json(result))
+    return result

@@ -1,0 +1,84 @@
+"""Stable poses: batched drops clustered by up direction, checked against trimesh's quasi-static poses."""
+
+import numpy as np
+import pytest
+import trimesh
+
+from rail_mj.errors import ConfigError
+from rail_mj.stable_poses import find_stable_poses, pose_from_up
+from rail_mj.types import RailObject
+
+
+def _object(name: str, hulls: list[np.ndarray], density: float = 500.0) -> RailObject:
+    mesh = trimesh.util.concatenate([trimesh.convex.convex_hull(h) for h in hulls])
+    return RailObject(name=name, mesh=mesh, hulls=tuple(np.asarray(h) for h in hulls), mesh_hash=f"test-{name}",
+                      obb_dims=np.sort(mesh.extents)[::-1], com=mesh.center_mass, mass=float(mesh.volume * density),
+                      density=density)
+
+
+def _cup(r: float = 0.04, h: float = 0.08, t: float = 0.004, n: int = 16) -> RailObject:
+    hulls = [trimesh.creation.box(bounds=[[-r, -r, 0], [r, r, t]]).vertices]
+    for i in range(n):
+        wall = trimesh.creation.box(extents=[t, 2 * np.pi * r / n + t, h])
+        wall.apply_translation([r - t / 2, 0, h / 2])
+        wall.apply_transform(trimesh.transformations.rotation_matrix(2 * np.pi * i / n, [0, 0, 1]))
+        hulls.append(wall.vertices)
+    return _object("cup", hulls)
+
+
+@pytest.fixture(scope="module")
+def box():
+    return _object("box", [trimesh.creation.box(extents=[0.1, 0.06, 0.03]).vertices])
+
+
+def _axis_ups(poses) -> list[tuple[int, ...]]:
+    return [tuple(np.round(p.up_in_mesh_frame).astype(int)) for p in poses]
+
+
+def test_box_rests_on_its_six_faces(box, tmp_path, monkeypatch):
+    monkeypatch.setenv("RAIL_MJ_CACHE", str(tmp_path))
+    poses = find_stable_poses(box, n_drops=96)
+    expected = {tuple(int(v) for v in s * e) for e in np.eye(3) for s in (1, -1)}
+    assert set(_axis_ups(poses)) == expected
+    # trimesh's quasi-static poses of a box are the same six face normals
+    transforms, _ = trimesh.poses.compute_stable_poses(box.mesh)
+    assert {tuple(np.round(t[2, :3]).astype(int)) for t in transforms} == expected
+    # the broad faces are the likeliest, and probabilities + unsettled account for every drop
+    assert set(_axis_ups(poses[:2])) == {(0, 0, 1), (0, 0, -1)}
+    assert sum(p.probability for p in poses) + poses.n_unsettled / poses.n_drops == pytest.approx(1.0)
+    assert all(a.probability >= b.probability for a, b in zip(poses, poses[1:]))
+
+
+def test_pose_is_placed_on_the_ground_and_centred(box):
+    pose = pose_from_up(box, np.array([0.0, 1.0, 0.0]), 1.0)
+    np.testing.assert_allclose(pose.up_in_mesh_frame, [0, 1, 0], atol=1e-12)
+    np.testing.assert_allclose(np.sort(pose.half_extents), [0.015, 0.03, 0.05], atol=1e-9)
+    assert pose.pos[2] == pytest.approx(0.03)  # half the 6 cm side it now stands on
+    np.testing.assert_allclose(pose.pos[:2], 0.0, atol=1e-12)
+
+
+def test_cup_upright_upside_down_and_on_its_side(tmp_path, monkeypatch):
+    monkeypatch.setenv("RAIL_MJ_CACHE", str(tmp_path))
+    cup = _cup()
+    poses = find_stable_poses(cup, n_drops=128)
+    ups = np.array([p.up_in_mesh_frame for p in poses if p.probability >= 0.05])
+    kinds = {"upright": ups[:, 2] > 0.98, "upside down": ups[:, 2] < -0.98, "side": np.abs(ups[:, 2]) < 0.05}
+    # every symmetric side rest (any roll angle) is one pose
+    assert {k: int(v.sum()) for k, v in kinds.items()} == {"upright": 1, "upside down": 1, "side": 1}
+    assert len(ups) == 3
+
+
+def test_results_are_cached_on_disk(box, tmp_path, monkeypatch):
+    monkeypatch.setenv("RAIL_MJ_CACHE", str(tmp_path))
+    first = find_stable_poses(box, n_drops=16, seed=3)
+    assert len(list((tmp_path / "stable_poses").glob("*.json"))) == 1
+    again = find_stable_poses(box, n_drops=16, seed=3)
+    assert [p.probability for p in again] == [p.probability for p in first]
+    np.testing.assert_allclose(again[0].quat, first[0].quat)
+
+
+def test_bad_arguments_name_the_valid_values(box):
+    with pytest.raises(ConfigError, match="valid: auto, native"):
+        find_stable_poses(box, backend="gpu")
+    with pytest.raises(ConfigError, match="n_drops"):
+        find_stable_poses(box, n_drops=0)
