@@ -1,0 +1,221 @@
+"""Semantic checks of stage answers beyond their pydantic schema.
+
+Each check raises :class:`InvalidAnswerError` (or the collaborator's
+``FragmentError`` / ``UnsafeCodeError``) with a message that an LLM can act on;
+the Anthropic provider sends that message back for a repair round.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from rail_mj.errors import FragmentError, LLMError
+from rail_mj.llm.schemas import (
+    AffordanceAnalysis,
+    AgentLayout,
+    AgentModel,
+    FunctionalPoseRequest,
+    FunctionalPoseVerdict,
+    MotionPlans,
+    ScoringCode,
+    TaskDescription,
+    Trajectories,
+)
+
+__all__ = [
+    "InvalidAnswerError",
+    "AgentGeometry",
+    "agent_geometry",
+    "check_analysis",
+    "check_agent",
+    "layout_offsets",
+    "check_layout",
+    "via_positions",
+    "candidate_half_extents",
+    "check_trajectories",
+    "check_scoring",
+    "check_verdict",
+]
+
+#: Largest agent bounding radius relative to the object's largest dimension...
+MAX_AGENT_SCALE = 1.5
+#: ...or in metres, whichever is larger (human-scale agents test small furniture too).
+MAX_AGENT_RADIUS_M = 0.5
+#: Agent masses outside this range (kg) are not plausible for any profile.
+MASS_RANGE = (1e-5, 200.0)
+#: Via-poses may lie at most this many half extents (plus the layout's size) from the object.
+TRAJECTORY_BOUND_H = 3.0
+#: Extra room (m) beyond the bound above, for clearances and human-scale heights (seat, table).
+TRAJECTORY_MARGIN_M = 1.0
+
+
+class InvalidAnswerError(LLMError, ValueError):
+    """A stage answer parsed but breaks the stage's rules (sizes, spacing, trajectories, verdict)."""
+
+
+@dataclass(frozen=True)
+class AgentGeometry:
+    """What the checks need to know about a compiled agent."""
+
+    radius: float  # bounding-sphere radius about the body origin, m
+    mass: float  # kg
+
+
+def agent_geometry(agent: AgentModel) -> AgentGeometry:
+    """Validate the fragment (``rail_mj.mjcf.check_fragment``) and measure its bounding radius and mass."""
+    from rail_mj.mjcf import check_fragment  # written concurrently; imported when first needed
+
+    check_fragment(agent.mjcf)
+    try:
+        model = mujoco.MjModel.from_xml_string(agent.mjcf)
+    except ValueError as exc:
+        raise FragmentError(f"agent MJCF does not compile: {exc}") from exc
+    body_geoms = np.flatnonzero(model.geom_bodyid == 1)
+    if model.nbody != 2 or body_geoms.size == 0:
+        raise FragmentError(f"agent MJCF must hold exactly one body with geoms; it has {model.nbody - 1} bodies")
+    radius = float(np.max(np.linalg.norm(model.geom_pos[body_geoms], axis=1) + model.geom_rbound[body_geoms]))
+    return AgentGeometry(radius=radius, mass=float(model.body_mass[1]))
+
+
+def check_analysis(analysis: AffordanceAnalysis, task: TaskDescription) -> None:
+    """The analysis must be about the requested affordance and fill in every text."""
+    if analysis.affordance.strip().lower() != task.affordance.strip().lower():
+        raise InvalidAnswerError(f"analysis is about {analysis.affordance!r}; it must analyse {task.affordance!r}")
+    empty = [n for n in ("reason", "ibd", "agent_description", "interaction_description", "expected_outcome")
+             if not getattr(analysis, n).strip()]
+    if empty:
+        raise InvalidAnswerError(f"analysis fields must not be empty: {', '.join(empty)}")
+
+
+def check_agent(agent: AgentModel, task: TaskDescription) -> AgentGeometry:
+    """Fragment rules plus a size and mass plausible for the object."""
+    geometry = agent_geometry(agent)
+    largest = max(task.obb_dims)
+    limit = max(MAX_AGENT_SCALE * largest, MAX_AGENT_RADIUS_M)
+    if not 0.001 <= geometry.radius <= limit:
+        raise InvalidAnswerError(
+            f"agent bounding radius {geometry.radius:.4f} m is out of scale for an object of largest dimension "
+            f"{largest:.3f} m; valid: 0.001 m to {limit:.3f} m"
+        )
+    if not MASS_RANGE[0] <= geometry.mass <= MASS_RANGE[1]:
+        raise InvalidAnswerError(
+            f"agent mass {geometry.mass:.6g} kg is not plausible; valid: {MASS_RANGE[0]} to {MASS_RANGE[1]} kg "
+            "(give every geom an explicit mass)"
+        )
+    return geometry
+
+
+def layout_offsets(layout: AgentLayout) -> np.ndarray:
+    """Agent positions (N, 3) about the layout centre, x fastest."""
+    axes = [
+        (np.arange(n) - (n - 1) / 2.0) * s
+        for n, s in ((layout.nx, layout.sx), (layout.ny, layout.sy), (layout.nz, layout.sz))
+    ]
+    z, y, x = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
+    return np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
+
+
+def check_layout(layout: AgentLayout, radius: float) -> None:
+    """Neighbouring agents must not overlap: spacing ≥ agent diameter on every axis with more than one agent."""
+    tight = [
+        f"{axis} (spacing {s:.4f} m < diameter {2 * radius:.4f} m)"
+        for axis, n, s in (("x", layout.nx, layout.sx), ("y", layout.ny, layout.sy), ("z", layout.nz, layout.sz))
+        if n > 1 and s < 2 * radius
+    ]
+    if tight:
+        raise InvalidAnswerError(f"agents overlap along {', '.join(tight)}; make the spacing at least the diameter")
+
+
+def via_positions(trajectory_via: list, half_extents: np.ndarray) -> np.ndarray:
+    """Positions (K, 3) in metres of via-poses for the half extents ``h`` of one pose."""
+    rel = np.array([v.rel for v in trajectory_via], dtype=float)
+    off = np.array([v.offset_m for v in trajectory_via], dtype=float)
+    return rel * np.asarray(half_extents, dtype=float) + off
+
+
+def candidate_half_extents(obb_dims: list[float]) -> list[np.ndarray]:
+    """Half extents of the object's box in each axis-aligned orientation (each dimension vertical once)."""
+    half = np.asarray(obb_dims, dtype=float) / 2.0
+    seen: dict[tuple[float, ...], np.ndarray] = {}
+    for perm in itertools.permutations(range(3)):
+        h = half[list(perm)]
+        seen.setdefault(tuple(np.round(h, 9)), h)
+    return list(seen.values())
+
+
+def check_trajectories(
+    trajectories: Trajectories,
+    plans: MotionPlans,
+    radius: float,
+    offsets: np.ndarray,
+    half_extents: list[np.ndarray],
+) -> None:
+    """One finite, bounded trajectory per plan whose start keeps every agent outside the box and above ground."""
+    plan_names = [p.name for p in plans.plans]
+    traj_names = [t.plan for t in trajectories.trajectories]
+    if traj_names != plan_names:
+        raise InvalidAnswerError(f"give one trajectory per plan in the same order: expected {plan_names}, got {traj_names}")
+    spread = np.max(np.abs(offsets), axis=0) + radius  # half size of the whole grid
+    for traj in trajectories.trajectories:
+        quats = np.array([v.quat for v in traj.via_poses], dtype=float)
+        if not np.all(np.isfinite(quats)) or np.any(np.abs(np.linalg.norm(quats, axis=1) - 1.0) > 1e-3):
+            raise InvalidAnswerError(f"plan {traj.plan!r}: every quat must be a finite unit quaternion (w, x, y, z)")
+        for h in half_extents:
+            pos = via_positions(traj.via_poses, h)
+            where = f"plan {traj.plan!r} with half extents h={np.round(h, 4).tolist()}"
+            if not np.all(np.isfinite(pos)):
+                raise InvalidAnswerError(f"{where}: via-poses must be finite numbers")
+            bound = TRAJECTORY_BOUND_H * float(np.max(h)) + float(np.max(spread)) + TRAJECTORY_MARGIN_M
+            far = np.linalg.norm(pos, axis=1) > bound
+            if np.any(far):
+                raise InvalidAnswerError(
+                    f"{where}: via-pose {int(np.argmax(far))} is {np.linalg.norm(pos[far][0]):.3f} m from the object "
+                    f"centre; keep every via-pose within {bound:.3f} m"
+                )
+            start = pos[0]
+            lo, hi = start - spread, start + spread
+            if np.all(hi > -h) and np.all(lo < h):
+                raise InvalidAnswerError(
+                    f"{where}: the agent grid at the start (centre {np.round(start, 4).tolist()} m, half size "
+                    f"{np.round(spread, 4).tolist()} m) overlaps the object's box [-h, h]; start outside it"
+                )
+            if lo[2] <= -h[2]:
+                raise InvalidAnswerError(
+                    f"{where}: the agent grid at the start reaches z={lo[2]:.4f} m, at or below the ground "
+                    f"z={-h[2]:.4f} m; start above the ground"
+                )
+
+
+def check_scoring(scoring: ScoringCode) -> None:
+    """The scoring sandbox's static check: ``def score`` with exactly ``SCORING_ARGS``, allow-listed constructs."""
+    from rail_mj.scoring import compile_scoring  # written concurrently; imported when first needed
+
+    compile_scoring(scoring.source)
+
+
+def check_verdict(verdict: FunctionalPoseVerdict, request: FunctionalPoseRequest) -> None:
+    """One verdict per pose; the best (pose, plan) must be an accepted candidate."""
+    expected = [p.pose_index for p in request.poses]
+    got = [v.pose_index for v in verdict.poses]
+    if got != expected:
+        raise InvalidAnswerError(f"give one verdict per pose in the same order: expected {expected}, got {got}")
+    accepted = {v.pose_index: v.plan for v in verdict.poses if v.accept}
+    plans = {p.pose_index: {c.plan for c in p.candidates} for p in request.poses}
+    for v in verdict.poses:
+        if v.accept and v.plan not in plans[v.pose_index]:
+            raise InvalidAnswerError(
+                f"pose {v.pose_index} is accepted with plan {v.plan!r}; valid: {sorted(plans[v.pose_index])}"
+            )
+    if verdict.best_pose is None:
+        if accepted:
+            raise InvalidAnswerError(f"poses {sorted(accepted)} are accepted, so best_pose must be one of them")
+        return
+    if verdict.best_pose not in accepted or verdict.best_plan not in plans[verdict.best_pose]:
+        raise InvalidAnswerError(
+            f"best (pose {verdict.best_pose}, plan {verdict.best_plan!r}) must be an accepted pose and one of its "
+            f"candidate plans; accepted: {accepted}"
+        )

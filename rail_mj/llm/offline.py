@@ -1,0 +1,543 @@
+"""The offline provider's library: imagination profiles for a catalogue of affordances.
+
+Each affordance has a *kind* that fixes the physics of its imagination:
+
+* ``container`` — a 3×3×3 grid of droplet spheres dropped from above the
+  opening; success: most droplets rest inside the box, off the ground, object upright.
+* ``seat`` — a box "pelvis" lowered onto the object from above or arriving
+  from a side at above-seat height; success: upright, at seat height, on the object.
+* ``lie`` — a "torso" box lowered onto the object; success: level, at bed height.
+* ``surface`` — a flat box placed on top; success: level on top at table height.
+* ``dish`` — a flat disc of "food" lowered onto the object; success: level on it
+  (a plate must also be low).
+* ``storage`` — a small box pushed in horizontally; success: it ends inside
+  the box resting on the object.
+
+Everything scales with the object's OBB dims. Directions (task frame):
+front = +x, back = −x, left = +y, right = −y. Via-poses are ``rel * h +
+offset_m`` (see :mod:`rail_mj.llm.schemas`). The answers are the same types
+the LLM stages return, and serve as the LLM prompts' few-shot examples.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+
+from rail_mj.errors import UnknownAffordanceError
+from rail_mj.llm.schemas import (
+    AffordanceAnalysis,
+    AgentLayout,
+    AgentModel,
+    CandidateInteraction,
+    FunctionalPoseRequest,
+    FunctionalPoseVerdict,
+    MotionPlan,
+    MotionPlans,
+    PlanTrajectory,
+    PoseVerdict,
+    ScoringCode,
+    TaskDescription,
+    Trajectories,
+    ViaPose,
+)
+
+__all__ = [
+    "AffordanceSpec",
+    "CATALOGUE",
+    "PAPER_AFFORDANCES",
+    "known_affordances",
+    "normalize_affordance",
+    "lookup",
+    "dims_fit",
+    "offline_analysis",
+    "offline_agent",
+    "offline_layout",
+    "offline_plans",
+    "offline_trajectories",
+    "offline_scoring",
+    "offline_functional_poses",
+]
+
+IDENTITY = [1.0, 0.0, 0.0, 0.0]
+#: Directions of the side plans, (name, unit x, unit y).
+SIDES = (("front", 1.0, 0.0), ("back", -1.0, 0.0), ("left", 0.0, 1.0), ("right", 0.0, -1.0))
+
+
+@dataclass(frozen=True)
+class AffordanceSpec:
+    """One catalogue entry: what the affordance means and the object sizes it plausibly has."""
+
+    name: str
+    kind: str  # container | seat | lie | surface | dish | storage
+    ibd: str
+    largest: tuple[float, float]  # plausible range of the largest OBB dim, m
+    smallest: tuple[float, float]  # plausible range of the smallest OBB dim, m
+    droplet_scale: float = 0.06  # container droplet radius / middle OBB dim
+    min_droplet_radius: float = 0.004  # m
+    max_height: float | None = None  # dish: the object must be at most this tall in its pose, m
+
+
+CATALOGUE: dict[str, AffordanceSpec] = {
+    s.name: s
+    for s in (
+        AffordanceSpec("cup", "container", "A cup holds a small amount of liquid in an upward-facing cavity "
+                       "that can be filled from above and keeps the liquid while resting on a table.",
+                       (0.05, 0.25), (0.03, 0.2)),
+        AffordanceSpec("bowl", "container", "A bowl holds food or liquid in a wide, open, upward-facing cavity "
+                       "reachable from above.", (0.08, 0.45), (0.03, 0.3)),
+        AffordanceSpec("vase", "container", "A vase holds water and flower stems in a deep cavity with an "
+                       "opening at the top, often narrower than its body.", (0.08, 1.2), (0.03, 0.6),
+                       droplet_scale=0.035),
+        AffordanceSpec("pot", "container", "A pot holds food or soil in an open cavity, filled from above.",
+                       (0.1, 0.6), (0.05, 0.5)),
+        AffordanceSpec("pen holder", "container", "A pen holder keeps pens upright in an open cavity "
+                       "filled from above.", (0.05, 0.2), (0.03, 0.15)),
+        AffordanceSpec("trash bin", "container", "A trash bin collects waste dropped through its top opening "
+                       "and keeps it inside.", (0.2, 1.2), (0.1, 0.8)),
+        AffordanceSpec("basket", "container", "A basket carries items in an open, often perforated cavity "
+                       "whose holes are smaller than the items.", (0.12, 0.9), (0.05, 0.7),
+                       min_droplet_radius=0.012),
+        AffordanceSpec("bathtub", "container", "A bathtub holds enough water for a person to bathe in a long "
+                       "open basin on the floor.", (1.0, 2.2), (0.35, 1.0), droplet_scale=0.05),
+        AffordanceSpec("chair", "seat", "A chair lets one person sit: a level seat at knee height, usually "
+                       "with a backrest.", (0.6, 1.4), (0.3, 0.9)),
+        AffordanceSpec("stool", "seat", "A stool lets one person sit on a level seat at knee height, "
+                       "without a backrest.", (0.3, 0.9), (0.2, 0.6)),
+        AffordanceSpec("bench", "seat", "A bench lets people sit side by side on a long level seat at "
+                       "knee height.", (0.8, 3.0), (0.25, 0.9)),
+        AffordanceSpec("bed", "lie", "A bed lets a person lie down on a large level surface a little above "
+                       "the floor.", (1.6, 2.6), (0.2, 1.2)),
+        AffordanceSpec("table", "surface", "A table holds items on a level top surface at working height.",
+                       (0.45, 3.0), (0.3, 1.6)),
+        AffordanceSpec("plate", "dish", "A plate holds food on a low, level, nearly flat surface.",
+                       (0.1, 0.45), (0.005, 0.08), max_height=0.08),
+        AffordanceSpec("tray", "dish", "A tray carries items on a flat level base with a low rim.",
+                       (0.2, 0.9), (0.01, 0.12), max_height=0.15),
+        AffordanceSpec("shelf", "storage", "A shelf stores items on level boards reached horizontally from "
+                       "the front.", (0.5, 2.5), (0.15, 0.8)),
+        AffordanceSpec("cupboard", "storage", "A cupboard stores items inside an enclosure on level boards, "
+                       "reached through an opening at the front.", (0.5, 2.5), (0.3, 1.0)),
+    )
+}
+
+#: The paper's eight affordances; preferred as alternatives when several fit.
+PAPER_AFFORDANCES = frozenset({"cup", "bowl", "vase", "basket", "bathtub", "plate", "table", "chair"})
+
+_ALIASES = {
+    "mug": "cup",
+    "trash can": "trash bin",
+    "garbage can": "trash bin",
+    "bin": "trash bin",
+    "pencil holder": "pen holder",
+    "pencil cup": "pen holder",
+    "bath tub": "bathtub",
+    "tub": "bathtub",
+    "bookshelf": "shelf",
+    "cabinet": "cupboard",
+    "dish": "plate",
+}
+
+
+def known_affordances() -> list[str]:
+    """Names the offline provider can imagine, sorted."""
+    return sorted(CATALOGUE)
+
+
+def normalize_affordance(name: str) -> str:
+    """Canonical catalogue name (case, spaces/underscores/hyphens, simple plurals, aliases).
+
+    Raises UnknownAffordanceError listing the known names when there is none.
+    """
+    key = re.sub(r"[\s_\-]+", " ", name.strip().lower())
+    candidates = [key]
+    if key.endswith("ves"):
+        candidates.append(key[:-3] + "f")
+    if key.endswith("es"):
+        candidates.append(key[:-2])
+    if key.endswith("s"):
+        candidates.append(key[:-1])
+    for cand in candidates:
+        if cand in CATALOGUE:
+            return cand
+        if cand in _ALIASES:
+            return _ALIASES[cand]
+    raise UnknownAffordanceError(
+        f"no offline imagination profile for affordance {name!r}; known: {', '.join(known_affordances())}. "
+        "An LLM provider imagines novel affordances: use --provider anthropic with ANTHROPIC_API_KEY set."
+    )
+
+
+def lookup(name: str) -> AffordanceSpec:
+    """The catalogue entry for a (possibly unnormalised) affordance name."""
+    return CATALOGUE[normalize_affordance(name)]
+
+
+def dims_fit(spec: AffordanceSpec, dims: list[float]) -> bool:
+    """Whether sorted OBB dims lie in the affordance's plausible size ranges."""
+    return spec.largest[0] <= max(dims) <= spec.largest[1] and spec.smallest[0] <= min(dims) <= spec.smallest[1]
+
+
+def _log_distance(spec: AffordanceSpec, dims: list[float]) -> float:
+    centre = math.sqrt(spec.largest[0] * spec.largest[1])
+    return abs(math.log(max(dims) / centre))
+
+
+def offline_analysis(task: TaskDescription) -> AffordanceAnalysis:
+    """Stage 1: size check against real-world ranges (alternative from the same kind), IBD and outline."""
+    spec = lookup(task.affordance)
+    dims = list(task.obb_dims)
+    fits = dims_fit(spec, dims)
+    sizes = f"largest {max(dims):.3f} m, smallest {min(dims):.3f} m"
+    ranges = (f"a {spec.name} is {spec.largest[0]:g}–{spec.largest[1]:g} m at its largest and "
+              f"{spec.smallest[0]:g}–{spec.smallest[1]:g} m at its smallest")
+    alternative = None
+    if fits:
+        reason = f"The object ({sizes}) fits: {ranges}."
+    else:
+        fitting = [s for s in CATALOGUE.values() if s.kind == spec.kind and s.name != spec.name and dims_fit(s, dims)]
+        if fitting:
+            alternative = min(fitting, key=lambda s: (s.name not in PAPER_AFFORDANCES, _log_distance(s, dims))).name
+        reason = (f"The object ({sizes}) does not fit: {ranges}. "
+                  + (f"Its size fits a {alternative}." if alternative else "No similar affordance fits its size."))
+    agent, interaction, outcome = _OUTLINES[spec.kind]
+    return AffordanceAnalysis(
+        affordance=task.affordance,
+        fits=fits,
+        reason=reason,
+        alternative=alternative,
+        ibd=spec.ibd,
+        agent_description=agent,
+        interaction_description=interaction,
+        expected_outcome=outcome.format(name=spec.name),
+    )
+
+
+_OUTLINES: dict[str, tuple[str, str, str]] = {
+    "container": (
+        "Small spheres standing for droplets of liquid (or items bigger than the holes of a basket), "
+        "sized to the object's opening, in a 3x3x3 grid.",
+        "The grid of droplets is brought above the object's opening and released so the droplets fall in; "
+        "alternatives release it above the rim offset to the front, back, left and right.",
+        "Most droplets end inside the {name}'s bounding box, below its rim, not touching the ground, "
+        "and the {name} stays upright.",
+    ),
+    "seat": (
+        "One box standing for a sitting person's pelvis, about 0.35 x 0.35 x 0.1 m.",
+        "The pelvis is lowered onto the object from above, or arrives from the front, back, left or right "
+        "above seat height and is then lowered; it is released at the first contact.",
+        "The pelvis rests upright on the {name} at seat height (0.3–0.65 m above the ground), not touching "
+        "the ground, and the {name} does not tip over.",
+    ),
+    "lie": (
+        "One box standing for a lying person's torso, about 0.5 x 0.35 x 0.15 m.",
+        "The torso is lowered onto the object from above at its centre and at offsets; released at contact.",
+        "The torso rests level on the {name} 0.15–0.9 m above the ground, not touching the ground, "
+        "and the {name} does not tip over.",
+    ),
+    "surface": (
+        "One flat box standing for a book or a dish placed on the object.",
+        "The box is lowered onto the object from above at its centre and at offsets to each side; "
+        "released at the first contact.",
+        "The box rests level on top of the {name} 0.4–1.1 m above the ground, not touching the ground, "
+        "and the {name} does not tip over.",
+    ),
+    "dish": (
+        "One flat disc standing for a portion of food, sized to the object.",
+        "The disc is lowered onto the object from above at its centre and at offsets; released at contact.",
+        "The disc rests level on the {name}, touching it and not the ground, the {name} is low and does "
+        "not tip over.",
+    ),
+    "storage": (
+        "One small box standing for a stored item, sized to the object's depth.",
+        "The box is pushed in horizontally from the front, back, left and right at mid height, and from "
+        "the front higher and lower; released at the first contact or at the end.",
+        "The box ends inside the {name}'s bounding box, resting on it, not on the ground, upright, "
+        "and the {name} does not tip over.",
+    ),
+}
+
+
+@dataclass(frozen=True)
+class _AgentShape:
+    geom: str  # MJCF geom attributes without mass
+    radius: float  # bounding radius, m
+    half_z: float  # half height, m
+    mass: float  # kg
+    label: str
+
+
+def _shape(spec: AffordanceSpec, dims: list[float]) -> _AgentShape:
+    """The agent of a kind, scaled to the object (dims sorted descending)."""
+    d0, d1, d2 = dims
+    if spec.kind == "container":
+        r = max(spec.min_droplet_radius, min(0.05, spec.droplet_scale * d1))
+        mass = 1000.0 * 4.0 / 3.0 * math.pi * r**3  # water
+        return _AgentShape(f'type="sphere" size="{r:.4f}"', r, r, mass, "droplet")
+    if spec.kind == "dish":
+        a = min(0.12, max(0.02, 0.25 * d1))
+        c = min(0.015, max(0.005, 0.1 * a))
+        mass = 800.0 * math.pi * a * a * 2 * c
+        return _AgentShape(f'type="cylinder" size="{a:.4f} {c:.4f}"', math.hypot(a, c), c, mass, "food")
+    if spec.kind == "seat":
+        half = (min(0.18, max(0.1, 0.35 * d1)),) * 2 + (0.05,)
+        label = "pelvis"
+    elif spec.kind == "lie":
+        k = min(1.2, max(0.7, d0 / 2.0))
+        half = (0.25 * k, 0.175 * k, 0.075)
+        label = "torso"
+    elif spec.kind == "surface":
+        half = (min(0.15, max(0.04, 0.12 * d1)),) * 2 + (0.015,)
+        label = "book"
+    else:  # storage
+        half = (min(0.1, 0.2 * d2),) * 3  # never taller than the object's thinnest side allows
+        label = "item"
+    mass = 1000.0 * 8.0 * half[0] * half[1] * half[2]
+    size = " ".join(f"{v:.4f}" for v in half)
+    return _AgentShape(f'type="box" size="{size}"', math.sqrt(sum(v * v for v in half)), half[2], mass, label)
+
+
+def offline_agent(task: TaskDescription) -> AgentModel:
+    """Stage 2: the kind's agent as an MJCF fragment (one body, no joints), scaled to the object."""
+    spec = lookup(task.affordance)
+    shape = _shape(spec, list(task.obb_dims))
+    xml = (f'<mujoco><worldbody><body name="{shape.label}">'
+           f'<geom name="{shape.label}_geom" {shape.geom} mass="{shape.mass:.6g}" rgba="0.2 0.5 0.9 1"/>'
+           "</body></worldbody></mujoco>")
+    return AgentModel(name=shape.label, description=_OUTLINES[spec.kind][0], mjcf=xml)
+
+
+def offline_layout(task: TaskDescription) -> AgentLayout:
+    """Stage 3: droplets in a 3×3×3 grid with a gap of 0.4 diameters; one agent otherwise."""
+    spec = lookup(task.affordance)
+    shape = _shape(spec, list(task.obb_dims))
+    if spec.kind == "container":
+        s = round(2.4 * shape.radius, 5)
+        return AgentLayout(nx=3, ny=3, nz=3, sx=s, sy=s, sz=s, collide_agents=True)
+    s = round(2.0 * shape.radius + 0.01, 5)
+    return AgentLayout(nx=1, ny=1, nz=1, sx=s, sy=s, sz=s, collide_agents=False)
+
+
+def _lowering_plans(label: str, what: str, offset: float) -> list[MotionPlan]:
+    plans = [MotionPlan(name="above", description=f"Start with the {label} above the object's centre; lower it "
+                                                  f"straight down onto {what}; release it at the first contact.")]
+    plans += [
+        MotionPlan(name=f"above_{side}", description=f"Start with the {label} above the object, offset to the {side} "
+                                                      f"by {offset:g} of its half size; lower it straight down; "
+                                                      "release it at the first contact.")
+        for side, _, _ in SIDES
+    ]
+    return plans
+
+
+def offline_plans(task: TaskDescription) -> MotionPlans:
+    """Stage 4: five or six plans from above and from the four sides."""
+    spec = lookup(task.affordance)
+    label = _shape(spec, list(task.obb_dims)).label
+    if spec.kind == "container":
+        plans = [MotionPlan(name="above", description="Hold the droplet grid centred above the opening, just over "
+                                                     "the rim; release it so the droplets fall in.")]
+        plans += [MotionPlan(name=f"above_{side}", description=f"Hold the droplet grid above the rim, offset to the "
+                                                               f"{side} by 0.6 of the half size; release it.")
+                  for side, _, _ in SIDES]
+        return MotionPlans(plans=plans)
+    if spec.kind == "seat":
+        plans = [MotionPlan(name="above", description="Start with the pelvis above the object's centre; lower it "
+                                                     "straight down onto the seat; release at the first contact.")]
+        plans += [MotionPlan(name=side, description=f"Start at the {side} of the object, above seat height; move "
+                                                    "horizontally over the object's centre; lower the pelvis "
+                                                    "straight down; release at the first contact.")
+                  for side, _, _ in SIDES]
+        return MotionPlans(plans=plans)
+    if spec.kind == "storage":
+        plans = [MotionPlan(name=side, description=f"Start at the {side} of the object at mid height; push the "
+                                                   "item horizontally to the object's centre; release at the "
+                                                   "first contact or at the end.")
+                 for side, _, _ in SIDES]
+        plans += [MotionPlan(name=f"front_{level}", description=f"Start at the front of the object at {level} height; "
+                                                                "push the item horizontally to the centre; release at "
+                                                                "the first contact or at the end.")
+                  for level in ("high", "low")]
+        return MotionPlans(plans=plans)
+    what = {"lie": "the lying surface", "surface": "the top", "dish": "the dish"}[spec.kind]
+    return MotionPlans(plans=_lowering_plans(label, what, _LOWER_OFFSET[spec.kind]))
+
+
+#: Horizontal offset (units of h) of the above_<side> plans of lowering kinds.
+_LOWER_OFFSET = {"lie": 0.3, "surface": 0.5, "dish": 0.4}
+#: Height (units of h_z) of the side storage plans; off-centre so a middle board does not stop them all.
+#: front_high / front_low run one agent size below the top / above the ground instead.
+_STORAGE_MID_Z = 0.15
+
+
+def _via(rel: tuple[float, float, float], off: tuple[float, float, float]) -> ViaPose:
+    return ViaPose(rel=[float(v) for v in rel], offset_m=[round(float(v), 5) for v in off], quat=IDENTITY)
+
+
+def offline_trajectories(task: TaskDescription, layout: AgentLayout) -> Trajectories:
+    """Stage 5: via-poses of the layout centre for each plan of :func:`offline_plans`."""
+    spec = lookup(task.affordance)
+    shape = _shape(spec, list(task.obb_dims))
+    spread_z = (layout.nz - 1) / 2.0 * layout.sz + shape.radius  # grid half height
+    gap = max(0.01, 2.0 * shape.radius)
+    trajs: list[PlanTrajectory] = []
+    for plan in offline_plans(task).plans:
+        if spec.kind == "container":
+            ox, oy = _side_offset(plan.name, 0.6)
+            via = [_via((ox, oy, 1), (0, 0, spread_z + gap)), _via((ox, oy, 1), (0, 0, spread_z + 0.002))]
+        elif spec.kind == "seat":
+            above_seat = 0.65 + shape.radius + 0.05  # higher than any seat, pelvis included
+            bottom = shape.half_z + 0.02
+            if plan.name == "above":
+                via = [_via((0, 0, 1), (0, 0, shape.radius + gap)), _via((0, 0, -1), (0, 0, bottom))]
+            else:
+                ux, uy = _side_offset(plan.name, 1.0)
+                via = [_via((ux, uy, -1), (ux * (shape.radius + gap), uy * (shape.radius + gap), above_seat)),
+                       _via((0, 0, -1), (0, 0, above_seat)),
+                       _via((0, 0, -1), (0, 0, bottom))]
+        elif spec.kind == "storage":
+            ux, uy = _side_offset(plan.name, 1.0)
+            rz, dz = {"front_high": (1.0, -shape.radius - 0.01), "front_low": (-1.0, shape.radius + 0.01)}.get(
+                plan.name, (_STORAGE_MID_Z, 0.0))
+            out = shape.radius + gap
+            via = [_via((ux, uy, rz), (ux * out, uy * out, dz)), _via((0, 0, rz), (0, 0, dz))]
+        else:
+            ox, oy = _side_offset(plan.name, _LOWER_OFFSET[spec.kind])
+            via = [_via((ox, oy, 1), (0, 0, shape.radius + gap)), _via((ox, oy, -1), (0, 0, shape.half_z + 0.005))]
+        trajs.append(PlanTrajectory(plan=plan.name, via_poses=via))
+    return Trajectories(trajectories=trajs)
+
+
+def _side_offset(plan: str, amount: float) -> tuple[float, float]:
+    for side, ux, uy in SIDES:
+        if plan == side or plan == f"above_{side}" or plan.startswith(f"{side}_"):
+            return amount * ux, amount * uy
+    return 0.0, 0.0
+
+
+_HEADER = ("def score(agent_pos, agent_quat, agent_vel, contacts_object, contacts_agents, contacts_ground, "
+           "object_pos, object_tilt, object_half_extents):\n")
+
+_CONTAINER_BODY = '''    """Fraction of droplets inside the box below the rim and off the ground, minus {min_frac}; -1 if tipped."""
+    h = object_half_extents[:, None, :]
+    inside = (np.abs(agent_pos[:, :, 0]) < h[:, :, 0]) & (np.abs(agent_pos[:, :, 1]) < h[:, :, 1])
+    inside = inside & (agent_pos[:, :, 2] < h[:, :, 2]) & (contacts_ground == 0)
+    frac = np.mean(inside, axis=1)
+    return np.where(object_tilt < {max_tilt:.4f}, frac - {min_frac}, -1.0)
+'''
+
+_REST_BODY = '''    """Fraction of agents resting as intended ({what}), minus 0.5; -1 if the object tipped{extra_doc}."""
+    h = object_half_extents[:, None, :]
+    footprint = (np.abs(agent_pos[:, :, 0]) < h[:, :, 0]) & (np.abs(agent_pos[:, :, 1]) < h[:, :, 1])
+    bottom = agent_pos[:, :, 2] - {half_z:.4f}
+    height = (bottom > {lo}) & (bottom < {hi})
+    cos_tilt = 1.0 - 2.0 * (agent_quat[:, :, 1] ** 2 + agent_quat[:, :, 2] ** 2)
+    upright = cos_tilt > {cos_agent:.4f}
+    resting = footprint & height & upright & (contacts_object > 0) & (contacts_ground == 0)
+    frac = np.mean(resting, axis=1)
+    ok = (object_tilt < {max_tilt:.4f}){object_cond}
+    return np.where(ok, frac - 0.5, -1.0)
+'''
+
+
+def offline_scoring(task: TaskDescription) -> ScoringCode:
+    """Stage 6: vectorised numpy scoring source for the kind (constants baked in)."""
+    spec = lookup(task.affordance)
+    shape = _shape(spec, list(task.obb_dims))
+    if spec.kind == "container":
+        body = _CONTAINER_BODY.format(min_frac=0.5, max_tilt=math.radians(15))
+        return ScoringCode(description="Success when more than half the droplets rest inside the object's box "
+                                           "below the rim and off the ground, and the object is upright.",
+                               source=_HEADER + body)
+    # bottom-height window of the agent, as task-frame z expressions (hz broadcast over agents)
+    windows = {
+        "seat": ("-h[:, :, 2] + 0.3", "-h[:, :, 2] + 0.65", 15, 15, "upright at seat height 0.3-0.65 m"),
+        "lie": ("-h[:, :, 2] + 0.15", "-h[:, :, 2] + 0.9", 15, 15, "level at bed height 0.15-0.9 m"),
+        "surface": ("np.maximum(-h[:, :, 2] + 0.4, 0.0)", "-h[:, :, 2] + 1.1", 10, 10,
+                    "level on top at table height 0.4-1.1 m"),
+        "dish": ("-h[:, :, 2] - 0.005", "h[:, :, 2] + 0.01", 15, 15, "level on the dish"),
+        "storage": ("-h[:, :, 2]", "h[:, :, 2] - " + f"{2 * shape.half_z:.4f}", 20, 10, "inside, on a board"),
+    }
+    lo, hi, agent_deg, object_deg, what = windows[spec.kind]
+    object_cond = f" & (2.0 * object_half_extents[:, 2] <= {spec.max_height:g})" if spec.max_height is not None else ""
+    extra_doc = f" or is taller than {spec.max_height:g} m" if spec.max_height is not None else ""
+    body = _REST_BODY.format(what=what, extra_doc=extra_doc, half_z=shape.half_z, lo=lo, hi=hi,
+                             cos_agent=math.cos(math.radians(agent_deg)), max_tilt=math.radians(object_deg),
+                             object_cond=object_cond)
+    return ScoringCode(description=f"Success when the {shape.label} rests {what}, touching the object and not "
+                                       "the ground, and the object does not tip.",
+                           source=_HEADER + body)
+
+
+def _candidate_ok(kind: str | None, c: CandidateInteraction, h: list[float]) -> tuple[bool, str]:
+    """Common-sense rules of the offline Functional Pose Analyzer for one candidate."""
+    s = c.summary
+    hx, hy, hz = h
+    start = c.via_poses[0]
+    ground_height = (s.mean_height + 1.0) * hz  # of the agent centres
+    if s.object_tilt_deg >= 15:
+        return False, f"success relies on the object tipping ({s.object_tilt_deg:.0f} deg)"
+    if kind == "container":
+        if start[2] < hz:
+            return False, "the droplets did not come from above the opening"
+        if s.frac_inside_bbox < 0.5 or s.mean_height >= 1.0 or s.frac_on_ground > 0.2:
+            return False, (f"only {s.frac_inside_bbox:.0%} of droplets rest inside below the rim "
+                           f"({s.frac_on_ground:.0%} on the ground)")
+        return True, f"{s.frac_inside_bbox:.0%} of droplets from above rest inside below the rim"
+    if kind in ("seat", "lie", "surface", "dish"):
+        limits = {"seat": (15, 0.3, 0.8), "lie": (15, 0.15, 1.0), "surface": (10, 0.4, 1.15), "dish": (15, 0.0, 10.0)}
+        max_tilt, lo, hi = limits[kind]
+        if s.agent_tilt_deg >= max_tilt:
+            return False, f"the agent is tilted {s.agent_tilt_deg:.0f} deg"
+        if not lo <= ground_height <= hi:
+            return False, f"the agent rests {ground_height:.2f} m above the ground; plausible: {lo}-{hi} m"
+        if s.frac_touching_object < 1.0 or s.frac_on_ground > 0.0:
+            return False, "the agent does not rest on the object alone"
+        if kind in ("surface", "dish") and s.mean_height < 0.0:
+            return False, "the agent rests in the lower half of the object, not on top"
+        return True, f"the agent rests level on the object {ground_height:.2f} m above the ground"
+    if kind == "storage":
+        if abs(start[2]) >= hz or (abs(start[0]) <= hx and abs(start[1]) <= hy):
+            return False, "the item did not come in horizontally from a side"
+        if s.frac_inside_bbox < 0.5 or s.frac_touching_object < 1.0 or s.frac_on_ground > 0.0:
+            return False, "the item does not rest inside on the object"
+        return True, "the item pushed in from the side rests inside on the object"
+    if s.frac_on_ground >= 0.5:
+        return False, "most agents ended on the ground"
+    return True, "the object stayed upright and the agents did not end on the ground"
+
+
+def offline_functional_poses(request: FunctionalPoseRequest) -> FunctionalPoseVerdict:
+    """Stage 7 by rules: accept a pose when one of its candidates passes its kind's rules; best = top score.
+
+    Affordances outside the catalogue get the generic rules (object not tipped,
+    agents not mostly on the ground).
+    """
+    try:
+        kind: str | None = lookup(request.affordance).kind
+    except UnknownAffordanceError:
+        kind = None
+    verdicts: list[PoseVerdict] = []
+    best: tuple[float, float, int, str] | None = None
+    for pose in request.poses:
+        accepted: list[CandidateInteraction] = []
+        reasons: list[str] = []
+        for c in pose.candidates:
+            ok, why = _candidate_ok(kind, c, list(pose.half_extents))
+            reasons.append(f"{c.plan}: {why}")
+            if ok:
+                accepted.append(c)
+        if not pose.candidates:
+            reasons.append("no plan succeeded")
+        top = max(accepted, key=lambda c: c.score) if accepted else None
+        verdicts.append(PoseVerdict(pose_index=pose.pose_index, accept=top is not None, reason="; ".join(reasons),
+                                    plan=top.plan if top else None))
+        if top is not None and (best is None or (top.score, pose.probability) > best[:2]):
+            best = (top.score, pose.probability, pose.pose_index, top.plan)
+    if best is None:
+        return FunctionalPoseVerdict(poses=verdicts, best_pose=None, best_plan=None,
+                                     reason="no candidate interaction is consistent with common sense")
+    return FunctionalPoseVerdict(poses=verdicts, best_pose=best[2], best_plan=best[3],
+                                 reason=f"pose {best[2]} with plan {best[3]!r} has the best accepted score "
+                                        f"({best[0]:.3f})")

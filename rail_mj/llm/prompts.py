@@ -1,0 +1,173 @@
+"""Versioned prompt templates of the seven stages, with few-shot examples from the offline library.
+
+Bump a stage's ``PROMPT_VERSION`` whenever its template or examples change:
+the version is part of the response-cache key.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cache
+
+from pydantic import BaseModel
+
+from rail_mj.llm import offline
+from rail_mj.llm.schemas import (
+    AffordanceAnalysis,
+    AgentLayout,
+    AgentModel,
+    AgentModelRequest,
+    AnalyzerRequest,
+    FunctionalPoseVerdict,
+    LayoutRequest,
+    MotionPlans,
+    PlannerRequest,
+    ScoringCode,
+    ScoringRequest,
+    TaskDescription,
+    TrajectoryRequest,
+    Trajectories,
+)
+from rail_mj.types import SCORING_ARGS
+
+__all__ = ["StageSpec", "PROMPT_VERSION", "STAGES", "system_prompt", "user_prompt", "repair_prompt"]
+
+PROMPT_VERSION: dict[str, str] = {
+    "affordance_analyzer": "1",
+    "agent_model": "1",
+    "agent_configuration": "1",
+    "motion_planner": "1",
+    "trajectory": "1",
+    "scoring": "1",
+    "functional_pose": "1",
+}
+
+
+@dataclass(frozen=True)
+class StageSpec:
+    """A stage's name, prompt version, answer type and instructions."""
+
+    name: str
+    output_type: type[BaseModel]
+    instructions: str
+
+    @property
+    def version(self) -> str:
+        return PROMPT_VERSION[self.name]
+
+
+_FRAME = """Conventions. Units are metres, kilograms, radians. The TASK FRAME has its origin at the centre of the \
+object's world-aligned bounding box in the stable pose being imagined, axes along the world axes, +z up. The \
+object occupies [-h, h] per axis, where h are its half extents in that pose; its top is at z = +h_z and the ground \
+at z = -h_z. Directions: front = +x, back = -x, left = +y, right = -y. Quaternions are (w, x, y, z). OBB dims are \
+the object's oriented-bounding-box extents sorted in descending order; which of them is vertical depends on the \
+stable pose."""
+
+STAGES: dict[str, StageSpec] = {
+    s.name: s
+    for s in (
+        StageSpec("affordance_analyzer", AffordanceAnalysis, """You are the Affordance Analyzer of a robot that \
+imagines how an unseen object could be used. Given an affordance name and the object's OBB dims, (1) check whether \
+the dims are plausible for that affordance in the real world and give the reason with the sizes compared; when they \
+are not, name an alternative affordance of the same family that the dims do fit (or null); (2) give the \
+interaction-based definition (IBD); (3) describe a simple rigid agent (or a grid of identical agents) that can test \
+the affordance in a physics simulator, how the agent moves to interact, and the resultant configuration that means \
+the object affords it. Keep "affordance" equal to the requested name."""),
+        StageSpec("agent_model", AgentModel, """You are the Agent Model Generator. Write the agent described in the \
+analysis as an MJCF fragment: <mujoco><worldbody><body name="..."><geom .../></body></worldbody></mujoco> with \
+EXACTLY ONE body, NO joints (the simulator adds a free joint), primitive geoms (sphere, box, cylinder, capsule, \
+ellipsoid) with explicit mass, sizes in metres (MuJoCo sizes are half sizes / radii) scaled to the object."""),
+        StageSpec("agent_configuration", AgentLayout, """You are the Agent Configuration Generator. Arrange identical \
+agents in a world-aligned grid about the layout centre: counts nx, ny, nz >= 1 and spacings sx, sy, sz (m) between \
+neighbouring agent centres. Spacing along an axis with more than one agent must be at least the agent's bounding \
+diameter so agents do not overlap. One agent: nx = ny = nz = 1. collide_agents: true when agents should pile up \
+(droplets), false for a lone agent."""),
+        StageSpec("motion_planner", MotionPlans, """You are the Agent Motion Planner. Give at least five distinct \
+high-level plans (e.g. from above, front, back, left, right) for moving the agent layout to interact with the \
+object, each with a short identifier name and a step-by-step description from the start to the end point. The \
+agents are released at their first contact with anything, or at the end of the trajectory."""),
+        StageSpec("trajectory", Trajectories, """You are the Trajectory Generator. For every plan, in the same order \
+and with the same name, give 2-8 via-poses of the LAYOUT CENTRE. Each via-pose position is rel * h + offset_m in \
+the task frame: rel in units of the object's half extents h (so one answer fits every stable pose; (0, 0, 1) is \
+the centre of the top face, (0, 0, -1) the ground below the centre), offset_m in metres for clearances that depend \
+on the agent. The first via-pose must keep the whole agent grid outside the object's box and above the ground; \
+keep every via-pose within 3 max(h) + 1 m of the origin. quat is a unit quaternion (w, x, y, z)."""),
+        StageSpec("scoring", ScoringCode, f"""You are the Scoring Function Generator. Write Python source of \
+def score({", ".join(SCORING_ARGS)}): returning one float per rollout, shape (B,), > 0 meaning success. Inputs are \
+numpy arrays over a batch of B rollouts and N agents, all in the task frame at the end of the rollout: agent_pos \
+(B, N, 3), agent_quat (B, N, 4) wxyz, agent_vel (B, N, 3) m/s, contacts_object / contacts_agents / contacts_ground \
+(B, N) contact-point counts, object_pos (B, 3) displacement of the object, object_tilt (B,) rad, object_half_extents \
+(B, 3). Vectorise over the batch (reduce over the agent axis with np functions); use only `np` (already provided); \
+no imports, no dunder names, no I/O, no loops over rollouts."""),
+        StageSpec("functional_pose", FunctionalPoseVerdict, """You are the Functional Pose Analyzer. For each stable \
+pose you get its probability, its half extents and the candidate interactions that the scoring function called \
+successful, each with its plan, via-poses (task frame, m), score and a summary of the resultant configuration \
+(fractions of agents inside the bounding box / on the ground / touching the object, mean agent height in units of \
+h_z where +1 is the top and -1 the ground, object and agent tilts in degrees, agent speed). Decide per pose whether \
+the success is consistent with common sense for the affordance (reject successes that rely on the object tipping \
+over, agents arriving from an implausible direction, or resting at an implausible height), give a reason, the best \
+accepted plan of the pose, and the best (pose, plan) overall (null when none is accepted). One verdict per pose, in \
+the same order."""),
+    )
+}
+
+#: Typical objects whose offline profiles are the few-shot examples.
+_EXAMPLE_TASKS = (
+    TaskDescription(affordance="cup", obb_dims=[0.11, 0.085, 0.085]),
+    TaskDescription(affordance="chair", obb_dims=[0.9, 0.5, 0.48]),
+)
+
+
+@cache
+def _examples(stage: str) -> tuple[tuple[str, str], ...]:
+    """(request JSON, answer JSON) pairs of the offline library for one stage."""
+    pairs = []
+    for task in _EXAMPLE_TASKS:
+        analysis = offline.offline_analysis(task)
+        agent = offline.offline_agent(task)
+        layout = offline.offline_layout(task)
+        plans = offline.offline_plans(task)
+        request: BaseModel
+        answer: BaseModel
+        if stage == "affordance_analyzer":
+            request, answer = AnalyzerRequest(task=task), analysis
+        elif stage == "agent_model":
+            request, answer = AgentModelRequest(task=task, analysis=analysis), agent
+        elif stage == "agent_configuration":
+            request, answer = LayoutRequest(task=task, analysis=analysis, agent=agent), layout
+        elif stage == "motion_planner":
+            request, answer = PlannerRequest(task=task, analysis=analysis), plans
+        elif stage == "trajectory":
+            request = TrajectoryRequest(task=task, analysis=analysis, agent=agent, layout=layout, plans=plans)
+            answer = offline.offline_trajectories(task, layout)
+        elif stage == "scoring":
+            request = ScoringRequest(task=task, analysis=analysis, agent=agent, layout=layout, plans=plans)
+            answer = offline.offline_scoring(task)
+        else:
+            return ()
+        pairs.append((request.model_dump_json(), answer.model_dump_json()))
+    return tuple(pairs)
+
+
+def system_prompt(stage: StageSpec) -> str:
+    """Role and rules of the stage, the frame conventions, and worked examples."""
+    parts = [stage.instructions, _FRAME]
+    if stage.name == "scoring":
+        from rail_mj.scoring import scoring_rules  # the sandbox's allow-list, one source of truth
+
+        parts.append(scoring_rules())
+    for i, (request, answer) in enumerate(_examples(stage.name), start=1):
+        parts.append(f"Example {i} request:\n{request}\nExample {i} answer:\n{answer}")
+    parts.append("Answer with exactly one JSON object matching the required schema, nothing else.")
+    return "\n\n".join(parts)
+
+
+def user_prompt(request: BaseModel) -> str:
+    """The request as JSON."""
+    return f"Request:\n{request.model_dump_json()}"
+
+
+def repair_prompt(problem: str) -> str:
+    """Follow-up message after an answer was rejected."""
+    return (f"Your previous answer was rejected:\n{problem}\n"
+            "Fix the problem and answer again with one complete JSON object matching the schema.")
