@@ -1,0 +1,158 @@
+"""Batched imagination: physics checks, outcome contract, backend agreement and MJX compile buckets."""
+
+import numpy as np
+import pytest
+import trimesh
+
+from rail_mj.errors import ImaginationError
+from rail_mj.imagination import ImaginationConfig, imagine, mjx_compile_count
+from rail_mj.stable_poses import pose_from_up
+from rail_mj.types import AgentSetup, RailObject
+
+DROPLET = '<mujoco><worldbody><body name="drop"><geom type="sphere" size="0.006" mass="0.001"/></body></worldbody></mujoco>'
+BLOCK = '<mujoco><worldbody><body name="block"><geom type="box" size="{s} {s} {s}" mass="{m}"/></body></worldbody></mujoco>'
+FAST = ImaginationConfig(settle_time=1.5)
+
+
+def _object(name: str, hulls: list[np.ndarray], density: float = 500.0) -> RailObject:
+    mesh = trimesh.util.concatenate([trimesh.convex.convex_hull(h) for h in hulls])
+    return RailObject(name=name, mesh=mesh, hulls=tuple(np.asarray(h) for h in hulls), mesh_hash=f"test-{name}",
+                      obb_dims=np.sort(mesh.extents)[::-1], com=mesh.center_mass, mass=float(mesh.volume * density),
+                      density=density)
+
+
+def _box(lo, hi) -> np.ndarray:
+    return trimesh.creation.box(bounds=[lo, hi]).vertices
+
+
+def _cup(r: float = 0.04, h: float = 0.08, t: float = 0.004, n: int = 12) -> RailObject:
+    hulls = [_box([-r, -r, 0], [r, r, t])]
+    for i in range(n):
+        wall = trimesh.creation.box(extents=[t, 2 * np.pi * r / n + t, h])
+        wall.apply_translation([r - t / 2, 0, h / 2])
+        wall.apply_transform(trimesh.transformations.rotation_matrix(2 * np.pi * i / n, [0, 0, 1]))
+        hulls.append(wall.vertices)
+    return _object(f"cup{r}", hulls)
+
+
+def _table() -> RailObject:
+    legs = [_box([x - 0.01, y - 0.01, 0], [x + 0.01, y + 0.01, 0.1]) for x in (-0.08, 0.08) for y in (-0.08, 0.08)]
+    return _object("table", [_box([-0.1, -0.1, 0.1], [0.1, 0.1, 0.12]), *legs])
+
+
+def _grid(n: int, spacing: float) -> np.ndarray:
+    g = (np.arange(n) - (n - 1) / 2) * spacing
+    return np.array([[x, y, z] for x in g for y in g for z in g])
+
+
+def _inside(out) -> np.ndarray:
+    return (np.abs(out.agent_pos) <= out.object_half_extents[:, None, :] + 1e-3).all(-1)
+
+
+@pytest.fixture(scope="module")
+def cup():
+    return _cup()
+
+
+@pytest.fixture(scope="module")
+def cup_poses(cup):
+    return [pose_from_up(cup, np.array([0.0, 0.0, 1.0]), 0.5), pose_from_up(cup, np.array([0.0, 0.0, -1.0]), 0.5)]
+
+
+def _pour(cup, cup_poses, backend, n=3, collide=True):
+    drops = AgentSetup(fragment=DROPLET, offsets=_grid(n, 0.015), collide_agents=collide)
+    above = cup_poses[0].half_extents[2] + 0.04
+    plans = [np.array([[0, 0, above, 1, 0, 0, 0]]), np.array([[0, 0, above + 0.05, 1, 0, 0, 0], [0, 0, above, 1, 0, 0, 0]])]
+    return imagine(cup, cup_poses, drops, plans, backend=backend, config=FAST)
+
+
+@pytest.fixture(scope="module")
+def poured(cup, cup_poses):
+    return _pour(cup, cup_poses, "native")
+
+
+def test_droplets_stay_in_an_upright_cup_and_not_in_an_inverted_one(poured):
+    inside = _inside(poured)
+    upright = poured.pose_index == 0
+    assert inside[upright].mean() >= 0.9
+    assert poured.contacts_ground[upright].sum() == 0
+    assert inside[~upright].sum() == 0
+    assert poured.settled.all()
+
+
+def test_outcomes_are_pose_major_with_documented_shapes(poured):
+    b, n = 4, 27
+    np.testing.assert_array_equal(poured.pose_index, [0, 0, 1, 1])
+    np.testing.assert_array_equal(poured.plan_index, [0, 1, 0, 1])
+    shapes = {"agent_pos": (b, n, 3), "agent_quat": (b, n, 4), "agent_vel": (b, n, 3), "contacts_object": (b, n),
+              "contacts_agents": (b, n), "contacts_ground": (b, n), "released_early": (b, n), "object_pos": (b, 3),
+              "object_quat": (b, 4), "object_tilt": (b,), "object_half_extents": (b, 3), "settled": (b,)}
+    for name, shape in shapes.items():
+        assert getattr(poured, name).shape == shape, name
+    assert poured.contacts_object.dtype.kind == "i" and poured.released_early.dtype == bool
+    np.testing.assert_allclose(np.linalg.norm(poured.agent_quat, axis=-1), 1.0, atol=1e-6)
+    # droplets in an upright cup touch its inside and each other
+    assert poured.contacts_object[0].sum() > 0 and poured.contacts_agents[0].sum() > 0
+
+
+def test_box_dropped_on_a_table_rests_on_its_top():
+    table = _table()
+    pose = pose_from_up(table, np.array([0.0, 0.0, 1.0]), 1.0)
+    block = AgentSetup(fragment=BLOCK.format(s=0.02, m=0.1), offsets=np.zeros((1, 3)))
+    out = imagine(table, [pose], block, [np.array([[0.0, 0.0, 0.15, 1, 0, 0, 0]])], backend="native", config=FAST)
+    top = pose.half_extents[2]
+    assert out.agent_pos[0, 0, 2] == pytest.approx(top + 0.02, abs=2e-3)
+    assert out.contacts_object[0, 0] > 0 and out.contacts_ground[0, 0] == 0
+
+
+def test_agent_released_on_collision_knocks_a_light_object_over():
+    post = _object("post", [_box([-0.01, -0.01, 0], [0.01, 0.01, 0.2])], density=50.0)
+    pose = pose_from_up(post, np.array([0.0, 0.0, 1.0]), 1.0)
+    ram = AgentSetup(fragment=BLOCK.format(s=0.02, m=2.0), offsets=np.zeros((1, 3)))
+    through = np.array([[-0.2, 0.0, 0.07, 1, 0, 0, 0], [0.2, 0.0, 0.07, 1, 0, 0, 0]])
+    beside = through + np.array([0, 0.2, 0, 0, 0, 0, 0])
+    out = imagine(post, [pose], ram, [through, beside], backend="native", config=FAST)
+    assert out.released_early[:, 0].tolist() == [True, False]
+    assert out.object_tilt[0] > np.pi / 4 and out.object_tilt[1] < 1e-3
+    # the task frame follows the fallen post, so the post still spans its box while the world frame would not
+    assert out.object_pos[0, 2] < -0.05
+
+
+def test_trajectory_is_followed_to_its_end():
+    cup = _cup()
+    pose = pose_from_up(cup, np.array([0.0, 0.0, 1.0]), 1.0)
+    drop = AgentSetup(fragment=DROPLET, offsets=np.zeros((1, 3)))
+    plan = np.array([[0.2, 0.0, 0.0, 1, 0, 0, 0], [0.2, 0.1, 0.0, 1, 0, 0, 0]])
+    out = imagine(cup, [pose], drop, [plan], backend="native", config=FAST)
+    # put down at rest at (0.2, 0.1) in the task frame, then fallen onto the ground (task z = -h)
+    np.testing.assert_allclose(out.agent_pos[0, 0, :2], [0.2, 0.1], atol=2e-3)
+    assert out.agent_pos[0, 0, 2] == pytest.approx(-pose.half_extents[2] + 0.006, abs=2e-3)
+    assert out.contacts_ground[0, 0] >= 1 and not out.released_early[0, 0]
+
+
+def test_bad_inputs_raise_imagination_errors(cup, cup_poses):
+    drops = AgentSetup(fragment=DROPLET, offsets=np.zeros((1, 3)))
+    with pytest.raises(ImaginationError, match="valid: auto, native, mjx"):
+        imagine(cup, cup_poses, drops, [np.zeros((1, 7))], backend="bullet")
+    with pytest.raises(ImaginationError, match=r"\(K, 7\)"):
+        imagine(cup, cup_poses, drops, [np.zeros((2, 3))], backend="native")
+    with pytest.raises(ImaginationError, match="exactly one body"):
+        imagine(cup, cup_poses, AgentSetup(fragment="<mujoco><worldbody/></mujoco>", offsets=np.zeros((1, 3))),
+                [np.array([[0, 0, 0.1, 1, 0, 0, 0]])], backend="native")
+
+
+@pytest.mark.slow
+def test_mjx_agrees_with_native_and_compiles_once_per_bucket(cup, cup_poses):
+    native = _pour(cup, cup_poses, "native", n=2, collide=False)
+    before = mjx_compile_count()
+    fast = _pour(cup, cup_poses, "mjx", n=2, collide=False)
+    assert mjx_compile_count() == before + 1
+    np.testing.assert_array_equal(_inside(fast), _inside(native))
+    np.testing.assert_allclose(fast.agent_pos, native.agent_pos, atol=5e-3)
+    # upright-vs-inverted check on this backend too
+    assert _inside(fast)[fast.pose_index == 0].mean() >= 0.9 and _inside(fast)[fast.pose_index == 1].sum() == 0
+    other = _cup(r=0.035, h=0.07)  # 13 hulls again: same 16-geom bucket
+    other_poses = [pose_from_up(other, np.array([0.0, 0.0, s]), 0.5) for s in (1.0, -1.0)]
+    second = _pour(other, other_poses, "mjx", n=2, collide=False)
+    assert mjx_compile_count() == before + 1
+    assert _inside(second)[second.pose_index == 0].mean() >= 0.9
