@@ -201,7 +201,7 @@ def test_worker_killed_mid_call_is_replaced(arena):
     _assert_unharmed(watched, cwd, batch)
 
 
-def test_idle_worker_that_died_is_replaced(arena):
+def test_idle_worker_that_died_is_replaced_silently(arena):
     watched, cwd, batch = arena
     compile_scoring(LEGIT)(**batch)
     with pool._LOCK:
@@ -209,6 +209,14 @@ def test_idle_worker_that_died_is_replaced(arena):
     for w in workers:
         w.proc.kill()
         w.proc.wait()
-    with pytest.raises(ScoringRuntimeError, match="killed"):
-        compile_scoring(LEGIT)(**batch)
+    _assert_unharmed(watched, cwd, batch)
+    assert all(w not in pool._LIVE for w in workers)
+
+
+def test_huge_error_message_is_clipped(arena):
+    watched, cwd, batch = arena
+    f = compile_scoring(_body("assert False, 'x' * 10**6"))
+    with pytest.raises(ScoringRuntimeError, match="AssertionError") as info:
+        f(**batch)
+    assert len(str(info.value)) < 3000
     _assert_unharmed(watched, cwd, batch)

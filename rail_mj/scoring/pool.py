@@ -157,9 +157,15 @@ _LIVE: set[_Worker] = set()
 
 
 def _acquire() -> _Worker:
-    with _LOCK:
-        if _IDLE:
-            return _IDLE.pop()
+    while True:
+        with _LOCK:
+            if not _IDLE:
+                break
+            worker = _IDLE.pop()
+            if worker.proc.poll() is None:
+                return worker
+            _LIVE.discard(worker)
+        worker.close()  # died while idle (killed from outside): nothing of the caller's ran, start afresh
     worker = _Worker.start()
     with _LOCK:
         _LIVE.add(worker)

@@ -1,7 +1,7 @@
 """The scoring worker: runs allow-listed scoring code over arrays in a locked-down process.
 
-This file is executed as a script, in an empty temporary working directory, (``python -P -B sandbox.py ...``) by
-:mod:`rail_mj.scoring.pool`, so it imports nothing but the standard library and
+This file is executed as a script (``python -P -B sandbox.py ...``), in an
+empty temporary working directory, by :mod:`rail_mj.scoring.pool`, so it imports nothing but the standard library and
 numpy — never the ``rail_mj`` package, whose ``__init__`` may pull in JAX or
 MuJoCo. The parent imports it too, for the allow-lists below (one source of
 truth for the AST check and the runtime namespace).
@@ -96,6 +96,7 @@ SOURCE_FILENAME = "<scoring>"
 
 _PROTOCOL_FDS = 3  # argv: request fd, reply fd, shared-memory fd
 _CODE_CACHE_SIZE = 64
+_MAX_MESSAGE = 2000  # the parent reads at most 64 KiB of header; messages come from untrusted code
 
 
 class _ScoringTimeout(BaseException):
@@ -121,7 +122,10 @@ def make_globals() -> dict:
     linalg = types.SimpleNamespace(**{n: getattr(np.linalg, n) for n in sorted(LINALG_FUNCTIONS)})
     names = {n: getattr(np, n) for n in sorted(NUMPY_FUNCTIONS | NUMPY_CONSTANTS)}
     return {
-        "__builtins__": {"__import__": _numpy_only_import, **{n: getattr(builtins, n) for n in sorted(SAFE_BUILTINS)}},
+        "__builtins__": {
+            "__import__": _numpy_only_import,
+            **{n: getattr(builtins, n) for n in sorted(SAFE_BUILTINS)},
+        },
         "np": types.SimpleNamespace(linalg=linalg, **names),
     }
 
@@ -140,6 +144,10 @@ def _error_line(tb) -> int | None:
             line = tb.tb_lineno
         tb = tb.tb_next
     return line
+
+
+def _clip(text: str) -> str:
+    return text if len(text) <= _MAX_MESSAGE else text[:_MAX_MESSAGE] + f"... ({len(text)} characters)"
 
 
 def _on_alarm(signum, frame):
@@ -231,16 +239,16 @@ class _Worker:
         except _ScoringTimeout:
             return {"ok": False, "kind": "timeout", "message": f"exceeded the wall-time limit of {req['timeout_s']} s"}
         except _BadOutput as exc:
-            return {"ok": False, "kind": "output", "message": str(exc)}
+            return {"ok": False, "kind": "output", "message": _clip(str(exc))}
         except RecursionError as exc:
-            return {"ok": False, "kind": "recursion", "message": f"recursion too deep ({exc})",
+            return {"ok": False, "kind": "recursion", "message": _clip(f"recursion too deep ({exc})"),
                     "line": _error_line(exc.__traceback__)}
         except MemoryError as exc:
             return {"ok": False, "kind": "memory",
-                    "message": f"exceeded the memory limit of {req['memory_mb']} MB ({type(exc).__name__}: {exc})",
+                    "message": _clip(f"exceeded the memory limit of {req['memory_mb']} MB ({type(exc).__name__}: {exc})"),
                     "line": _error_line(exc.__traceback__)}
         except Exception as exc:
-            return {"ok": False, "kind": "exception", "message": f"{type(exc).__name__}: {exc}",
+            return {"ok": False, "kind": "exception", "message": _clip(f"{type(exc).__name__}: {exc}"),
                     "line": _error_line(exc.__traceback__)}
         finally:
             # idempotent; also covers an alarm that fired inside the inner finally
