@@ -117,7 +117,7 @@ def warm_worker():
 
 def test_containment_matches_numpy():
     o = make_outcomes(200, 27)
-    got = compile_scoring(CONTAINMENT)(o)
+    got = compile_scoring(CONTAINMENT)(outcomes=o)
     inside = np.all(np.abs(o.agent_pos) <= o.object_half_extents[:, None, :], axis=-1)
     want = (inside & (o.contacts_ground == 0)).mean(axis=1) - 0.5
     assert got.dtype == np.float64 and got.shape == (200,)

@@ -49,7 +49,7 @@ class ScoringFunction:
     def __repr__(self) -> str:
         return f"ScoringFunction(digest={self.digest[:12]}, timeout_s={self.timeout_s}, memory_mb={self.memory_mb})"
 
-    def __call__(self, outcomes: Outcomes | None = None, /, **arrays: np.ndarray) -> np.ndarray:
+    def __call__(self, outcomes: Outcomes | None = None, **arrays: np.ndarray) -> np.ndarray:
         named = _scoring_arrays(outcomes, arrays)
         batch = named["agent_pos"].shape[0]
         if batch == 0:

@@ -1,9 +1,9 @@
 """The scoring worker: runs allow-listed scoring code over arrays in a locked-down process.
 
 This file is executed as a script (``python -P -B sandbox.py ...``), in an
-empty temporary working directory, by :mod:`rail_mj.scoring.pool`, so it imports nothing but the standard library and
-numpy — never the ``rail_mj`` package, whose ``__init__`` may pull in JAX or
-MuJoCo. The parent imports it too, for the allow-lists below (one source of
+empty temporary working directory, by :mod:`rail_mj.scoring.pool`, so it
+imports nothing but the standard library and numpy — never the ``rail_mj``
+package, whose ``__init__`` may pull in JAX or MuJoCo. The parent imports it too, for the allow-lists below (one source of
 truth for the AST check and the runtime namespace).
 
 Protocol (one request at a time):
