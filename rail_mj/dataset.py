@@ -63,7 +63,7 @@ __all__ = [
 ]
 
 LABELS_FILE = "labels.jsonl"
-MAX_FACES = 5000
+MAX_FACES = 5000  # keeps CoACD fast
 
 #: Physical definition and size envelope of every affordance name the matrix answers.
 AFFORDANCES: dict[str, str] = {
@@ -260,7 +260,7 @@ class LabelRecord(BaseModel):
     functional_up: Vec3 | None = None
     nominal_up: Vec3 | None = None
     units: float = Field(default=1.0, gt=0)
-    up: Literal["x", "y", "z"] = "z"
+    up: Literal["z", "y"] = "z"  # the file's up axis, as rail_mj.objects.load_mesh takes it
     notes: str = ""
 
     @field_validator("affordances")
@@ -320,22 +320,37 @@ def _random_rotation(rng: np.random.Generator) -> np.ndarray:
     return trimesh.transformations.quaternion_matrix(q / np.linalg.norm(q))
 
 
-def _check_built(name: str, mesh: trimesh.Trimesh) -> None:
+GRID = 1e-6  # written vertices lie on a 1 µm grid, so a reader that merges coincident vertices sees the same mesh
+
+
+def _snap_to_grid(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+    """The mesh with vertices rounded to :data:`GRID`, coincident ones merged and collapsed faces dropped."""
+    v = np.round(np.asarray(mesh.vertices) / GRID) * GRID + 0.0
+    uniq, inv = np.unique(v, axis=0, return_inverse=True)
+    f = inv.reshape(-1)[np.asarray(mesh.faces)]
+    keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
+    out = trimesh.Trimesh(vertices=uniq, faces=f[keep], process=False)
+    out.remove_unreferenced_vertices()
+    return out
+
+
+def _check(name: str, built: trimesh.Trimesh, written: trimesh.Trimesh) -> None:
+    """Generator invariants: the built mesh is in the class's size ranges, the written one is a closed solid."""
     spec = CLASS_SPECS[name]
     problems = []
-    if not mesh.is_watertight or not mesh.is_winding_consistent:
-        problems.append("not watertight")
-    if not mesh.volume > 0:
-        problems.append(f"volume {mesh.volume:.3g} <= 0")
-    if len(mesh.faces) > MAX_FACES:
-        problems.append(f"{len(mesh.faces)} faces > {MAX_FACES}")
-    lo, hi = mesh.bounds
+    lo, hi = built.bounds
     tol = 1e-3
-    h, p = hi[2] - lo[2], plan_diameter(mesh.vertices)
+    h, p = hi[2] - lo[2], plan_diameter(built.vertices)
     if not spec.height[0] - tol <= h <= spec.height[1] + tol:
         problems.append(f"height {h:.3f} m outside {spec.height}")
     if not spec.plan[0] - tol <= p <= spec.plan[1] + tol:
         problems.append(f"plan diameter {p:.3f} m outside {spec.plan}")
+    if not written.is_watertight or not written.is_winding_consistent:
+        problems.append("not watertight")
+    if not written.volume > 0:
+        problems.append(f"volume {written.volume:.3g} <= 0")
+    if len(written.faces) > MAX_FACES:
+        problems.append(f"{len(written.faces)} faces > {MAX_FACES}")
     if problems:
         raise DatasetError(f"generator for {name!r} made an invalid mesh: {'; '.join(problems)}")
 
@@ -370,11 +385,12 @@ def generate(
             for i in range(per_class):
                 rng = np.random.default_rng([seed, zlib.crc32(name.encode()), i])
                 built = GENERATORS[name](rng)
-                mesh = built.mesh
-                _check_built(name, mesh)
                 rot = _random_rotation(rng)
-                mesh.apply_transform(rot)
-                mesh.apply_translation(-mesh.bounds.mean(axis=0))
+                posed = built.mesh.copy()
+                posed.apply_transform(rot)
+                posed.apply_translation(-posed.bounds.mean(axis=0))
+                mesh = _snap_to_grid(posed)
+                _check(name, built.mesh, mesh)
                 rel = f"meshes/{name}_{i:03d}.obj"
                 (out / rel).write_text(trimesh.exchange.obj.export_obj(mesh, include_normals=False, include_texture=False), encoding="utf-8")
                 up = tuple(round(float(x), 9) + 0.0 for x in rot[:3, 2])

@@ -98,7 +98,8 @@ def _cup_body(rng: np.random.Generator, *, bottom: bool) -> tuple[trimesh.Trimes
         r_wall = rb + (rt - rb) * zc / h
         tf = trimesh.transformations.translation_matrix((r_wall + 0.5 * hr, 0.0, zc)) @ trimesh.transformations.rotation_matrix(np.pi / 2, (1, 0, 0))
         ring = trimesh.creation.torus(hr, mr, major_sections=32, minor_sections=12, transform=tf)
-        outer = _revolve([(0.0, 0.0), (rb, 0.0), (rt, h), (0.0, h)])
+        # cut 1.5 mm inside the outer surface so the stub overlaps the wall instead of touching it
+        outer = _revolve([(0.0, 0.0), (rb - 0.0015, 0.0), (rt - 0.0015, h), (0.0, h)])
         body = _union([body, _difference(ring, outer)])
         desc += ", with handle"
     return body, desc, d_top, h
@@ -183,8 +184,9 @@ def basket(rng: np.random.Generator) -> Built:
     parts: list[trimesh.Trimesh] = []
     if round_:
         R = _u(rng, 0.10, 0.18)
-        parts.append(_cylinder(R, 0.0, floor, sections=48))
-        parts.append(_revolve([(R - slat_t, h - rim_h), (R, h - rim_h), (R, h), (R - slat_t, h)]))
+        # floor and rim are 2 mm off the slat faces: flush faces make pinched, non-manifold edges
+        parts.append(_cylinder(R - 0.002, 0.0, floor, sections=48))
+        parts.append(_revolve([(R - slat_t - 0.002, h - rim_h), (R + 0.002, h - rim_h), (R + 0.002, h), (R - slat_t - 0.002, h)]))
         n = int(np.ceil(2 * np.pi * R / (_u(rng, 0.015, 0.03) + BASKET_GAP)))
         slat_w = 2 * np.pi * R / n - BASKET_GAP  # slots exactly BASKET_GAP wide at the outer face
         for k in range(n):
@@ -195,24 +197,26 @@ def basket(rng: np.random.Generator) -> Built:
         desc = f"round slatted basket, Ø {_cm(2 * R)}, {_cm(h)} tall, {n} slats"
     else:
         L, W = _u(rng, 0.22, 0.36), _u(rng, 0.16, 0.26)
-        parts.append(_box((-L / 2, -W / 2, 0.0), (L / 2, W / 2, floor)))
-        parts.append(_difference(_box((-L / 2, -W / 2, h - rim_h), (L / 2, W / 2, h)),
-                                 _box((-L / 2 + slat_t, -W / 2 + slat_t, h - rim_h - 0.01), (L / 2 - slat_t, W / 2 - slat_t, h + 0.01))))
+        # floor and rim stand 2 mm off the slat faces, and the end slats overlap by volume:
+        # flush faces make pinched, non-manifold edges
+        parts.append(_box((-L / 2 + 0.002, -W / 2 + 0.002, 0.0), (L / 2 - 0.002, W / 2 - 0.002, floor)))
+        parts.append(_difference(_box((-L / 2 - 0.003, -W / 2 - 0.003, h - rim_h), (L / 2 + 0.003, W / 2 + 0.003, h)),
+                                 _box((-L / 2 + slat_t + 0.002, -W / 2 + slat_t + 0.002, h - rim_h - 0.01),
+                                      (L / 2 - slat_t - 0.002, W / 2 - slat_t - 0.002, h + 0.01))))
         pitch = _u(rng, 0.015, 0.03) + BASKET_GAP
-        for side_len, along_x in ((L, True), (W, False)):
+        z0, z1 = floor - 0.002, h - rim_h + 0.002
+        for side_len, along_x in ((L, True), (W - slat_t, False)):
             n = int(np.ceil((side_len + BASKET_GAP) / pitch))
             slat_w = (side_len + BASKET_GAP) / n - BASKET_GAP
             for k in range(n):
                 c = -side_len / 2 + slat_w / 2 + k * (slat_w + BASKET_GAP)
                 for sign in (-1.0, 1.0):
-                    if along_x:
-                        y0 = sign * W / 2
-                        parts.append(_box((c - slat_w / 2, min(y0, y0 - sign * slat_t), floor - 0.002),
-                                          (c + slat_w / 2, max(y0, y0 - sign * slat_t), h - rim_h + 0.002)))
-                    else:
-                        x0 = sign * L / 2
-                        parts.append(_box((min(x0, x0 - sign * slat_t), c - slat_w / 2, floor - 0.002),
-                                          (max(x0, x0 - sign * slat_t), c + slat_w / 2, h - rim_h + 0.002)))
+                    if along_x:  # long sides, outer face at |y| = W/2
+                        y_in, y_out = sign * (W / 2 - slat_t), sign * W / 2
+                        parts.append(_box((c - slat_w / 2, min(y_in, y_out), z0), (c + slat_w / 2, max(y_in, y_out), z1)))
+                    else:  # short sides, 1 mm proud of the long sides' ends
+                        x_in, x_out = sign * (L / 2 - slat_t + 0.001), sign * (L / 2 + 0.001)
+                        parts.append(_box((min(x_in, x_out), c - slat_w / 2, z0), (max(x_in, x_out), c + slat_w / 2, z1)))
         desc = f"rectangular slatted basket, {_cm(L)} x {_cm(W)}, {_cm(h)} tall"
     desc += f", {_cm(BASKET_GAP)} slots (holds agents Ø >= {_cm(BASKET_AGENT_MIN)})"
     return Built(_union(parts), desc)
@@ -403,7 +407,8 @@ def rack(rng: np.random.Generator) -> Built:
     n = int(np.ceil((H - bottom) / 0.45)) + 1  # shelf spacing <= 45 cm
     tops = np.linspace(bottom, H, n)
     parts = _four_legs(W / 2 - post / 2, D / 2 - post / 2, H, post)
-    parts += [_box((-W / 2, -D / 2, z - st), (W / 2, D / 2, z)) for z in tops]
+    # shelves 1 mm inside the posts' outer faces: flush faces make pinched, non-manifold edges
+    parts += [_box((-W / 2 + 0.001, -D / 2 + 0.001, z - st), (W / 2 - 0.001, D / 2 - 0.001, z)) for z in tops]
     return Built(_union(parts), f"open shelf rack, {_cm(W)} x {_cm(D)}, {_cm(H)} tall, {n} shelves {_cm(tops[1] - tops[0])} apart")
 
 
