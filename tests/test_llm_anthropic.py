@@ -154,3 +154,20 @@ def test_missing_key_is_a_config_error(monkeypatch):
     monkeypatch.delenv("ANTHROPIC_API_KEY", raising=False)
     with pytest.raises(ConfigError, match="ANTHROPIC_API_KEY"):
         AnthropicProvider()
+
+
+def test_functional_pose_analyzer_through_the_client(provider_for):
+    from rail_mj.llm import CandidateInteraction, FunctionalPoseRequest, PoseCandidates, ResultSummary
+    from rail_mj.llm import analyze_functional_poses
+
+    summary = ResultSummary(frac_inside_bbox=0.9, frac_on_ground=0.0, frac_touching_object=0.8, mean_height=-0.4,
+                            object_tilt_deg=1.0, agent_tilt_deg=5.0, agent_speed=0.0)
+    request = FunctionalPoseRequest(affordance="cup", expected_outcome="filled", poses=[PoseCandidates(
+        pose_index=3, probability=0.7, half_extents=[0.04, 0.04, 0.05],
+        candidates=[CandidateInteraction(plan="above", description="drop from above",
+                                         via_poses=[[0.0, 0.0, 0.1], [0.0, 0.0, 0.06]], score=0.4, summary=summary)],
+    )])
+    with MessagesServer() as server:
+        verdict = analyze_functional_poses(request, provider_for(server))
+    assert (verdict.best_pose, verdict.best_plan) == (3, "above")
+    assert schema_title(server.requests[0]) == "FunctionalPoseVerdict"

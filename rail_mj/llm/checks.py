@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from rail_mj.errors import FragmentError, LLMError
+from rail_mj.errors import LLMError
 from rail_mj.llm.schemas import (
     AffordanceAnalysis,
     AgentLayout,
@@ -67,18 +67,14 @@ class AgentGeometry:
 
 def agent_geometry(agent: AgentModel) -> AgentGeometry:
     """Validate the fragment (``rail_mj.mjcf.check_fragment``) and measure its bounding radius and mass."""
-    from rail_mj.mjcf import check_fragment  # written concurrently; imported when first needed
+    from rail_mj.mjcf import check_fragment  # imported when first needed: the scene module pulls in more
 
-    check_fragment(agent.mjcf)
-    try:
-        model = mujoco.MjModel.from_xml_string(agent.mjcf)
-    except ValueError as exc:
-        raise FragmentError(f"agent MJCF does not compile: {exc}") from exc
-    body_geoms = np.flatnonzero(model.geom_bodyid == 1)
-    if model.nbody != 2 or body_geoms.size == 0:
-        raise FragmentError(f"agent MJCF must hold exactly one body with geoms; it has {model.nbody - 1} bodies")
-    radius = float(np.max(np.linalg.norm(model.geom_pos[body_geoms], axis=1) + model.geom_rbound[body_geoms]))
-    return AgentGeometry(radius=radius, mass=float(model.body_mass[1]))
+    model = check_fragment(agent.mjcf).compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    # about the top body's origin, which the trajectories move; all bodies, nested ones included
+    radius = float(np.max(np.linalg.norm(data.geom_xpos - data.xpos[1], axis=1) + model.geom_rbound))
+    return AgentGeometry(radius=radius, mass=float(model.body_mass[1:].sum()))
 
 
 def check_analysis(analysis: AffordanceAnalysis, task: TaskDescription) -> None:

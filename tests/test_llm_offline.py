@@ -1,0 +1,215 @@
+"""The offline profile library, stage checks and the offline Functional Pose Analyzer."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from rail_mj.errors import ConfigError, UnknownAffordanceError
+from rail_mj.llm import (
+    AgentLayout,
+    CandidateInteraction,
+    FunctionalPoseRequest,
+    ImaginationProfile,
+    PoseCandidates,
+    ResultSummary,
+    agent_setup,
+    analyze_functional_poses,
+    generate_profile,
+    get_provider,
+    known_affordances,
+    normalize_affordance,
+    result_summary,
+    trajectory_array,
+)
+from rail_mj.llm.checks import InvalidAnswerError, check_layout, check_trajectories, layout_offsets
+from rail_mj.llm.offline import CATALOGUE, PAPER_AFFORDANCES
+from rail_mj.scoring import compile_scoring
+from rail_mj.types import Outcomes
+
+
+def _dims(name: str, where: float) -> list[float]:
+    """Plausible sorted dims for an affordance: ``where`` in [0, 1] across its size ranges (log scale)."""
+    spec = CATALOGUE[name]
+    big = spec.largest[0] * (spec.largest[1] / spec.largest[0]) ** where
+    small = spec.smallest[0] * (spec.smallest[1] / spec.smallest[0]) ** where
+    small = min(small, big)
+    return [big, math.sqrt(big * small), small]
+
+
+def test_catalogue_covers_the_paper_and_more():
+    names = known_affordances()
+    assert PAPER_AFFORDANCES <= set(names)
+    assert len(set(names) - PAPER_AFFORDANCES) >= 8
+
+
+@pytest.mark.parametrize("name", sorted(CATALOGUE))
+def test_every_affordance_makes_a_valid_profile_that_scales(name):
+    small = generate_profile(name, _dims(name, 0.2))
+    large = generate_profile(name, _dims(name, 0.8))
+    for p in (small, large):
+        assert p.analysis.fits and p.analysis.alternative is None
+        assert len(p.plans.plans) >= 5
+        assert [t.plan for t in p.trajectories.trajectories] == [pl.name for pl in p.plans.plans]
+        assert ImaginationProfile.model_validate_json(p.model_dump_json()) == p
+        setup = agent_setup(p)
+        assert setup.offsets.shape == (p.layout.n_agents, 3)
+    kind = CATALOGUE[name].kind
+    if kind in ("container", "dish", "surface", "storage"):  # human-scale agents (seat, bed) stay human-sized
+        assert small.agent.mjcf != large.agent.mjcf
+    h_small = np.asarray(small.obb_dims) / 2
+    start_small = trajectory_array(small, h_small)[0][0, :3]
+    start_large = trajectory_array(small, 2 * h_small)[0][0, :3]
+    assert not np.allclose(start_small, start_large)  # the same profile adapts to the pose's size
+
+
+def test_profile_json_round_trip_is_exact():
+    profile = generate_profile("Chair", [0.5, 0.9, 0.48])
+    assert profile.obb_dims == [0.9, 0.5, 0.48]  # sorted descending
+    text = profile.model_dump_json()
+    assert ImaginationProfile.model_validate_json(text).model_dump_json() == text
+
+
+@pytest.mark.parametrize(("given", "canonical"), [
+    ("CUPS", "cup"), ("Trash_Bins", "trash bin"), ("shelves", "shelf"), ("pen-holder", "pen holder"),
+    ("  Benches ", "bench"), ("mug", "cup"), ("Bowls", "bowl"),
+])
+def test_name_normalisation(given, canonical):
+    assert normalize_affordance(given) == canonical
+
+
+def test_unknown_affordance_lists_known_ones_and_the_llm_route():
+    with pytest.raises(UnknownAffordanceError) as err:
+        generate_profile("trampoline", [1.0, 1.0, 0.3])
+    msg = str(err.value)
+    assert all(name in msg for name in known_affordances())
+    assert "anthropic" in msg and "ANTHROPIC_API_KEY" in msg
+
+
+@pytest.mark.parametrize(("name", "dims", "alternative"), [
+    ("cup", [1.6, 0.8, 0.6], "bathtub"),
+    ("bathtub", [0.06, 0.05, 0.05], "cup"),
+    ("table", [0.15, 0.15, 0.1], None),
+    ("chair", [0.15, 0.1, 0.1], None),
+    ("plate", [0.3, 0.3, 0.25], None),
+])
+def test_dimension_check_and_alternative(name, dims, alternative):
+    profile = generate_profile(name, dims)
+    assert not profile.analysis.fits
+    assert profile.analysis.alternative == alternative
+    assert profile.affordance == name  # still imagined as asked; the caller decides
+
+
+def test_provider_selection(monkeypatch):
+    monkeypatch.delenv("ANTHROPIC_API_KEY", raising=False)
+    assert get_provider("auto").name == "offline"
+    with pytest.raises(ConfigError, match="valid: auto, offline, anthropic"):
+        get_provider("gpt")
+    with pytest.raises(ConfigError, match="half_extents"):
+        trajectory_array(generate_profile("cup", [0.1, 0.08, 0.08]), [0.05, -1.0, 0.04])
+
+
+def test_layout_and_trajectory_checks_reject_overlap_and_bad_starts():
+    layout = AgentLayout(nx=2, ny=1, nz=1, sx=0.01, sy=0.01, sz=0.01, collide_agents=True)
+    with pytest.raises(InvalidAnswerError, match="overlap along x"):
+        check_layout(layout, radius=0.01)
+    profile = generate_profile("cup", [0.1, 0.08, 0.08])
+    offsets = layout_offsets(profile.layout)
+    assert np.allclose(offsets.mean(axis=0), 0) and offsets.shape == (27, 3)
+    h = np.array([0.04, 0.04, 0.05])
+    check_trajectories(profile.trajectories, profile.plans, 0.005, offsets, [h])
+    inside = profile.trajectories.model_copy(deep=True)
+    inside.trajectories[0].via_poses[0].offset_m[2] = -0.06  # start sinks into the cup
+    with pytest.raises(InvalidAnswerError, match="overlaps the object's box"):
+        check_trajectories(inside, profile.plans, 0.005, offsets, [h])
+
+
+def _outcomes(agent_pos, h, *, quat=None, tilt=0.0, on_object=1, on_ground=0) -> Outcomes:
+    """One-rollout Outcomes with agents at ``agent_pos`` (N, 3) for object half extents ``h``."""
+    pos = np.asarray(agent_pos, dtype=float)[None]
+    n = pos.shape[1]
+    q = np.tile([1.0, 0, 0, 0] if quat is None else quat, (1, n, 1))
+    z = np.zeros((1, n), dtype=np.int64)
+    return Outcomes(
+        pose_index=np.zeros(1, dtype=np.int64), plan_index=np.zeros(1, dtype=np.int64), agent_pos=pos,
+        agent_quat=q, agent_vel=np.zeros_like(pos), contacts_object=z + on_object, contacts_agents=z,
+        contacts_ground=z + on_ground, released_early=z.astype(bool), object_pos=np.zeros((1, 3)),
+        object_quat=np.array([[1.0, 0, 0, 0]]), object_tilt=np.array([tilt]),
+        object_half_extents=np.asarray(h, dtype=float)[None], settled=np.ones(1, dtype=bool),
+    )
+
+
+def _score(name: str, dims: list[float], outcomes: Outcomes) -> float:
+    return float(compile_scoring(generate_profile(name, dims).scoring.source)(outcomes)[0])
+
+
+def test_container_scoring_fills_spills_and_tips():
+    h = [0.04, 0.04, 0.05]
+    inside = np.random.default_rng(0).uniform(-0.03, 0.03, (27, 3))
+    assert _score("cup", [0.1, 0.08, 0.08], _outcomes(inside, h)) > 0
+    spilled = inside + [0.1, 0.0, 0.0]
+    assert _score("cup", [0.1, 0.08, 0.08], _outcomes(spilled, h, on_ground=1)) < 0
+    assert _score("cup", [0.1, 0.08, 0.08], _outcomes(inside, h, tilt=math.radians(60))) < 0
+
+
+def test_seat_scoring_height_and_uprightness():
+    dims, h = [0.9, 0.5, 0.48], [0.25, 0.24, 0.45]
+    seated = [[0.0, 0.0, -0.45 + 0.45 + 0.05]]  # pelvis bottom 0.45 m above the ground
+    assert _score("chair", dims, _outcomes(seated, h)) > 0
+    assert _score("chair", dims, _outcomes([[0.0, 0.0, 0.45]], h)) < 0  # on top of a 0.9 m back: too high
+    tipped = [math.cos(math.radians(40)), math.sin(math.radians(40)), 0.0, 0.0]
+    assert _score("chair", dims, _outcomes(seated, h, quat=tipped)) < 0
+
+
+def test_plate_must_be_low():
+    food_on_plate = [[0.0, 0.0, 0.02]]
+    assert _score("plate", [0.25, 0.25, 0.03], _outcomes(food_on_plate, [0.125, 0.125, 0.015])) > 0
+    assert _score("plate", [0.25, 0.25, 0.03], _outcomes([[0.0, 0.0, 0.1]], [0.125, 0.015, 0.125])) < 0
+
+
+def _candidate(plan, start, score=0.4, **summary) -> CandidateInteraction:
+    base = dict(frac_inside_bbox=0.9, frac_on_ground=0.0, frac_touching_object=0.8, mean_height=-0.4,
+                object_tilt_deg=1.0, agent_tilt_deg=5.0, agent_speed=0.0)
+    return CandidateInteraction(plan=plan, description=plan, via_poses=[start, [0.0, 0.0, 0.0]], score=score,
+                                summary=ResultSummary(**{**base, **summary}))
+
+
+def test_functional_pose_rules_for_a_cup():
+    h = [0.04, 0.04, 0.05]
+    upright = PoseCandidates(pose_index=0, probability=0.4, half_extents=h,
+                             candidates=[_candidate("above", [0.0, 0.0, 0.1])])
+    tipped = PoseCandidates(pose_index=1, probability=0.5, half_extents=h,
+                            candidates=[_candidate("above", [0.0, 0.0, 0.1], score=0.5, object_tilt_deg=80.0)])
+    from_side = PoseCandidates(pose_index=2, probability=0.1, half_extents=h,
+                               candidates=[_candidate("front", [0.1, 0.0, 0.0], score=0.5)])
+    verdict = analyze_functional_poses(FunctionalPoseRequest(affordance="Cups", expected_outcome="filled",
+                                                             poses=[upright, tipped, from_side]))
+    assert [v.accept for v in verdict.poses] == [True, False, False]
+    assert "tipping" in verdict.poses[1].reason and "above" in verdict.poses[2].reason
+    assert (verdict.best_pose, verdict.best_plan) == (0, "above")
+
+
+def test_functional_pose_rules_for_a_chair_and_no_valid_pose():
+    h = [0.25, 0.24, 0.45]
+    seat = _candidate("front", [0.6, 0.0, 0.5], frac_touching_object=1.0, mean_height=0.0)  # centre 0.45 m up
+    too_high = _candidate("above", [0.0, 0.0, 0.8], frac_touching_object=1.0, mean_height=1.1)
+    request = FunctionalPoseRequest(affordance="chair", expected_outcome="seated", poses=[
+        PoseCandidates(pose_index=0, probability=0.6, half_extents=h, candidates=[too_high]),
+        PoseCandidates(pose_index=1, probability=0.4, half_extents=h, candidates=[too_high, seat]),
+    ])
+    verdict = analyze_functional_poses(request)
+    assert [v.accept for v in verdict.poses] == [False, True]
+    assert (verdict.best_pose, verdict.best_plan) == (1, "front")
+    none = analyze_functional_poses(FunctionalPoseRequest(affordance="chair", expected_outcome="seated", poses=[
+        PoseCandidates(pose_index=0, probability=1.0, half_extents=h, candidates=[too_high])]))
+    assert none.best_pose is None and none.best_plan is None
+
+
+def test_result_summary_of_outcomes():
+    h = [0.04, 0.04, 0.05]
+    pos = [[0.0, 0.0, -0.02], [0.2, 0.0, -0.04]]
+    s = result_summary(_outcomes(pos, h, on_ground=0), 0)
+    assert s.frac_inside_bbox == 0.5 and s.frac_touching_object == 1.0
+    assert s.mean_height == pytest.approx(-0.6) and s.object_tilt_deg == 0.0
