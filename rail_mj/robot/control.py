@@ -51,7 +51,10 @@ class RobotConfig(BaseModel):
     rot_stiffness: float = Field(40.0, gt=0, description="rotational impedance, N·m/rad")
     damping_ratio: float = Field(1.0, gt=0)
     nullspace_stiffness: float = Field(10.0, ge=0, description="posture spring, N·m/rad")
-    speed: float = Field(0.1, gt=0, description="end-effector speed along the trajectory, m/s")
+    speed: float = Field(0.2, gt=0, description="end-effector speed in free space (approach, lift), m/s")
+    guarded_speed: float = Field(0.04, gt=0, description="speed along the via-poses, where contact is expected, m/s")
+    compliance: float = Field(0.06, ge=0.004, description="solref time constant of the hand and agent geoms, s: "
+                                                       "soft pads bound the impact force of a touch")
     angular_speed: float = Field(1.0, gt=0, description="rad/s")
     dt: float = Field(0.002, gt=0, le=0.005)
     hold_time: float = Field(0.3, ge=0, description="pause at the end of the trajectory before release, s")
@@ -176,16 +179,16 @@ def impedance_torque(model: mujoco.MjModel, data: mujoco.MjData, idx: ArmIndex, 
 def contact_force(model: mujoco.MjModel, data: mujoco.MjData, geom_mask: np.ndarray) -> float:
     """Norm of the net contact force the environment exerts on the masked geoms, N."""
     total = np.zeros(3)
+    if data.ncon == 0:
+        return 0.0
+    pairs = data.contact.geom[: data.ncon]
+    in1, in2 = geom_mask[pairs[:, 0]], geom_mask[pairs[:, 1]]
     wrench = np.zeros(6)
-    for i in range(data.ncon):
-        con = data.contact[i]
-        in1, in2 = geom_mask[con.geom1], geom_mask[con.geom2]
-        if in1 == in2:
-            continue
-        mujoco.mj_contactForce(model, data, i, wrench)
+    for i in np.flatnonzero(in1 != in2):
+        mujoco.mj_contactForce(model, data, int(i), wrench)
         # contact frame rows: normal first; the force acts on geom2 along +normal
-        f_world = con.frame.reshape(3, 3).T @ wrench[:3]
-        total += f_world if in2 else -f_world
+        f_world = data.contact.frame[i].reshape(3, 3).T @ wrench[:3]
+        total += f_world if in2[i] else -f_world
     return float(np.linalg.norm(total))
 
 

@@ -125,11 +125,11 @@ def _inside(margin: float) -> ScoringFunction:
     return score
 
 
-def _on_top(o: Outcomes) -> np.ndarray:
-    """Support: the agent rests on the object's top surface, not on the ground, object upright."""
+def _on_object(o: Outcomes) -> np.ndarray:
+    """Support: the agent rests on the object within its footprint, off the ground, object upright."""
     h = o.object_half_extents[:, None, :]
     p = o.agent_pos
-    on = (np.abs(p[..., 0]) < h[..., 0]) & (np.abs(p[..., 1]) < h[..., 1]) & (p[..., 2] > h[..., 2] - 0.03) \
+    on = (np.abs(p[..., 0]) < h[..., 0]) & (np.abs(p[..., 1]) < h[..., 1]) & (p[..., 2] > -h[..., 2]) \
         & (o.contacts_object > 0) & (o.contacts_ground == 0)
     return on.mean(axis=1) * (o.object_tilt < 0.3) - 0.5
 
@@ -142,11 +142,11 @@ DEMO_AFFORDANCES: dict[str, tuple[str, str, ScoringFunction]] = {
     "pen_holder": ("pen_holder", "ball", _inside(0.0)),
     "pot": ("pot", "ball", _inside(0.0)),
     "basket": ("basket", "ball", _inside(0.0)),
-    "tray": ("tray", "block", _on_top),
-    "plate": ("plate", "block", _on_top),
-    "table": ("table", "block", _on_top),
-    "stool": ("stool", "block", _on_top),
-    "chair": ("chair", "block", _on_top),
+    "tray": ("tray", "block", _on_object),
+    "plate": ("plate", "block", _on_object),
+    "table": ("table", "block", _on_object),
+    "stool": ("stool", "block", _on_object),
+    "chair": ("chair", "block", _on_object),
 }
 
 
@@ -180,7 +180,9 @@ def plan_offline(obj: RailObject, affordance: str) -> DemoCase:
         # seat area of a chair is in front of its back (+y side is the back)
         y = -0.01 if affordance == "chair" else 0.0
         top = h[2] if affordance != "chair" else float(obj.hulls[0][:, 2].max()) + pose.pos[2] - h[2]
-        via = [[0, y, top + 0.06, *ident], [0, y, top + 0.022, *ident]]
+        # set it down: the last via-pose lies below the surface, so the robot presses until the
+        # force limit stops it, then lets go (the paper's safety rule doing the placing)
+        via = [[0, y, top + 0.06, *ident], [0, y, top - 0.01, *ident]]
     return DemoCase(obj.name, affordance, True, pose, np.asarray(via, float), fragment, scoring)
 
 

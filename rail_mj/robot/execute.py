@@ -41,6 +41,8 @@ __all__ = [
     "ExecutionResult",
     "RobotScene",
     "build_scene",
+    "DriveResult",
+    "drive",
     "execute",
 ]
 
@@ -124,27 +126,28 @@ class RobotScene:
     task_origin: np.ndarray  # (3,) world position of the task frame at placement
     half_extents: np.ndarray  # (3,)
     agent_scale: float
+    agent_solref: np.ndarray  # (n_agent_geoms, 2) the fragment's own solref, restored at release
 
 
-def _fragment_body(fragment: str) -> mujoco.MjsBody:
+def _fragment(fragment: str) -> tuple[mujoco.MjsBody, mujoco.MjModel]:
+    """The fragment's single body and its compiled model; FragmentError otherwise."""
     try:
         spec = mujoco.MjSpec.from_string(fragment)
-        spec.compile()
+        model = spec.compile()
     except Exception as exc:  # MuJoCo's parse/compile errors
         raise FragmentError(f"agent fragment does not compile: {exc}") from exc
     bodies = list(spec.worldbody.bodies)
     if len(bodies) != 1:
         raise FragmentError(f"agent fragment must hold exactly one body in <worldbody>, found {len(bodies)}")
-    return bodies[0]
+    return bodies[0], model
 
 
 def _agent_extent(fragment: str) -> np.ndarray:
     """Full size of the agent body's axis-aligned box in its own frame, (3,)."""
-    spec = mujoco.MjSpec.from_string(fragment)
-    model = spec.compile()
+    src, model = _fragment(fragment)
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
-    body = model.body(list(spec.worldbody.bodies)[0].name).id
+    body = 1  # the fragment's only body (0 is the world)
     lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
     for g in np.flatnonzero(model.geom_bodyid == body):
         rot = data.geom_xmat[g].reshape(3, 3)
@@ -157,7 +160,7 @@ def _agent_extent(fragment: str) -> np.ndarray:
 
 
 def _add_agent(spec: mujoco.MjSpec, fragment: str, scale: float) -> None:
-    src = _fragment_body(fragment)
+    src, _ = _fragment(fragment)
     body = spec.worldbody.add_body(name="agent")
     body.add_freejoint(name="agent_free")
     for i, g in enumerate(src.geoms):
@@ -221,6 +224,11 @@ def build_scene(cfg: RobotConfig, *, obj: RailObject | None = None, pose: Stable
                           name1="hand", name2="agent",
                           data=[0, 0, 0, 0, 0, grip_z, *_GRASP_QUAT, 1, 0])
     spec.body("hand").add_site(name="grip", pos=[0, 0, grip_z], quat=_GRASP_QUAT)
+    compliant = set(MONITORED_BODIES) | ({"agent"} if agent_fragment is not None else set())
+    agent_solref = np.array([g.solref for g in spec.geoms if g.parent.name == "agent"], float).reshape(-1, 2)
+    for geom in spec.geoms:
+        if geom.parent.name in compliant:
+            geom.solref = [cfg.compliance, 1.0]
     try:
         model = spec.compile()
     except Exception as exc:  # MuJoCo compile errors
@@ -251,6 +259,7 @@ def build_scene(cfg: RobotConfig, *, obj: RailObject | None = None, pose: Stable
         task_origin=shift + np.array([0.0, 0.0, half_extents[2]]),
         half_extents=half_extents,
         agent_scale=agent_scale,
+        agent_solref=agent_solref,
     )
 
 
@@ -330,11 +339,12 @@ def _follow(sim: _Sim, waypoints: list[tuple[np.ndarray, np.ndarray]], postures:
             phase: str, first_index: int) -> bool:
     """Move through the waypoints; on a force-limit crossing stop (hold/retreat). True if stopped early."""
     cfg = sim.cfg
+    speed = cfg.guarded_speed if phase == "trajectory" else cfg.speed
     p0, q0 = sim.site_pose()
     for k, ((p1, q1), posture) in enumerate(zip(waypoints, postures)):
         sim.posture = posture
         dist = float(np.linalg.norm(p1 - p0))
-        duration = max(dist / cfg.speed, _quat_angle(q0, q1) / cfg.angular_speed, cfg.dt)
+        duration = max(dist / speed, _quat_angle(q0, q1) / cfg.angular_speed, cfg.dt)
         n = int(np.ceil(duration / cfg.dt))
         vel = (p1 - p0) / duration
         for i in range(1, n + 1):
@@ -362,6 +372,32 @@ def _stop(sim: _Sim, vel: np.ndarray) -> None:
 def _hold(sim: _Sim, pos: np.ndarray, quat: np.ndarray, seconds: float, phase: str) -> None:
     for _ in range(int(np.ceil(seconds / sim.cfg.dt))):
         sim.crossed(sim.step(pos, quat, np.zeros(3)), phase, -1, "none")
+
+
+@dataclass(frozen=True)
+class DriveResult:
+    """Outcome of a scripted motion of the control site."""
+
+    stopped: bool  # a force-limit event ended the motion
+    peak_force: float  # N
+    force_events: tuple[ForceEvent, ...]
+    final_pos: np.ndarray  # (3,) world position of the control site at the end
+
+
+def drive(scene: RobotScene, waypoints: np.ndarray, config: RobotConfig | None = None,
+          *, hold: float = 0.3) -> DriveResult:
+    """From the home posture, move the control site through world-frame ``(K, 3)`` waypoints (hand pointing
+    down) under the force-limit rule, then hold ``hold`` seconds. For scripted collisions and calibration."""
+    cfg = config or RobotConfig()
+    sim = _Sim(scene, cfg, None)
+    sim.data.qpos[scene.arm.qpos] = HOME_QPOS
+    mujoco.mj_forward(scene.model, sim.data)
+    _, quat = sim.site_pose()
+    targets = [(np.asarray(p, float), quat) for p in np.atleast_2d(waypoints)]
+    stopped = _follow(sim, targets, [HOME_QPOS] * len(targets), "trajectory", 0)
+    if not stopped:
+        _hold(sim, *targets[-1], hold, "hold")
+    return DriveResult(stopped, sim.peak, tuple(sim.events), sim.site_pose()[0])
 
 
 def _ik_plan(scene: RobotScene, cfg: RobotConfig, targets: list[tuple[np.ndarray, np.ndarray]]
@@ -544,6 +580,8 @@ def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: 
     # release: the weld lets go, the fingers open, the hand lifts straight up
     data.eq_active[scene.weld] = 0
     sim.held = False
+    # the free agent gets back its fragment's contact softness (the imagination's); soft pads were for the grasp
+    scene.model.geom_solref[scene.agent_geoms] = scene.agent_solref
     sim.gripper = 255.0
     pos, quat = sim.site_pose()
     _follow(sim, [(pos + np.array([0.0, 0.0, cfg.lift_after_release]), quat)], [sim.posture], "lift", -1)

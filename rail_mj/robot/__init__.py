@@ -1,0 +1,21 @@
+"""The Franka Panda executes imagined interactions in MuJoCo, with impedance control and force limits."""
+
+from __future__ import annotations
+
+from rail_mj.robot.control import RobotConfig
+from rail_mj.robot.execute import DriveResult, ExecutionResult, ForceEvent, ScoringFunction, build_scene, drive, execute
+from rail_mj.robot.model import fetch_panda, load_panda_spec, panda_dir
+
+__all__ = [
+    "RobotConfig",
+    "ExecutionResult",
+    "ForceEvent",
+    "DriveResult",
+    "ScoringFunction",
+    "build_scene",
+    "drive",
+    "execute",
+    "fetch_panda",
+    "load_panda_spec",
+    "panda_dir",
+]

@@ -1,0 +1,125 @@
+"""The Panda executor: model cache, force-limit safety rule, one short execution."""
+
+from __future__ import annotations
+
+import shutil
+
+import mujoco
+import numpy as np
+import pytest
+
+from rail_mj.errors import FragmentError, RobotError
+from rail_mj.robot import RobotConfig, build_scene, drive, execute
+from rail_mj.robot.control import ARM_JOINTS, make_torque_controlled
+from rail_mj.robot.demo import make_object, plan_offline, upright_pose
+from rail_mj.robot.model import MENAGERIE_ENV, PANDA_FILES, fetch_panda, load_panda_spec, panda_dir, verify_panda
+
+
+@pytest.fixture(scope="module")
+def panda_folder():
+    try:
+        return panda_dir()
+    except RobotError as exc:  # no cache and no registry access
+        pytest.skip(f"Panda model unavailable: {exc}")
+
+
+def test_cached_model_verifies_and_loads(panda_folder):
+    verify_panda(panda_folder)  # hashes + compile
+    model = load_panda_spec(visual=False).compile()
+    assert model.nu == 8 and model.nq == 9
+
+
+def test_tampered_model_is_rejected(panda_folder, tmp_path):
+    copy = tmp_path / "franka_emika_panda"
+    shutil.copytree(panda_folder, copy)
+    (copy / "panda.xml").write_text((copy / "panda.xml").read_text().replace('gainprm="4500"', 'gainprm="1"', 1))
+    with pytest.raises(RobotError, match="SHA-256"):
+        verify_panda(copy)
+    (copy / "assets" / "hand.stl").unlink()
+    with pytest.raises(RobotError, match="missing"):
+        verify_panda(copy)
+
+
+def test_menagerie_env_must_point_to_a_panda(panda_folder, tmp_path, monkeypatch):
+    monkeypatch.setenv(MENAGERIE_ENV, str(tmp_path))
+    with pytest.raises(RobotError, match=MENAGERIE_ENV):
+        panda_dir()
+    monkeypatch.setenv(MENAGERIE_ENV, str(panda_folder.parent))
+    assert panda_dir() == panda_folder
+
+
+def test_torque_variant_keeps_the_model_force_limits(panda_folder):
+    spec = load_panda_spec(visual=False)
+    make_torque_controlled(spec)
+    model = spec.compile()
+    arm = [model.actuator(f"actuator{i}").id for i in range(1, 8)]
+    assert np.allclose(model.actuator_ctrlrange[arm, 1], [87, 87, 87, 87, 12, 12, 12])
+    assert np.all(model.actuator_biastype[arm] == mujoco.mjtBias.mjBIAS_NONE)
+    assert len(ARM_JOINTS) == 7
+
+
+def test_force_limit_pauses_on_a_scripted_collision(panda_folder):
+    cfg = RobotConfig(force_limit=12.0)
+    scene = build_scene(cfg, boxes=((np.array([0.5, 0.0, 0.15]), np.array([0.05, 0.05, 0.05])),))
+    # drive the fingertips 10 cm into the top of a fixed box (top at z = 0.2)
+    res = drive(scene, np.array([[0.5, 0.0, 0.3], [0.5, 0.0, 0.1]]), cfg)
+    assert res.stopped and res.force_events
+    assert res.force_events[0].action == "hold" and res.force_events[0].force > cfg.force_limit
+    assert res.peak_force <= 1.2 * cfg.force_limit
+    assert abs(res.final_pos[2] - 0.2) < 0.01  # stopped on the surface, not through it
+
+
+def test_free_motion_has_no_force_events(panda_folder):
+    cfg = RobotConfig()
+    scene = build_scene(cfg)
+    res = drive(scene, np.array([[0.45, 0.1, 0.4], [0.5, -0.1, 0.35]]), cfg)
+    assert not res.stopped and not res.force_events and res.peak_force == 0.0
+    assert np.linalg.norm(res.final_pos - [0.5, -0.1, 0.35]) < 0.01
+
+
+@pytest.fixture(scope="module")
+def cup_case():
+    obj = make_object("cup", 0)
+    return obj, plan_offline(obj, "cup")
+
+
+def test_ball_into_cup_succeeds(panda_folder, cup_case):
+    obj, case = cup_case
+    res = execute(obj, case.pose, case.agent_fragment, case.via_poses, case.scoring)
+    assert res.reachable and res.success and res.score > 0
+    h = case.pose.half_extents
+    assert np.all(np.abs(res.agent_pos[:2]) < h[:2]) and -h[2] < res.agent_pos[2] < h[2]
+    assert res.outcomes.contacts_object[0, 0] > 0 and res.outcomes.contacts_ground[0, 0] == 0
+    assert res.object_tilt < 0.1 and 0.03 <= res.agent_scale * 0.012 <= 0.045
+
+
+def test_ball_dropped_beside_the_cup_fails(panda_folder, cup_case):
+    obj, case = cup_case
+    beside = case.via_poses.copy()
+    beside[:, 0] += 0.12  # same plan, 12 cm to the side: the ball lands on the table
+    res = execute(obj, case.pose, case.agent_fragment, beside, case.scoring)
+    assert res.reachable and not res.success
+    assert res.outcomes.contacts_ground[0, 0] > 0
+
+
+def test_unreachable_plan_is_reported(panda_folder, cup_case):
+    obj, case = cup_case
+    far = case.via_poses.copy()
+    far[:, 0] += 1.5
+    res = execute(obj, case.pose, case.agent_fragment, far, case.scoring)
+    assert not res.reachable and not res.success and "unreachable" in res.message
+
+
+def test_bad_inputs_raise_clear_errors(panda_folder, cup_case):
+    obj, case = cup_case
+    with pytest.raises(RobotError, match=r"\(K, 7\)"):
+        execute(obj, case.pose, case.agent_fragment, np.zeros((3, 3)), case.scoring)
+    with pytest.raises(FragmentError, match="compile"):
+        execute(obj, case.pose, "<mujoco><worldbody><body>", case.via_poses, case.scoring)
+    assert upright_pose(obj).half_extents[2] == pytest.approx(obj.extents[2] / 2)
+
+
+@pytest.mark.slow
+def test_fetch_from_the_registry(tmp_path):
+    folder = fetch_panda(tmp_path / "franka_emika_panda")
+    assert sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*") if p.is_file()) == sorted(PANDA_FILES)
