@@ -163,6 +163,9 @@ def generate_profile(
         raise ConfigError(f"obb_dims must be three positive finite extents in metres; got {list(obb_dims)}")
     if isinstance(provider, str):
         prov = get_provider(provider, model=model) if model is not None else get_provider(provider)
+    elif model is not None and model != provider.model:
+        raise ConfigError(f"model {model!r} conflicts with the given provider's model {provider.model!r}; "
+                          "pass one or the other")
     else:
         prov = provider
     opts = {"max_retries": max_retries, "cache": cache}
