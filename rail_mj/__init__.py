@@ -1,9 +1,45 @@
-"""rail_mj: robot affordance imagination with LLMs, simulated in batched MuJoCo."""
+"""rail_mj: robot affordance imagination with LLMs, simulated in batched MuJoCo.
+
+Library API::
+
+    import rail_mj
+    results = rail_mj.classify(["mug.obj"], ["cup", "chair"], provider="offline")
+
+Heavy modules (MuJoCo, JAX) load on first use of the names below.
+"""
 
 from __future__ import annotations
 
+import importlib
+
 from rail_mj.errors import RailError
 
-__all__ = ["RailError", "__version__"]
+__all__ = [
+    "RailError",
+    "classify",
+    "imagine",
+    "find_stable_poses",
+    "load_object",
+    "AffordanceResult",
+    "ObjectInput",
+    "RunConfig",
+    "__version__",
+]
 
 __version__ = "0.1.0"
+
+_LAZY = {
+    "classify": "rail_mj.pipeline",
+    "ObjectInput": "rail_mj.pipeline",
+    "RunConfig": "rail_mj.pipeline",
+    "AffordanceResult": "rail_mj.results",
+    "imagine": "rail_mj.imagination",
+    "find_stable_poses": "rail_mj.stable_poses",
+    "load_object": "rail_mj.objects",
+}
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module 'rail_mj' has no attribute {name!r}; public names: {', '.join(__all__)}")

@@ -1,0 +1,67 @@
+"""What the pipeline returns per (object, affordance): typed, JSON-serialisable."""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, ConfigDict, Field
+
+__all__ = ["PoseInfo", "PlanInfo", "AffordanceResult"]
+
+
+class PoseInfo(BaseModel):
+    """A stable pose of the object (see rail_mj.types for the frames)."""
+
+    model_config = ConfigDict(frozen=True)
+
+    index: int = Field(description="index into the object's stable poses, most probable first")
+    pos: list[float] = Field(description="world position of the mesh-frame origin, m")
+    quat: list[float] = Field(description="world orientation of the mesh frame, wxyz")
+    probability: float = Field(description="fraction of drops that ended in this pose")
+    half_extents: list[float] = Field(description="half-sizes of the world-aligned box in this pose, m")
+    up_in_mesh_frame: list[float] = Field(description="mesh-frame unit vector pointing up in this pose")
+
+
+class PlanInfo(BaseModel):
+    """One imagined interaction plan and how it scored."""
+
+    model_config = ConfigDict(frozen=True)
+
+    index: int
+    name: str
+    description: str
+    via_poses: list[list[float]] = Field(description="K x 7 via-poses of the layout centre, task frame")
+    score: float
+
+
+class AffordanceResult(BaseModel):
+    """The verdict for one object and one requested affordance."""
+
+    object: str
+    affordance: str = Field(description="the affordance that was imagined")
+    requested: str = Field(description="the affordance the user asked for")
+    alternative: str | None = Field(
+        default=None, description="what the analyser proposed when the dimensions did not fit"
+    )
+    dims_fit: bool = Field(default=True, description="the Affordance Analyzer's dimension check")
+    functional: bool = False
+    functional_pose: PoseInfo | None = None
+    best_plan: PlanInfo | None = None
+    pose_without_analyzer: PoseInfo | None = Field(
+        default=None, description="the best-scoring pose when the Functional Pose Analyzer is skipped"
+    )
+    stable_poses: list[PoseInfo] = Field(default_factory=list)
+    plans: list[str] = Field(default_factory=list, description="plan names, the columns of `scores`")
+    scores: list[list[float]] = Field(default_factory=list, description="stable pose x plan scores")
+    analyzer_reasons: list[str] = Field(default_factory=list)
+    agent_fragment: str = ""
+    agent_offsets: list[list[float]] = Field(default_factory=list)
+    evidence_pose: int | None = Field(
+        default=None, description="stable pose of the rollout kept as evidence (best, or best-scoring)"
+    )
+    evidence_agent_pos: list[list[float]] = Field(
+        default_factory=list, description="N x 3 final agent positions of that rollout, task frame"
+    )
+    scoring_source: str = ""
+    timings: dict[str, float] = Field(default_factory=dict, description="seconds per stage")
+    provider: str = ""
+    backend: str = ""
+    error: str | None = Field(default=None, description="why this case failed, when it did")

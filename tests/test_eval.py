@@ -1,0 +1,99 @@
+"""End to end: the pipeline and `python -m rail_mj.eval` on tiny datasets (offline provider)."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+
+from rail_mj import eval as rail_eval
+from rail_mj.dataset import generate, read_labels
+from rail_mj.errors import UnknownAffordanceError
+from rail_mj.pipeline import ObjectInput, classify
+
+SUMMARY_KEYS = {"classification", "functional_pose", "baseline_dims", "timing", "config"}
+
+
+@pytest.fixture(scope="module")
+def tiny_dataset(tmp_path_factory) -> Path:
+    """One cup (affords "cup") and one solid cylinder (affords nothing), in random poses."""
+    root = tmp_path_factory.mktemp("ds")
+    generate(root, classes=["cup", "solid_cylinder"], per_class=1, seed=3, affordances=["cup"])
+    return root
+
+
+@pytest.fixture(scope="module")
+def eval_run(tiny_dataset, tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("eval")
+    cfg = rail_eval.EvalConfig(dataset=str(tiny_dataset), affordances=["cup"], provider="offline", render=False)
+    rail_eval.run_eval(cfg, out, progress=False)
+    return out
+
+
+def test_classify_positive_and_negative(tiny_dataset):
+    records = {r.class_name: r for r in read_labels(tiny_dataset)}
+    items = [ObjectInput(path=tiny_dataset / records[c].mesh, name=c) for c in ("cup", "solid_cylinder")]
+    cup, cylinder = classify(items, ["cup"], provider="offline", progress=False)
+    assert cup.error is None and cylinder.error is None
+    assert cup.functional and not cylinder.functional
+    # the predicted functional pose puts the labelled opening direction up
+    up = records["cup"].functional_up
+    dot = sum(a * b for a, b in zip(cup.functional_pose.up_in_mesh_frame, up))
+    assert dot > 0.94
+    assert cup.best_plan is not None and cup.best_plan.score > 0
+    assert len(cup.scores) == len(cup.stable_poses) and len(cup.scores[0]) == len(cup.plans)
+    json.loads(cup.model_dump_json())  # JSON-serialisable
+
+
+def test_classify_unknown_affordance_lists_known(tiny_dataset):
+    with pytest.raises(UnknownAffordanceError, match="known"):
+        classify([tiny_dataset / "nothing.obj"], ["flux capacitor"], provider="offline", progress=False)
+
+
+def test_eval_writes_results_summary_report(eval_run):
+    lines = [json.loads(s) for s in (eval_run / "results.jsonl").read_text().splitlines()]
+    assert len(lines) == 2 and all(ln["error"] is None for ln in lines)
+    summary = json.loads((eval_run / "summary.json").read_text())
+    assert SUMMARY_KEYS <= set(summary)
+    assert summary["classification"]["overall"] == 1.0
+    assert set(summary["classification"]["per_affordance"]) == {"cup"}
+    assert summary["functional_pose"]["overall"] == 1.0
+    assert {"overall", "without_analyzer"} <= set(summary["functional_pose"])
+    report = (eval_run / "report.md").read_text()
+    assert "Table 1" in report and "Table 2" in report and "dimensions only" in report
+
+
+def test_resume_skips_finished_lines(eval_run, tiny_dataset, tmp_path):
+    out = tmp_path / "resumed"
+    shutil.copytree(eval_run, out)
+    lines = (out / "results.jsonl").read_text().splitlines()
+    # a run killed mid-way: one finished line and a torn one
+    (out / "results.jsonl").write_text(lines[0] + "\n" + lines[1][:20])
+    cfg = rail_eval.EvalConfig(dataset=str(tiny_dataset), affordances=["cup"], provider="offline", render=False)
+    with pytest.raises(rail_eval.ConfigError, match="--resume"):
+        rail_eval.run_eval(cfg, out, progress=False)
+    summary = rail_eval.run_eval(cfg, out, resume=True, progress=False)
+    kept = [json.loads(s) for s in (out / "results.jsonl").read_text().splitlines() if s.startswith("{") and s.endswith("}")]
+    assert sorted(ln["key"] for ln in kept) == sorted(json.loads(s)["key"] for s in lines)
+    assert summary["n_cases"] == 2 and summary["complete"]
+
+
+def test_broken_mesh_becomes_an_error_line(tiny_dataset, tmp_path):
+    ds = tmp_path / "ds"
+    shutil.copytree(tiny_dataset, ds)
+    records = read_labels(ds)
+    (ds / records[0].mesh).write_text("this is not a mesh\n")
+    out = tmp_path / "out"
+    cfg = rail_eval.EvalConfig(dataset=str(ds), affordances=["cup"], provider="offline", render=False)
+    summary = rail_eval.run_eval(cfg, out, progress=False)
+    lines = [json.loads(s) for s in (out / "results.jsonl").read_text().splitlines()]
+    broken = next(ln for ln in lines if ln["mesh"] == records[0].mesh)
+    assert broken["error"] and "MeshError" in broken["error"] and broken["correct"] is False
+    assert summary["n_errors"] == 1 and summary["n_cases"] == 2
+
+
+def test_cli_bad_dataset_folder(tmp_path, capsys):
+    assert rail_eval.main(["--dataset", str(tmp_path), "--out", str(tmp_path / "o"), "--no-progress"]) == 2
+    assert "labels.jsonl" in capsys.readouterr().err
