@@ -57,7 +57,7 @@ class ImaginationConfig(BaseModel):
     iterations: int = Field(20, ge=1, description="constraint solver iterations")
     ls_iterations: int = Field(10, ge=1, description="solver line-search iterations")
     nthread: int = Field(0, ge=0, description="native threads; 0 = all CPUs")
-    mjx_max_contact_points: int = Field(64, ge=4, description="MJX contact points per mesh pair")
+    max_hull_vertices: int = Field(32, ge=4, description="MuJoCo simplifies each hull to at most this many vertices")
 
 
 @dataclass(frozen=True)
@@ -201,6 +201,7 @@ def _add_object(spec: mujoco.MjSpec, obj: RailObject, cfg: ImaginationConfig, hu
         for i, hull in enumerate(obj.hulls):
             mesh = spec.add_mesh(name=_hull_mesh_name(i))
             mesh.uservert = np.asarray(hull, dtype=np.float64).ravel()
+            mesh.maxhullvert = cfg.max_hull_vertices  # collision cost grows with hull vertices
             body.add_geom(name=f"object/hull{i}", type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh.name, density=obj.density, **common)
         return
     # MJX-JAX box geoms: one oriented box per hull, padded with tiny massless boxes hidden inside the first hull

@@ -29,7 +29,7 @@ from rail_mj.imagination.common import (
 )
 from rail_mj.types import AgentSetup, Outcomes, RailObject, StablePose
 
-__all__ = ["run_mjx", "compile_count", "HULL_BUCKETS"]
+__all__ = ["run_mjx", "compile_count", "hull_bucket", "bucket_scene", "HULL_BUCKETS"]
 
 HULL_BUCKETS = (8, 16, 32, 64)
 _CONTACT_FORCE = 1e-9
@@ -51,7 +51,8 @@ class _Layout:
     check_every: int
 
 
-def _bucket(n_hulls: int) -> int:
+def hull_bucket(n_hulls: int) -> int:
+    """The padded geom count the object's hulls compile to."""
     for b in HULL_BUCKETS:
         if n_hulls <= b:
             return b
@@ -122,13 +123,13 @@ def _rollout(m, layout: _Layout, qpos0, pose_table, vel_table, n_drive, limit, r
 _rollout_jit = jax.jit(_rollout, static_argnames=("layout",))
 
 
-def _scenes(obj: RailObject, agents: AgentSetup, cfg: ImaginationConfig) -> Scene:
+def bucket_scene(obj: RailObject, agents: AgentSetup, cfg: ImaginationConfig) -> Scene:
     """The box scene of obj's bucket, weighing what the hull-mesh scene weighs."""
     mesh_scene = build_scene_model(obj, None, cfg)
     m = mesh_scene.model
     body = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "object")
     inertial = (float(m.body_mass[body]), m.body_ipos[body].copy(), m.body_inertia[body].copy(), m.body_iquat[body].copy())
-    scene = build_scene_model(obj, agents, cfg, hull_boxes=_bucket(len(obj.hulls)), inertial=inertial)
+    scene = build_scene_model(obj, agents, cfg, hull_boxes=hull_bucket(len(obj.hulls)), inertial=inertial)
     scene.model.opt.jacobian = mujoco.mjtJacobian.mjJAC_SPARSE  # dense deadlocked on large scenes (design.md)
     return scene
 
@@ -147,7 +148,7 @@ def run_mjx(
     progress: Callable[[int, int], None] | None = None,
 ) -> Outcomes:
     """Same contract as the native backend, run as one jit-compiled JAX computation."""
-    scene = _scenes(obj, agents, cfg)
+    scene = bucket_scene(obj, agents, cfg)
     offsets = np.asarray(agents.offsets, dtype=np.float64)
     raw = drive_table(trajectories, cfg)
     table = drive_table(trajectories, cfg, pad_to=_pad_steps(int(raw.n_drive.max())))
@@ -170,6 +171,9 @@ def run_mjx(
         check_every=cfg.check_every,
     )
     m = mjx.put_model(scene.model, impl="jax")
+    # a static copy of geom_rbound that MJX reads only to size heightfield contacts; the scene has no
+    # heightfield, and left as is it would make every new object a new jit key
+    m = m.replace(_impl=m._impl.replace(geom_rbound_hfield=np.zeros_like(m._impl.geom_rbound_hfield)))
     qpos, qvel, geom, dist, early, settled = _rollout_jit(
         m, layout, jnp.asarray(init["qpos"]), jnp.asarray(pose_table), jnp.asarray(vel_table),
         jnp.asarray(n_drive, dtype=jnp.int32), jnp.asarray(limit, dtype=jnp.int32),
