@@ -5,7 +5,9 @@ ModelNet40 cannot be downloaded here, so objects are generated (see
 defective look-alikes that do not work, and distractors. Every object is
 written in a seeded random orientation, roughly centred at the origin, in
 metres with +z as the file's up axis; ``functional_up`` in its label is the
-mesh-frame unit vector that must point up for the object to work.
+mesh-frame unit vector that must point up for the object to work (omitted when
+it affords none of the requested names), and ``nominal_up`` is the same vector
+for every object, defects and distractors included (their as-built pose).
 
 The ground truth is *physical*: an object affords a name when the imagination
 test for that name would succeed on it in some stable pose (droplets or items
@@ -64,6 +66,7 @@ __all__ = [
 
 LABELS_FILE = "labels.jsonl"
 MAX_FACES = 5000  # keeps CoACD fast
+GRID = 1e-6  # written vertices lie on a 1 µm grid, so a reader that merges coincident vertices sees the same mesh
 
 #: Physical definition and size envelope of every affordance name the matrix answers.
 AFFORDANCES: dict[str, str] = {
@@ -303,9 +306,11 @@ def plan_diameter(vertices: np.ndarray) -> float:
     return float(np.max(np.linalg.norm(hull[:, None] - hull[None], axis=-1)))
 
 
-def _resolve_names(requested: Sequence[str] | None, valid: Sequence[str], what: str, norm: Callable[[str], str]) -> list[str]:
+def _resolve_names(requested: str | Sequence[str] | None, valid: Sequence[str], what: str, norm: Callable[[str], str]) -> list[str]:
     if requested is None:
         return list(valid)
+    if isinstance(requested, str):  # "cup,bowl" as the CLI takes it
+        requested = requested.split(",")
     names = [norm(n) for n in requested if n.strip()]
     if not names:
         raise DatasetError(f"no {what} given; valid {what}: {', '.join(valid)}")
@@ -318,9 +323,6 @@ def _resolve_names(requested: Sequence[str] | None, valid: Sequence[str], what: 
 def _random_rotation(rng: np.random.Generator) -> np.ndarray:
     q = rng.normal(size=4)  # a normalised 4-D Gaussian is a uniform random rotation
     return trimesh.transformations.quaternion_matrix(q / np.linalg.norm(q))
-
-
-GRID = 1e-6  # written vertices lie on a 1 µm grid, so a reader that merges coincident vertices sees the same mesh
 
 
 def _snap_to_grid(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
@@ -358,10 +360,10 @@ def _check(name: str, built: trimesh.Trimesh, written: trimesh.Trimesh) -> None:
 def generate(
     out_dir: str | Path,
     *,
-    classes: Sequence[str] | None = None,
+    classes: str | Sequence[str] | None = None,
     per_class: int = 10,
     seed: int = 0,
-    affordances: Sequence[str] | None = None,
+    affordances: str | Sequence[str] | None = None,
     progress: Callable[[int, int, LabelRecord], None] | None = None,
 ) -> list[LabelRecord]:
     """Write ``per_class`` objects of each class to ``out_dir/meshes`` and their labels to ``out_dir/labels.jsonl``.
