@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from rail_mj.robot.control import RobotConfig
-from rail_mj.robot.execute import DriveResult, ExecutionResult, ForceEvent, ScoringFunction, build_scene, drive, execute
+from rail_mj.robot.executor import DriveResult, ExecutionResult, ForceEvent, ScoringFunction, build_scene, drive, execute
 from rail_mj.robot.model import fetch_panda, load_panda_spec, panda_dir
 
 __all__ = [

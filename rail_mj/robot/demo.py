@@ -13,17 +13,18 @@ import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 import trimesh
 
 from rail_mj.errors import ConfigError
 from rail_mj.robot.control import RobotConfig
-from rail_mj.robot.execute import ExecutionResult, ScoringFunction, execute
+from rail_mj.robot.executor import ExecutionResult, ScoringFunction, execute
 from rail_mj.types import Outcomes, RailObject, StablePose
 
-__all__ = ["DEMO_AFFORDANCES", "DemoCase", "make_object", "upright_pose", "plan_offline", "run_demo"]
+__all__ = ["DEMO_AFFORDANCES", "DemoCase", "make_object", "upright_pose", "plan_offline", "case_from_result",
+           "run_demo"]
 
 _BALL = ('<mujoco><worldbody><body name="ball"><geom type="sphere" size="{r}" density="{rho}" '
          'rgba="0.2 0.4 0.9 1"/></body></worldbody></mujoco>')
@@ -70,7 +71,9 @@ def _legged(top_hx: float, top_hy: float, height: float, top_t: float, leg: floa
 
 
 def _parts(kind: str, rng: np.random.Generator) -> list[np.ndarray]:
-    u = lambda lo, hi: float(rng.uniform(lo, hi))  # noqa: E731 - short local sampler
+    def u(lo: float, hi: float) -> float:
+        return float(rng.uniform(lo, hi))
+
     if kind in ("cup", "vase", "pen_holder", "pot", "bowl"):
         r, h = {"cup": (u(0.035, 0.045), u(0.08, 0.11)), "vase": (u(0.035, 0.045), u(0.14, 0.18)),
                 "pen_holder": (u(0.03, 0.035), u(0.10, 0.12)), "pot": (u(0.06, 0.075), u(0.09, 0.12)),
@@ -160,7 +163,18 @@ class DemoCase:
     pose: StablePose
     via_poses: np.ndarray  # (K, 7) task frame
     agent_fragment: str
-    scoring: ScoringFunction
+    scoring: ScoringFunction | str  # a callable, or generated source for rail_mj.scoring.compile_scoring
+
+
+def case_from_result(result: Any) -> DemoCase | None:
+    """The executable part of a pipeline ``AffordanceResult``; None when it found no functional pose/plan."""
+    if not result.functional or result.functional_pose is None or result.best_plan is None or result.error:
+        return None
+    fp = result.functional_pose
+    pose = StablePose(pos=np.asarray(fp.pos, float), quat=np.asarray(fp.quat, float),
+                      probability=float(fp.probability), half_extents=np.asarray(fp.half_extents, float))
+    return DemoCase(result.object, result.affordance, True, pose, np.asarray(result.best_plan.via_poses, float),
+                    result.agent_fragment, result.scoring_source)
 
 
 def plan_offline(obj: RailObject, affordance: str) -> DemoCase:
@@ -182,7 +196,7 @@ def plan_offline(obj: RailObject, affordance: str) -> DemoCase:
         top = h[2] if affordance != "chair" else float(obj.hulls[0][:, 2].max()) + pose.pos[2] - h[2]
         # set it down: the last via-pose lies below the surface, so the robot presses until the
         # force limit stops it, then lets go (the paper's safety rule doing the placing)
-        via = [[0, y, top + 0.06, *ident], [0, y, top - 0.01, *ident]]
+        via = [[0, y, top + 0.06, *ident], [0, y, top - 0.03, *ident]]
     return DemoCase(obj.name, affordance, True, pose, np.asarray(via, float), fragment, scoring)
 
 

@@ -501,15 +501,19 @@ def _write_frames(frames: list[np.ndarray], path: Path) -> None:
         return
     path.mkdir(parents=True, exist_ok=True)
     for i, img in enumerate(frames):
-        h, w, _ = img.shape
-        raw = b"".join(b"\x00" + img[r].tobytes() for r in range(h))
+        (path / f"frame_{i:05d}.png").write_bytes(_png(img))
 
-        def chunk(tag: bytes, body: bytes) -> bytes:
-            return struct.pack(">I", len(body)) + tag + body + struct.pack(">I", zlib.crc32(tag + body))
 
-        png = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0))
-               + chunk(b"IDAT", zlib.compress(raw, 6)) + chunk(b"IEND", b""))
-        (path / f"frame_{i:05d}.png").write_bytes(png)
+def _png_chunk(tag: bytes, body: bytes) -> bytes:
+    return struct.pack(">I", len(body)) + tag + body + struct.pack(">I", zlib.crc32(tag + body))
+
+
+def _png(img: np.ndarray) -> bytes:
+    """An RGB uint8 image as PNG bytes (no imaging library needed)."""
+    h, w, _ = img.shape
+    raw = b"".join(b"\x00" + img[r].tobytes() for r in range(h))
+    return (b"\x89PNG\r\n\x1a\n" + _png_chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0))
+            + _png_chunk(b"IDAT", zlib.compress(raw, 6)) + _png_chunk(b"IEND", b""))
 
 
 def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: np.ndarray,
