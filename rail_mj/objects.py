@@ -1,0 +1,364 @@
+"""Objects: mesh loading and repair, CoACD convex decomposition (cached), RailObject construction.
+
+Every mesh entering rail_mj goes through :func:`load_mesh` (files) or
+:func:`object_from_mesh` (in-memory meshes); both repair and validate it the
+same way, so the mesh frame is always metres, z up.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+import trimesh
+from scipy.spatial import ConvexHull, QhullError
+
+from rail_mj.errors import ConfigError, DecompositionError, MeshError
+from rail_mj.paths import cache_dir
+from rail_mj.types import RailObject
+
+__all__ = [
+    "SUPPORTED_EXTENSIONS",
+    "DEFAULT_DENSITY",
+    "MAX_EXTENT",
+    "MIN_EXTENT",
+    "MJX_MAX_HULL_VERTICES",
+    "DecompositionConfig",
+    "load_mesh",
+    "repair_mesh",
+    "mesh_hash",
+    "decompose",
+    "reduce_hull",
+    "object_from_mesh",
+    "load_object",
+]
+
+SUPPORTED_EXTENSIONS: tuple[str, ...] = (".obj", ".stl", ".ply", ".off", ".glb", ".gltf")
+#: kg/m^3; a household-object average (wood ~500-700, plastic shells less) — mass matters for tipping.
+DEFAULT_DENSITY = 500.0
+#: Largest allowed extent after scaling, metres.
+MAX_EXTENT = 10.0
+#: Smallest allowed largest-extent after scaling, metres.
+MIN_EXTENT = 0.005
+#: MJX's convex collision caps hull vertices at 64.
+MJX_MAX_HULL_VERTICES = 64
+# A mesh is flat when its smallest extent is below this fraction of its largest.
+_FLAT_RATIO = 1e-6
+# Hulls with less volume than this (m^3) are slivers MuJoCo cannot give inertia.
+_MIN_HULL_VOLUME = 1e-12
+
+_Y_UP_TO_Z_UP = np.array(
+    [[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, -1.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]]
+)
+
+
+@dataclass(frozen=True)
+class DecompositionConfig:
+    """CoACD parameters and the hull vertex cap.
+
+    The defaults keep one decomposition of a ~5k-face cup with a handle in
+    the tens of seconds on a 2-core CPU (see ``benchmarks/coacd_time.py``);
+    CoACD's own defaults (resolution 2000, 150 MCTS iterations) take minutes.
+    """
+
+    threshold: float = 0.08  # concavity tolerance; larger = fewer, coarser hulls
+    max_convex_hull: int = 32  # hull cap (CoACD merges down to it)
+    max_hull_vertices: int = MJX_MAX_HULL_VERTICES
+    preprocess_mode: Literal["auto", "on", "off"] = "auto"
+    preprocess_resolution: int = 30
+    resolution: int = 500  # surface samples per cut evaluation
+    mcts_nodes: int = 10
+    mcts_iterations: int = 30
+    mcts_max_depth: int = 2
+    seed: int = 0
+    convex_shortcut: bool = True  # a convex mesh is its own (reduced) hull, no CoACD call
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.threshold <= 1.0:
+            raise ConfigError(f"threshold must be in (0, 1], got {self.threshold}")
+        if self.max_convex_hull < 1:
+            raise ConfigError(f"max_convex_hull must be >= 1, got {self.max_convex_hull}")
+        if not 4 <= self.max_hull_vertices <= MJX_MAX_HULL_VERTICES:
+            raise ConfigError(
+                f"max_hull_vertices must be in [4, {MJX_MAX_HULL_VERTICES}] (MJX limit), "
+                f"got {self.max_hull_vertices}"
+            )
+        if self.preprocess_mode not in ("auto", "on", "off"):
+            raise ConfigError(
+                f"preprocess_mode must be one of 'auto', 'on', 'off', got {self.preprocess_mode!r}"
+            )
+        for name in ("preprocess_resolution", "resolution", "mcts_nodes", "mcts_iterations", "mcts_max_depth"):
+            if getattr(self, name) < 1:
+                raise ConfigError(f"{name} must be >= 1, got {getattr(self, name)}")
+
+
+def _fail(label: str, problem: str) -> MeshError:
+    return MeshError(f"{label}: {problem}")
+
+
+def _read(path: Path) -> trimesh.Trimesh:
+    """Read a supported file into one unprocessed mesh, scene graphs flattened."""
+    label = str(path)
+    if not path.exists():
+        raise _fail(label, f"file not found; give a path to an existing mesh file ({', '.join(SUPPORTED_EXTENSIONS)})")
+    if not path.is_file():
+        raise _fail(label, "not a regular file; give a path to a mesh file")
+    ext = path.suffix.lower()
+    if ext not in SUPPORTED_EXTENSIONS:
+        raise _fail(label, f"unknown extension {ext or '(none)'!r}; supported: {', '.join(SUPPORTED_EXTENSIONS)}")
+    try:
+        size = path.stat().st_size
+        with path.open("rb"):
+            pass
+    except OSError as exc:
+        raise _fail(label, f"cannot be read ({exc.strerror})") from exc
+    if size == 0:
+        raise _fail(label, "empty file (0 bytes); a mesh file needs vertices and faces")
+    try:
+        loaded = trimesh.load(str(path), file_type=ext[1:], process=False)
+    except Exception as exc:  # trimesh's loaders raise many unrelated types on garbage input
+        raise _fail(label, f"could not be parsed as {ext[1:].upper()} ({type(exc).__name__}: {exc})") from exc
+    if isinstance(loaded, trimesh.Scene):
+        meshes = [g for g in loaded.dump() if isinstance(g, trimesh.Trimesh)] if loaded.geometry else []
+        if not meshes:
+            raise _fail(label, "has no faces (a scene without triangle meshes); a mesh needs triangles")
+        return trimesh.util.concatenate(meshes)
+    if not isinstance(loaded, trimesh.Trimesh):
+        raise _fail(label, f"has no faces (it holds a {type(loaded).__name__}); a mesh needs triangles")
+    return loaded
+
+
+def repair_mesh(mesh: trimesh.Trimesh, *, label: str = "mesh") -> trimesh.Trimesh:
+    """Validate and repair a mesh (returns a new one); raise MeshError naming ``label``.
+
+    Repairs: merge duplicate vertices, drop degenerate and duplicate faces and
+    unreferenced vertices, make winding consistent and normals outward.
+    Rejects: no faces, non-finite vertices, flat meshes, absurd sizes.
+    """
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    if faces.size == 0 or vertices.size == 0:
+        raise _fail(label, "has no faces; a mesh needs triangles, not only points or lines")
+    if not np.isfinite(vertices).all():
+        bad = int((~np.isfinite(vertices).all(axis=1)).sum())
+        raise _fail(label, f"has {bad} vertices with NaN or inf coordinates; all coordinates must be finite")
+    out = trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
+    out.merge_vertices()
+    out.update_faces(out.nondegenerate_faces() & out.unique_faces())
+    out.remove_unreferenced_vertices()
+    if len(out.faces) == 0:
+        raise _fail(label, "has no faces left after removing degenerate ones; every face is zero-area")
+    trimesh.repair.fix_normals(out)
+    extents = out.extents
+    largest, smallest = float(extents.max()), float(extents.min())
+    if smallest <= _FLAT_RATIO * largest:
+        raise _fail(
+            label,
+            f"is flat (extents {np.round(extents, 6).tolist()} m); an object needs volume in all three axes",
+        )
+    if largest > MAX_EXTENT:
+        raise _fail(
+            label,
+            f"is too large: largest extent {largest:.4g} m > {MAX_EXTENT:g} m; if the file is in "
+            "millimetres or centimetres pass units=0.001 or units=0.01 (metres per mesh unit)",
+        )
+    if largest < MIN_EXTENT:
+        raise _fail(
+            label,
+            f"is too small: largest extent {largest:.4g} m < {MIN_EXTENT * 1000:g} mm; if the file is not "
+            "in metres pass units= the size of one mesh unit in metres (e.g. units=1.0 for metres)",
+        )
+    return out
+
+
+def load_mesh(path: str | Path, *, units: float = 1.0, up: Literal["z", "y"] = "z") -> trimesh.Trimesh:
+    """Load, convert and repair one mesh file (OBJ, STL, PLY, OFF, GLB, GLTF).
+
+    ``units`` is metres per mesh unit. ``up="y"`` rotates +90° about +x
+    (right-handed), ``(x, y, z) -> (x, -z, y)``, so mesh +y becomes +z.
+    Scenes (GLB/GLTF) are merged into one mesh with their node transforms.
+    """
+    path = Path(path)
+    if not (np.isfinite(units) and units > 0):
+        raise ConfigError(f"units must be a positive finite number of metres per mesh unit, got {units}")
+    if up not in ("z", "y"):
+        raise ConfigError(f"up must be 'z' or 'y', got {up!r}")
+    mesh = _read(path)
+    mesh = trimesh.Trimesh(
+        vertices=np.asarray(mesh.vertices, dtype=np.float64) * units, faces=mesh.faces, process=False
+    )
+    if up == "y":
+        mesh.apply_transform(_Y_UP_TO_Z_UP)
+    return repair_mesh(mesh, label=str(path))
+
+
+def mesh_hash(mesh: trimesh.Trimesh) -> str:
+    """SHA-256 of the vertex (float64) and face (int64) arrays."""
+    h = hashlib.sha256()
+    h.update(np.ascontiguousarray(mesh.vertices, dtype=np.float64).tobytes())
+    h.update(np.ascontiguousarray(mesh.faces, dtype=np.int64).tobytes())
+    return h.hexdigest()
+
+
+def reduce_hull(points: np.ndarray, max_vertices: int) -> np.ndarray:
+    """Convex-hull vertices of ``points``, reduced to at most ``max_vertices``.
+
+    Greedy farthest-point insertion: start from the 6 axis extremes, then add
+    the point lying farthest outside the current hull until the cap, so the
+    reduced hull is inscribed and its worst-case gap is minimised step by step.
+    """
+    points = np.asarray(points, dtype=np.float64)
+    try:
+        hull_pts = points[ConvexHull(points).vertices]
+    except (QhullError, ValueError) as exc:
+        raise DecompositionError(f"hull of {len(points)} points is degenerate (flat or too few points)") from exc
+    if len(hull_pts) <= max_vertices:
+        return hull_pts
+    chosen = list(dict.fromkeys(int(i) for i in np.concatenate([hull_pts.argmin(0), hull_pts.argmax(0)])))
+    while len(chosen) < 4:  # extremes coincide on tiny hulls: add the farthest from the centroid
+        d = np.linalg.norm(hull_pts - hull_pts[chosen].mean(0), axis=1)
+        d[chosen] = -1.0
+        chosen.append(int(d.argmax()))
+    while len(chosen) < max_vertices:
+        try:
+            eq = ConvexHull(hull_pts[chosen]).equations
+        except QhullError:  # the seed points are coplanar: add the point farthest off their plane
+            c = hull_pts[chosen]
+            normal = np.linalg.svd(c - c.mean(0))[2][-1]
+            dist = np.abs((hull_pts - c.mean(0)) @ normal)
+        else:
+            dist = (hull_pts @ eq[:, :3].T + eq[:, 3]).max(axis=1)
+        dist[chosen] = -np.inf
+        best = int(dist.argmax())
+        if dist[best] <= 0.0:
+            break
+        chosen.append(best)
+    return hull_pts[np.sort(chosen)]
+
+
+def _cache_key(digest: str, config: DecompositionConfig) -> str:
+    payload = json.dumps({"mesh": digest, "config": asdict(config)}, sort_keys=True)
+    return hashlib.sha256(payload.encode()).hexdigest()
+
+
+def _run_coacd(mesh: trimesh.Trimesh, config: DecompositionConfig) -> list[np.ndarray]:
+    import coacd
+
+    coacd.set_log_level("error")
+    try:
+        parts = coacd.run_coacd(
+            coacd.Mesh(np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int32)),
+            threshold=config.threshold,
+            max_convex_hull=config.max_convex_hull,
+            preprocess_mode=config.preprocess_mode,
+            preprocess_resolution=config.preprocess_resolution,
+            resolution=config.resolution,
+            mcts_nodes=config.mcts_nodes,
+            mcts_iterations=config.mcts_iterations,
+            mcts_max_depth=config.mcts_max_depth,
+            decimate=True,
+            max_ch_vertex=max(config.max_hull_vertices, 8),
+            seed=config.seed,
+        )
+    except Exception as exc:  # CoACD surfaces C++ failures as assorted Python errors
+        raise DecompositionError(f"CoACD failed ({type(exc).__name__}: {exc})") from exc
+    return [np.asarray(v, dtype=np.float64) for v, _ in parts]
+
+
+def decompose(mesh: trimesh.Trimesh, config: DecompositionConfig | None = None) -> tuple[np.ndarray, ...]:
+    """Convex hulls of ``mesh`` (mesh frame), each with <= ``config.max_hull_vertices`` vertices.
+
+    Cached as .npz under ``cache_dir("hulls")``, keyed by the mesh arrays and the config.
+    """
+    config = config or DecompositionConfig()
+    path = cache_dir("hulls") / f"{_cache_key(mesh_hash(mesh), config)}.npz"
+    if path.exists():
+        with np.load(path) as data:
+            return tuple(data[f"hull{i}"] for i in range(len(data.files)))
+    if config.convex_shortcut and mesh.is_convex:
+        raw = [np.asarray(mesh.vertices, dtype=np.float64)]
+    else:
+        raw = _run_coacd(mesh, config)
+    hulls = []
+    for points in raw:
+        if len(points) < 4:
+            continue
+        try:
+            if ConvexHull(points).volume < _MIN_HULL_VOLUME:
+                continue
+        except QhullError:
+            continue  # a flat sliver: no volume, no contact surface worth keeping
+        hulls.append(reduce_hull(points, config.max_hull_vertices))
+    if not hulls:
+        raise DecompositionError(
+            f"decomposition gave no usable hull ({len(raw)} raw parts, all flat or tiny); "
+            "check the mesh has volume or lower DecompositionConfig.threshold"
+        )
+    tmp = path.with_suffix(f".{np.random.default_rng().integers(1 << 62)}.tmp.npz")
+    np.savez(tmp, **{f"hull{i}": h for i, h in enumerate(hulls)})
+    tmp.replace(path)  # atomic: a concurrent reader never sees a half-written file
+    return tuple(hulls)
+
+
+def _mass_properties(mesh: trimesh.Trimesh, hulls: tuple[np.ndarray, ...]) -> tuple[float, np.ndarray]:
+    """Volume and centre of mass: the mesh's own when it encloses a volume, else the hulls'."""
+    if mesh.is_volume:
+        return float(mesh.volume), np.asarray(mesh.center_mass, dtype=np.float64)
+    vols, centres = [], []
+    for h in hulls:
+        hm = trimesh.convex.convex_hull(h)
+        vols.append(hm.volume)
+        centres.append(hm.center_mass)
+    vols_arr = np.asarray(vols)
+    return float(vols_arr.sum()), (np.asarray(centres) * vols_arr[:, None]).sum(0) / vols_arr.sum()
+
+
+def object_from_mesh(
+    mesh: trimesh.Trimesh,
+    *,
+    name: str,
+    density: float = DEFAULT_DENSITY,
+    decomposition: DecompositionConfig | None = None,
+    source: str = "",
+) -> RailObject:
+    """Repair, decompose and measure an in-memory mesh (metres, z up)."""
+    if not (np.isfinite(density) and density > 0):
+        raise ConfigError(f"density must be a positive finite number in kg/m^3, got {density}")
+    if not name:
+        raise ConfigError("name must be a non-empty string")
+    mesh = repair_mesh(mesh, label=source or name)
+    hulls = decompose(mesh, decomposition)
+    volume, com = _mass_properties(mesh, hulls)
+    obb_dims = np.sort(np.asarray(mesh.bounding_box_oriented.primitive.extents, dtype=np.float64))[::-1]
+    return RailObject(
+        name=name,
+        mesh=mesh,
+        hulls=hulls,
+        mesh_hash=mesh_hash(mesh),
+        obb_dims=obb_dims.copy(),
+        com=com,
+        mass=float(volume * density),
+        density=float(density),
+        source=source,
+    )
+
+
+def load_object(
+    path: str | Path,
+    *,
+    units: float = 1.0,
+    up: Literal["z", "y"] = "z",
+    density: float = DEFAULT_DENSITY,
+    decomposition: DecompositionConfig | None = None,
+    name: str | None = None,
+) -> RailObject:
+    """Load a mesh file into a RailObject (name defaults to the file stem)."""
+    path = Path(path)
+    mesh = load_mesh(path, units=units, up=up)
+    return object_from_mesh(
+        mesh, name=name or path.stem, density=density, decomposition=decomposition, source=str(path)
+    )

@@ -1,0 +1,263 @@
+"""Mesh loading, repair, validation, CoACD decomposition and its cache, object properties."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+import rail_mj.objects as objects
+from rail_mj.errors import ConfigError, DecompositionError, MeshError
+from rail_mj.objects import (
+    SUPPORTED_EXTENSIONS,
+    DecompositionConfig,
+    decompose,
+    load_mesh,
+    load_object,
+    object_from_mesh,
+    reduce_hull,
+)
+
+# Tiny CoACD settings: a test decomposition takes seconds, not minutes.
+# (mcts_max_depth=1 is a trap: CoACD then cuts badly and merging takes ~50x longer.)
+TINY = DecompositionConfig(
+    threshold=0.15,
+    max_convex_hull=16,
+    max_hull_vertices=16,
+    preprocess_mode="off",
+    resolution=200,
+    mcts_nodes=4,
+    mcts_iterations=8,
+    mcts_max_depth=2,
+)
+
+
+def small_cup() -> trimesh.Trimesh:
+    """A watertight 6 cm x 8 cm cup (open top, 5 mm bottom), 96 faces."""
+    profile = np.array([[0, 0], [0.03, 0], [0.03, 0.08], [0.026, 0.08], [0.026, 0.005], [0, 0.005]])
+    return trimesh.creation.revolve(profile, sections=12)
+
+
+@pytest.fixture(autouse=True)
+def _cache(tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("RAIL_MJ_CACHE", str(tmp_path_factory.getbasetemp() / "cache"))
+
+
+@pytest.fixture(scope="module")
+def cup_object(tmp_path_factory: pytest.TempPathFactory):
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("RAIL_MJ_CACHE", str(tmp_path_factory.getbasetemp() / "cache"))
+        return object_from_mesh(small_cup(), name="cup", decomposition=TINY)
+
+
+def box(extents=(0.1, 0.2, 0.3)) -> trimesh.Trimesh:
+    return trimesh.creation.box(extents=extents)
+
+
+@pytest.mark.parametrize("ext", ["obj", "stl", "ply", "off", "glb"])
+def test_loads_every_format(tmp_path: Path, ext: str) -> None:
+    path = tmp_path / f"box.{ext}"
+    box().export(path)
+    mesh = load_mesh(path)
+    np.testing.assert_allclose(np.sort(mesh.extents), [0.1, 0.2, 0.3], atol=1e-6)
+    assert mesh.is_watertight and mesh.volume > 0
+
+
+def _two_mesh_scene() -> trimesh.Scene:
+    scene = trimesh.Scene()
+    scene.add_geometry(box((0.1, 0.1, 0.1)), node_name="a", transform=trimesh.transformations.translation_matrix([0.5, 0, 0]))
+    scene.add_geometry(box((0.1, 0.1, 0.1)), node_name="b", transform=trimesh.transformations.translation_matrix([0, 0, 0.3]))
+    return scene
+
+
+def test_glb_scene_merges_with_transforms(tmp_path: Path) -> None:
+    path = tmp_path / "two.glb"
+    _two_mesh_scene().export(path)
+    mesh = load_mesh(path)
+    assert len(mesh.faces) == 24
+    np.testing.assert_allclose(mesh.bounds, [[-0.05, -0.05, -0.05], [0.55, 0.05, 0.35]], atol=1e-6)
+
+
+def test_gltf_scene_with_buffer_file(tmp_path: Path) -> None:
+    files = _two_mesh_scene().export(file_type="gltf")
+    for name, data in files.items():
+        (tmp_path / name).write_bytes(data)
+    gltf = next(tmp_path / n for n in files if n.endswith(".gltf"))
+    mesh = load_mesh(gltf)
+    assert len(mesh.faces) == 24
+    assert mesh.bounds[1][0] == pytest.approx(0.55, abs=1e-6)
+
+
+def test_units_scale(tmp_path: Path) -> None:
+    path = tmp_path / "mm.stl"
+    box((100.0, 200.0, 300.0)).export(path)
+    mesh = load_mesh(path, units=0.001)
+    np.testing.assert_allclose(np.sort(mesh.extents), [0.1, 0.2, 0.3], atol=1e-6)
+
+
+def test_y_up_becomes_z_up(tmp_path: Path) -> None:
+    path = tmp_path / "tall_y.obj"
+    tall = box((0.1, 0.4, 0.2))
+    tall.apply_translation([0, 0.2, 0.1])  # occupies y in [0, 0.4], z in [0, 0.2]
+    tall.export(path)
+    mesh = load_mesh(path, up="y")
+    # (x, y, z) -> (x, -z, y): old y becomes z, old z becomes -y
+    np.testing.assert_allclose(mesh.bounds, [[-0.05, -0.2, 0.0], [0.05, 0.0, 0.4]], atol=1e-6)
+    assert mesh.volume > 0  # a proper rotation keeps the winding outward
+
+
+def test_repair_merges_vertices_and_drops_degenerate_faces() -> None:
+    base = box()
+    soup = trimesh.Trimesh(base.vertices[base.faces].reshape(-1, 3), np.arange(36).reshape(-1, 3), process=False)
+    faces = np.vstack([soup.faces, soup.faces[:1], [[0, 0, 1]]])  # a duplicate and a degenerate face
+    flipped = faces.copy()
+    flipped[:3] = flipped[:3, ::-1]  # inconsistent winding on some faces
+    mesh = objects.repair_mesh(trimesh.Trimesh(soup.vertices, flipped, process=False))
+    assert len(mesh.vertices) == 8 and len(mesh.faces) == 12
+    assert mesh.is_volume
+
+
+def _write(path: Path, text: str | bytes) -> Path:
+    if isinstance(text, bytes):
+        path.write_bytes(text)
+    else:
+        path.write_text(text)
+    return path
+
+
+@pytest.mark.parametrize(
+    ("name", "content", "units", "pattern"),
+    [
+        ("empty.obj", "", 1.0, "empty file"),
+        ("points.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n", 1.0, "no faces"),
+        ("nan.obj", "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0 0 nan\nf 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n", 1.0, "NaN or inf"),
+        ("flat.obj", "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0.1 0.1 0\nf 1 2 3\nf 2 4 3\n", 1.0, "flat"),
+        ("garbage.stl", b"\x00\x01garbage\xff" * 3, 1.0, "could not be parsed|no faces"),
+        ("model.fbx", "whatever", 1.0, r"unknown extension '\.fbx'.*\.obj"),
+    ],
+)
+def test_bad_files_are_rejected(tmp_path: Path, name: str, content: str, units: float, pattern: str) -> None:
+    path = _write(tmp_path / name, content)
+    with pytest.raises(MeshError, match=pattern) as info:
+        load_mesh(path, units=units)
+    assert name in str(info.value)
+
+
+def test_missing_file(tmp_path: Path) -> None:
+    with pytest.raises(MeshError, match="not found"):
+        load_mesh(tmp_path / "nope.obj")
+
+
+def test_directory_is_not_a_file(tmp_path: Path) -> None:
+    (tmp_path / "dir.obj").mkdir()
+    with pytest.raises(MeshError, match="not a regular file"):
+        load_mesh(tmp_path / "dir.obj")
+
+
+@pytest.mark.parametrize(("size", "pattern"), [(20.0, "too large.*units="), (0.001, "too small.*units=")])
+def test_absurd_sizes(tmp_path: Path, size: float, pattern: str) -> None:
+    path = tmp_path / "cube.stl"
+    box((size, size, size)).export(path)
+    with pytest.raises(MeshError, match=pattern):
+        load_mesh(path)
+
+
+def test_bad_options(tmp_path: Path) -> None:
+    path = tmp_path / "b.stl"
+    box().export(path)
+    with pytest.raises(ConfigError, match="units"):
+        load_mesh(path, units=0.0)
+    with pytest.raises(ConfigError, match="'z' or 'y'"):
+        load_mesh(path, up="x")  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match="max_hull_vertices"):
+        DecompositionConfig(max_hull_vertices=65)
+
+
+def test_supported_extensions_are_listed() -> None:
+    assert set(SUPPORTED_EXTENSIONS) == {".obj", ".stl", ".ply", ".off", ".glb", ".gltf"}
+
+
+def test_reduce_hull_caps_vertices_and_fits() -> None:
+    sphere = trimesh.creation.icosphere(subdivisions=3, radius=0.1)  # 642 vertices
+    reduced = reduce_hull(sphere.vertices, 32)
+    assert len(reduced) == 32
+    hull = trimesh.convex.convex_hull(reduced)
+    assert hull.volume > 0.75 * sphere.volume  # an inscribed 32-point hull of a sphere keeps most of it
+    assert np.all(np.linalg.norm(reduced, axis=1) == pytest.approx(0.1, abs=1e-9))
+
+
+def test_decomposition_of_cup(cup_object) -> None:
+    hulls = cup_object.hulls
+    assert 2 <= len(hulls) <= TINY.max_convex_hull
+    assert all(len(h) <= TINY.max_hull_vertices and h.shape[1] == 3 for h in hulls)
+    lo = np.min([h.min(0) for h in hulls], axis=0)
+    hi = np.max([h.max(0) for h in hulls], axis=0)
+    np.testing.assert_allclose(lo, cup_object.mesh.bounds[0], atol=5e-3)
+    np.testing.assert_allclose(hi, cup_object.mesh.bounds[1], atol=5e-3)
+    # the cavity stays open: no hull covers the point in the middle of the cup
+    centre = np.array([0.0, 0.0, 0.05])
+    for h in hulls:
+        assert not trimesh.convex.convex_hull(h).contains([centre])[0]
+
+
+def test_second_call_hits_cache(cup_object, monkeypatch: pytest.MonkeyPatch) -> None:
+    def boom(*args, **kwargs):
+        raise AssertionError("CoACD must not run on a cache hit")
+
+    monkeypatch.setattr(objects, "_run_coacd", boom)
+    again = object_from_mesh(small_cup(), name="cup", decomposition=TINY)
+    assert again.mesh_hash == cup_object.mesh_hash
+    assert len(again.hulls) == len(cup_object.hulls)
+    for a, b in zip(again.hulls, cup_object.hulls, strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_convex_mesh_skips_coacd(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(objects, "_run_coacd", lambda *a, **k: pytest.fail("convex meshes need no CoACD"))
+    sphere = trimesh.creation.icosphere(subdivisions=2, radius=0.05)
+    hulls = decompose(sphere, DecompositionConfig(max_hull_vertices=20))
+    assert len(hulls) == 1 and len(hulls[0]) == 20
+
+
+def test_coacd_without_hulls_raises(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(objects, "_run_coacd", lambda *a, **k: [])
+    with pytest.raises(DecompositionError, match="no usable hull"):
+        decompose(small_cup(), DecompositionConfig(threshold=0.5))
+
+
+def test_cup_properties(cup_object) -> None:
+    # solid of revolution: outer cylinder minus the cavity
+    volume = np.pi * (0.03**2 * 0.08 - 0.026**2 * 0.075)
+    assert cup_object.mass == pytest.approx(objects.DEFAULT_DENSITY * volume, rel=0.05)  # 12-gon vs circle
+    assert cup_object.com[:2] == pytest.approx([0.0, 0.0], abs=1e-9)
+    assert 0.02 < cup_object.com[2] < 0.04  # heavy bottom pulls it below mid-height
+    assert cup_object.obb_dims[0] == pytest.approx(0.08, abs=1e-6)
+    assert list(cup_object.obb_dims) == sorted(cup_object.obb_dims, reverse=True)
+    assert len(cup_object.mesh_hash) == 64
+
+
+def test_load_object_box(tmp_path: Path) -> None:
+    path = tmp_path / "crate.obj"
+    box((0.1, 0.2, 0.3)).export(path)
+    obj = load_object(path, density=1000.0)
+    assert obj.name == "crate" and obj.source == str(path)
+    np.testing.assert_allclose(obj.obb_dims, [0.3, 0.2, 0.1], atol=1e-6)
+    assert obj.mass == pytest.approx(6.0)
+    np.testing.assert_allclose(obj.com, [0, 0, 0], atol=1e-9)
+    assert len(obj.hulls) == 1 and len(obj.hulls[0]) == 8
+
+
+def test_open_mesh_mass_from_hulls(monkeypatch: pytest.MonkeyPatch) -> None:
+    open_box = box((0.1, 0.1, 0.1))
+    open_box.update_faces(open_box.face_normals[:, 2] < 0.5)  # remove the top: not a closed volume
+    assert not open_box.is_watertight
+    monkeypatch.setattr(objects, "_run_coacd", lambda mesh, config: [np.asarray(box((0.1, 0.1, 0.1)).vertices)])
+    obj = object_from_mesh(open_box, name="open", density=100.0)
+    assert obj.mass == pytest.approx(100.0 * 0.001)
+
+
+def test_bad_density() -> None:
+    with pytest.raises(ConfigError, match="density"):
+        object_from_mesh(box(), name="b", density=-1.0)
