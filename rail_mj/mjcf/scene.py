@@ -1,0 +1,282 @@
+"""Scene composition with ``mujoco.MjSpec``: ground + object hulls + N agent fragments.
+
+Collision filtering uses contype/conaffinity bits (a pair collides when
+``(contype1 & conaffinity2) or (contype2 & conaffinity1)``):
+
+=========  =============  ==========================================
+geom       contype        conaffinity
+=========  =============  ==========================================
+ground     GROUND_BIT     0
+object     OBJECT_BIT     GROUND_BIT | AGENT_BIT
+agent      AGENT_BIT      GROUND_BIT | OBJECT_BIT (| AGENT_BIT when agents collide)
+=========  =============  ==========================================
+
+Filtering agent pairs this way removes them before compile at no accuracy cost
+(design.md); agent geoms the fragment marks visual-only (contype = conaffinity
+= 0) stay visual.
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from collections.abc import Sequence
+
+import mujoco
+import numpy as np
+from scipy.spatial import ConvexHull
+
+from rail_mj.errors import FragmentError, SceneError
+from rail_mj.types import AgentSetup, RailObject
+
+__all__ = [
+    "GROUND_GEOM",
+    "OBJECT_BODY",
+    "OBJECT_JOINT",
+    "GROUND_BIT",
+    "OBJECT_BIT",
+    "AGENT_BIT",
+    "FRICTION",
+    "SOLREF_TIMECONST_FACTOR",
+    "MAX_AGENT_RADIUS",
+    "VALID_FRAGMENT_EXAMPLE",
+    "check_fragment",
+    "agent_prefix",
+    "agent_body_name",
+    "hull_geom_name",
+    "build_scene",
+]
+
+GROUND_GEOM = "ground"
+OBJECT_BODY = "object"
+#: Name of the object's free joint (present only when ``object_free``).
+OBJECT_JOINT = "object"
+GROUND_BIT = 1
+OBJECT_BIT = 2
+AGENT_BIT = 4
+#: sliding, torsional, rolling friction on the ground, object and agents.
+FRICTION = (1.0, 0.005, 0.0001)
+#: solref time constant = factor * timestep; stops droplets sinking through thin bottoms (design.md).
+SOLREF_TIMECONST_FACTOR = 2.5
+#: Largest allowed bounding radius of an agent about its body origin, metres (a person is ~1 m).
+MAX_AGENT_RADIUS = 3.0
+VALID_FRAGMENT_EXAMPLE = (
+    '<mujoco><worldbody><body name="drop"><geom type="sphere" size="0.01" mass="0.001"/>'
+    "</body></worldbody></mujoco>"
+)
+_RULES = (
+    "a valid fragment is a <mujoco> document whose <worldbody> holds exactly one body "
+    "(nested bodies allowed) with geoms of positive size, no joints, no files, no plugins, "
+    f"e.g. {VALID_FRAGMENT_EXAMPLE}"
+)
+# Elements and attributes that pull in files, plugins or behaviour a passive agent body must not have.
+_FILE_ATTRS = {"mesh": "file", "texture": "file", "hfield": "file", "skin": "file", "model": "file"}
+_COMPILER_DIRS = ("meshdir", "texturedir", "assetdir")
+_FORBIDDEN_ELEMENTS = {
+    "include": "<include> pulls in another file",
+    "extension": "<extension> loads engine plugins",
+    "plugin": "<plugin> instantiates an engine plugin",
+    "instance": "<instance> instantiates an engine plugin",
+    "keyframe": "<keyframe> sets a state that breaks once the scene adds joints",
+    "actuator": "<actuator> needs joints, and agents have none",
+    "tendon": "<tendon> needs joints, and agents have none",
+    "equality": "<equality> constraints are not part of a rigid agent",
+    "joint": "a joint is present (the scene adds a free joint itself)",
+    "freejoint": "a joint is present (the scene adds a free joint itself)",
+}
+_SIZE_DIMS = {
+    mujoco.mjtGeom.mjGEOM_SPHERE: 1,
+    mujoco.mjtGeom.mjGEOM_CAPSULE: 2,
+    mujoco.mjtGeom.mjGEOM_CYLINDER: 2,
+    mujoco.mjtGeom.mjGEOM_ELLIPSOID: 3,
+    mujoco.mjtGeom.mjGEOM_BOX: 3,
+}
+
+
+def _reject(problem: str) -> FragmentError:
+    return FragmentError(f"invalid agent fragment: {problem}; {_RULES}")
+
+
+def _scan_xml(xml: str) -> None:
+    """Reject file references, plugins and joints by looking at the raw XML."""
+    try:
+        root = ET.fromstring(xml)
+    except ET.ParseError as exc:
+        raise _reject(f"not well-formed XML ({exc})") from exc
+    if root.tag != "mujoco":
+        raise _reject(f"root element is <{root.tag}>, expected <mujoco>")
+    for el in root.iter():
+        if el.tag in _FORBIDDEN_ELEMENTS:
+            raise _reject(_FORBIDDEN_ELEMENTS[el.tag])
+        if _FILE_ATTRS.get(el.tag) in el.attrib or (el.tag == "texture" and any(k.startswith("file") for k in el.attrib)):
+            raise _reject(f"<{el.tag}> references a file ({el.attrib.get('file', '')!r}); define assets inline")
+        if el.tag == "compiler" and any(k in el.attrib for k in _COMPILER_DIRS):
+            raise _reject(f"<compiler> sets {', '.join(k for k in _COMPILER_DIRS if k in el.attrib)}; files are not allowed")
+        if "plugin" in el.attrib:
+            raise _reject(f"<{el.tag}> uses plugin {el.attrib['plugin']!r}; plugins are not allowed")
+
+
+def check_fragment(xml: str) -> mujoco.MjSpec:
+    """Validate an agent MJCF fragment and return its parsed spec; raise FragmentError."""
+    if not isinstance(xml, str) or not xml.strip():
+        raise _reject("empty document")
+    _scan_xml(xml)
+    try:
+        spec = mujoco.MjSpec.from_string(xml)
+    except Exception as exc:  # MuJoCo's parser raises ValueError with its own message
+        raise _reject(f"does not parse ({exc})") from exc
+    n_top = len(spec.worldbody.bodies)
+    if n_top != 1:
+        raise _reject(f"worldbody holds {n_top} bodies, expected exactly one")
+    if spec.joints:
+        raise _reject(f"{len(spec.joints)} joint(s) present (the scene adds a free joint itself)")
+    if spec.plugins:
+        raise _reject("plugins are not allowed")
+    if spec.worldbody.geoms or spec.worldbody.frames:
+        raise _reject("worldbody holds geoms or frames besides the agent body; put every geom inside the body")
+    for geom in spec.geoms:
+        dims = _SIZE_DIMS.get(geom.type)
+        if geom.type in (mujoco.mjtGeom.mjGEOM_PLANE, mujoco.mjtGeom.mjGEOM_HFIELD):
+            raise _reject(f"geom {geom.name or '(unnamed)'} is a {geom.type.name[7:].lower()}, which cannot move")
+        has_fromto = np.isfinite(geom.fromto).all() and np.any(np.asarray(geom.fromto) != 0)
+        if dims is not None and not (np.asarray(geom.size[: 1 if has_fromto else dims]) > 0).all():
+            raise _reject(
+                f"geom {geom.name or '(unnamed)'} ({geom.type.name[7:].lower()}) has size "
+                f"{list(np.asarray(geom.size[:dims]))}; needs {dims} positive size value(s)"
+            )
+    try:
+        model = spec.compile()
+    except Exception as exc:  # compile errors (undefined assets, bad meshes) come as ValueError
+        raise _reject(f"does not compile ({exc})") from exc
+    mass = float(model.body_mass[1:].sum())
+    if not (np.isfinite(mass) and mass > 0):
+        raise _reject(f"total mass is {mass}; it must be positive and finite")
+    if model.ngeom == 0:
+        raise _reject("the body has no geoms")
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    radius = float((np.linalg.norm(data.geom_xpos - data.xpos[1], axis=1) + model.geom_rbound).max())
+    if radius > MAX_AGENT_RADIUS:
+        raise _reject(f"the agent reaches {radius:.3g} m from its origin, more than {MAX_AGENT_RADIUS} m")
+    return spec
+
+
+def agent_prefix(i: int) -> str:
+    """Name prefix of agent ``i``'s elements in a scene."""
+    return f"agent{i}/"
+
+
+def agent_body_name(spec_or_xml: mujoco.MjSpec | str, i: int) -> str:
+    """Name of agent ``i``'s body (the fragment's top body, prefixed)."""
+    spec = check_fragment(spec_or_xml) if isinstance(spec_or_xml, str) else spec_or_xml
+    return agent_prefix(i) + spec.worldbody.first_body().name
+
+
+def hull_geom_name(i: int) -> str:
+    """Name of the object's i-th hull geom (and its mesh asset)."""
+    return f"{OBJECT_BODY}/hull{i}"
+
+
+def _contact(geom: mujoco.MjsGeom, solref: list[float], contype: int, conaffinity: int) -> None:
+    geom.contype = contype
+    geom.conaffinity = conaffinity
+    geom.solref = solref
+
+
+def _add_object(
+    spec: mujoco.MjSpec, obj: RailObject, pos: Sequence[float], quat: Sequence[float], free: bool, solref: list[float]
+) -> None:
+    body = spec.worldbody.add_body(name=OBJECT_BODY, pos=list(pos), quat=list(quat))
+    if free:
+        body.add_freejoint(name=OBJECT_JOINT)
+    volumes = np.array([ConvexHull(h).volume for h in obj.hulls])
+    shares = volumes / volumes.sum()
+    for i, (hull, share) in enumerate(zip(obj.hulls, shares, strict=True)):
+        mesh = spec.add_mesh(name=hull_geom_name(i))
+        mesh.uservert = np.asarray(hull, dtype=np.float64).ravel().tolist()
+        # MuJoCo recentres mesh assets on their inertial frame and moves the geom frame to
+        # compensate, so a geom at the body origin shows the vertices exactly where they are.
+        geom = body.add_geom(
+            name=hull_geom_name(i), type=mujoco.mjtGeom.mjGEOM_MESH, meshname=hull_geom_name(i)
+        )
+        geom.mass = float(obj.mass * share)  # hulls may overlap: split the object's mass by hull volume
+        geom.rgba = [0.8, 0.6, 0.4, 1.0]
+        geom.friction = list(FRICTION)
+        _contact(geom, solref, OBJECT_BIT, GROUND_BIT | AGENT_BIT)
+
+
+def _add_agents(
+    spec: mujoco.MjSpec,
+    agents: AgentSetup,
+    pos: Sequence[float],
+    quat: Sequence[float],
+    solref: list[float],
+) -> None:
+    offsets = np.asarray(agents.offsets, dtype=np.float64)
+    if offsets.ndim != 2 or offsets.shape[1] != 3 or len(offsets) == 0 or not np.isfinite(offsets).all():
+        raise SceneError(f"agents.offsets must be a finite (N, 3) array with N >= 1, got shape {offsets.shape}")
+    rot = np.empty(9)
+    mujoco.mju_quat2Mat(rot, np.asarray(quat, dtype=np.float64))
+    centres = np.asarray(pos, dtype=np.float64) + offsets @ rot.reshape(3, 3).T
+    conaffinity = GROUND_BIT | OBJECT_BIT | (AGENT_BIT if agents.collide_agents else 0)
+    check_fragment(agents.fragment)
+    for i, centre in enumerate(centres):
+        child = mujoco.MjSpec.from_string(agents.fragment)  # a fresh spec per agent: attach moves its elements
+        frame = spec.worldbody.add_frame()
+        body = frame.attach_body(child.worldbody.first_body(), agent_prefix(i), "")
+        body.pos = centre.tolist()
+        body.quat = list(quat)
+        body.add_freejoint(name=agent_prefix(i) + "free")
+        for geom in body.find_all(mujoco.mjtObj.mjOBJ_GEOM):
+            if geom.contype or geom.conaffinity:
+                _contact(geom, solref, AGENT_BIT, conaffinity)  # friction stays the fragment's own
+
+
+def build_scene(
+    obj: RailObject,
+    *,
+    object_pos: Sequence[float] = (0.0, 0.0, 0.0),
+    object_quat: Sequence[float] = (1.0, 0.0, 0.0, 0.0),
+    object_free: bool = True,
+    agents: AgentSetup | None = None,
+    agents_pos: Sequence[float] = (0.0, 0.0, 0.0),
+    agents_quat: Sequence[float] = (1.0, 0.0, 0.0, 0.0),
+    timestep: float = 0.005,
+    ground: bool = True,
+) -> mujoco.MjSpec:
+    """Compose ground, object and agents into one spec (compiled once here to check it).
+
+    The object body ``object`` holds one mesh geom per hull; with ``object_free``
+    it has a free joint ``object``, else it is fixed at ``object_pos/quat``.
+    Agent ``i`` is the fragment's body, prefixed ``agent{i}/``, with a free joint
+    ``agent{i}/free``, at ``agents_pos + R(agents_quat) @ offsets[i]`` with
+    orientation ``agents_quat`` (the fragment body's own pos/quat are replaced).
+    """
+    if not (np.isfinite(timestep) and timestep > 0):
+        raise SceneError(f"timestep must be a positive number of seconds, got {timestep}")
+    for label, value, n in (
+        ("object_pos", object_pos, 3),
+        ("object_quat", object_quat, 4),
+        ("agents_pos", agents_pos, 3),
+        ("agents_quat", agents_quat, 4),
+    ):
+        arr = np.asarray(value, dtype=np.float64)
+        if arr.shape != (n,) or not np.isfinite(arr).all():
+            raise SceneError(f"{label} must be {n} finite numbers, got {value!r}")
+    if not obj.hulls:
+        raise SceneError(f"object {obj.name!r} has no hulls; build it with rail_mj.objects")
+    solref = [SOLREF_TIMECONST_FACTOR * timestep, 1.0]
+    spec = mujoco.MjSpec()
+    spec.modelname = f"rail_{obj.name}"
+    spec.option.timestep = timestep
+    if ground:
+        plane = spec.worldbody.add_geom(name=GROUND_GEOM, type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0.0, 0.0, 0.05])
+        plane.friction = list(FRICTION)
+        _contact(plane, solref, GROUND_BIT, 0)
+    _add_object(spec, obj, object_pos, object_quat, object_free, solref)
+    if agents is not None:
+        _add_agents(spec, agents, agents_pos, agents_quat, solref)
+    try:
+        spec.compile()
+    except Exception as exc:  # compile errors come as ValueError with MuJoCo's message
+        raise SceneError(f"scene for {obj.name!r} does not compile: {exc}") from exc
+    return spec

@@ -1,0 +1,243 @@
+"""Scene composition: object hulls where they belong, agents prefixed and placed, collision bits, fragment rules."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+import trimesh
+
+from rail_mj.errors import FragmentError, SceneError
+from rail_mj.mjcf import (
+    AGENT_BIT,
+    GROUND_BIT,
+    GROUND_GEOM,
+    OBJECT_BIT,
+    OBJECT_BODY,
+    OBJECT_JOINT,
+    VALID_FRAGMENT_EXAMPLE,
+    agent_body_name,
+    agent_prefix,
+    build_scene,
+    check_fragment,
+    hull_geom_name,
+)
+from rail_mj.objects import reduce_hull
+from rail_mj.types import AgentSetup, RailObject
+
+BALL = '<mujoco><worldbody><body name="ball"><geom type="sphere" size="0.02" mass="0.01"/></body></worldbody></mujoco>'
+
+
+def _offset_box(lo, hi) -> np.ndarray:
+    return np.asarray(trimesh.creation.box(bounds=[lo, hi]).vertices)
+
+
+@pytest.fixture(scope="module")
+def obj() -> RailObject:
+    """Two off-centre hulls (a box and a wedge-ish sphere cap) far from the mesh origin."""
+    hull_a = _offset_box([0.1, -0.05, 0.0], [0.3, 0.05, 0.02])
+    hull_b = reduce_hull(trimesh.creation.icosphere(subdivisions=2, radius=0.03).vertices + [0.2, 0.0, 0.06], 24)
+    mesh = trimesh.util.concatenate([trimesh.convex.convex_hull(hull_a), trimesh.convex.convex_hull(hull_b)])
+    return RailObject(
+        name="probe",
+        mesh=mesh,
+        hulls=(hull_a, hull_b),
+        mesh_hash="0" * 64,
+        obb_dims=np.array([0.2, 0.1, 0.09]),
+        com=np.array([0.2, 0.0, 0.02]),
+        mass=0.4,
+        density=500.0,
+    )
+
+
+def _compile(spec: mujoco.MjSpec) -> tuple[mujoco.MjModel, mujoco.MjData]:
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    return model, data
+
+
+def test_scene_names_and_prefixes(obj: RailObject) -> None:
+    agents = AgentSetup(fragment=BALL, offsets=np.array([[0, 0, 0.5], [0.1, 0, 0.5], [0.2, 0, 0.5]]))
+    model, _ = _compile(build_scene(obj, agents=agents))
+    assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, GROUND_GEOM) >= 0
+    assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, OBJECT_BODY) >= 0
+    assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, OBJECT_JOINT) >= 0
+    for i in range(3):
+        assert agent_prefix(i) == f"agent{i}/"
+        assert agent_body_name(BALL, i) == f"agent{i}/ball"
+        body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, f"agent{i}/ball")
+        assert body >= 0
+        assert model.jnt_type[model.body_jntadr[body]] == mujoco.mjtJoint.mjJNT_FREE
+    assert model.njnt == 4 and model.nq == 28
+    assert model.opt.timestep == 0.005
+
+
+def test_hull_geoms_sit_where_the_hull_vertices_are(obj: RailObject) -> None:
+    pos, quat = np.array([0.5, -0.2, 0.3]), np.array([np.cos(0.3), 0.0, 0.0, np.sin(0.3)])
+    model, data = _compile(build_scene(obj, object_pos=pos, object_quat=quat, object_free=False))
+    rot = np.empty(9)
+    mujoco.mju_quat2Mat(rot, quat)
+    rot = rot.reshape(3, 3)
+    for i, hull in enumerate(obj.hulls):
+        gid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, hull_geom_name(i))
+        mesh_id = model.geom_dataid[gid]
+        start, n = model.mesh_vertadr[mesh_id], model.mesh_vertnum[mesh_id]
+        verts = model.mesh_vert[start : start + n] @ data.geom_xmat[gid].reshape(3, 3).T + data.geom_xpos[gid]
+        expected = hull @ rot.T + pos
+        np.testing.assert_allclose(verts.min(0), expected.min(0), atol=1e-5)
+        np.testing.assert_allclose(verts.max(0), expected.max(0), atol=1e-5)
+
+
+def test_object_mass_and_contact_settings(obj: RailObject) -> None:
+    model, _ = _compile(build_scene(obj, timestep=0.004))
+    body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, OBJECT_BODY)
+    assert model.body_mass[body] == pytest.approx(obj.mass)
+    np.testing.assert_allclose(model.geom_solref[:, 0], 2.5 * 0.004)
+    ground = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, GROUND_GEOM)
+    assert model.geom_pos[ground][2] == 0.0
+    assert (model.geom_contype[ground], model.geom_conaffinity[ground]) == (GROUND_BIT, 0)
+
+
+def test_fixed_versus_free_object(obj: RailObject) -> None:
+    fixed, data_fixed = _compile(build_scene(obj, object_pos=(0, 0, 0.5), object_free=False))
+    assert fixed.njnt == 0
+    free, data_free = _compile(build_scene(obj, object_pos=(0, 0, 0.5)))
+    for _ in range(40):
+        mujoco.mj_step(fixed, data_fixed)
+        mujoco.mj_step(free, data_free)
+    body = mujoco.mj_name2id(fixed, mujoco.mjtObj.mjOBJ_BODY, OBJECT_BODY)
+    assert data_fixed.xpos[body][2] == pytest.approx(0.5)
+    assert data_free.xpos[body][2] < 0.45  # falls under gravity
+
+
+def test_agents_placed_by_layout_pose(obj: RailObject) -> None:
+    quat = np.array([np.cos(np.pi / 4), 0, 0, np.sin(np.pi / 4)])  # 90 deg about z: x -> y
+    agents = AgentSetup(fragment=BALL, offsets=np.array([[0.1, 0.0, 0.0], [0.0, 0.0, 0.2]]))
+    model, data = _compile(build_scene(obj, agents=agents, agents_pos=(1.0, 2.0, 0.5), agents_quat=quat))
+    b0 = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "agent0/ball")
+    b1 = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "agent1/ball")
+    np.testing.assert_allclose(data.xpos[b0], [1.0, 2.1, 0.5], atol=1e-9)
+    np.testing.assert_allclose(data.xpos[b1], [1.0, 2.0, 0.7], atol=1e-9)
+    np.testing.assert_allclose(data.xquat[b0], quat, atol=1e-9)
+
+
+@pytest.mark.parametrize("collide", [True, False])
+def test_agent_collision_bits(obj: RailObject, collide: bool) -> None:
+    # two balls overlapping in mid-air, away from the object and the ground
+    agents = AgentSetup(fragment=BALL, offsets=np.array([[0.0, 0.0, 0.0], [0.01, 0.0, 0.0]]), collide_agents=collide)
+    model, data = _compile(build_scene(obj, agents=agents, agents_pos=(-1.0, 0.0, 1.0)))
+    pairs = set()
+    for _ in range(3):
+        mujoco.mj_step(model, data)
+        pairs |= {tuple(sorted(model.geom_bodyid[[c.geom1, c.geom2]])) for c in data.contact[: data.ncon]}
+    b0 = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "agent0/ball")
+    b1 = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "agent1/ball")
+    assert ((b0, b1) in pairs) is collide
+    geom = model.body_geomadr[b0]
+    assert model.geom_contype[geom] == AGENT_BIT
+    assert bool(model.geom_conaffinity[geom] & AGENT_BIT) is collide
+    assert model.geom_conaffinity[geom] & (GROUND_BIT | OBJECT_BIT) == GROUND_BIT | OBJECT_BIT
+
+
+def test_agents_touch_object_and_ground(obj: RailObject) -> None:
+    # one ball resting on the object's box hull, one on the ground; the object rests on the ground
+    agents = AgentSetup(fragment=BALL, offsets=np.array([[0.12, 0.0, 0.039], [-0.5, 0.0, 0.019]]))
+    model, data = _compile(build_scene(obj, agents=agents))
+    mujoco.mj_step(model, data)
+    bodies = {tuple(sorted(model.geom_bodyid[[c.geom1, c.geom2]])) for c in data.contact[: data.ncon]}
+    obj_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, OBJECT_BODY)
+    b0 = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "agent0/ball")
+    b1 = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "agent1/ball")
+    assert (obj_id, b0) in bodies or (b0, obj_id) in bodies
+    assert (0, b1) in bodies
+    assert (0, obj_id) in bodies
+
+
+def test_visual_only_agent_geoms_stay_visual(obj: RailObject) -> None:
+    frag = (
+        '<mujoco><worldbody><body name="a"><geom type="sphere" size="0.02"/>'
+        '<geom type="sphere" size="0.03" contype="0" conaffinity="0" group="2"/></body></worldbody></mujoco>'
+    )
+    model, _ = _compile(build_scene(obj, agents=AgentSetup(fragment=frag, offsets=np.zeros((1, 3)))))
+    body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "agent0/a")
+    geoms = range(model.body_geomadr[body], model.body_geomadr[body] + model.body_geomnum[body])
+    assert sorted((int(model.geom_contype[g]), int(model.geom_conaffinity[g])) for g in geoms) == [
+        (0, 0),
+        (AGENT_BIT, GROUND_BIT | OBJECT_BIT | AGENT_BIT),
+    ]
+
+
+def test_no_ground(obj: RailObject) -> None:
+    model, _ = _compile(build_scene(obj, ground=False))
+    assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, GROUND_GEOM) == -1
+
+
+def test_scene_argument_errors(obj: RailObject) -> None:
+    with pytest.raises(SceneError, match="object_quat"):
+        build_scene(obj, object_quat=(1, 0, 0))
+    with pytest.raises(SceneError, match="timestep"):
+        build_scene(obj, timestep=0.0)
+    with pytest.raises(SceneError, match=r"\(N, 3\)"):
+        build_scene(obj, agents=AgentSetup(fragment=BALL, offsets=np.zeros((2, 2))))
+    with pytest.raises(FragmentError):
+        build_scene(obj, agents=AgentSetup(fragment="<mujoco/>", offsets=np.zeros((1, 3))))
+
+
+def test_valid_fragment_passes() -> None:
+    spec = check_fragment(VALID_FRAGMENT_EXAMPLE)
+    assert spec.worldbody.first_body().name == "drop"
+    capsule = '<mujoco><worldbody><body><geom type="capsule" fromto="0 0 0 0 0 0.1" size="0.01"/></body></worldbody></mujoco>'
+    check_fragment(capsule)
+    inline_mesh = (
+        '<mujoco><asset><mesh name="tet" vertex="0 0 0 0.1 0 0 0 0.1 0 0 0 0.1"/></asset>'
+        '<worldbody><body name="t"><geom type="mesh" mesh="tet"/></body></worldbody></mujoco>'
+    )
+    check_fragment(inline_mesh)
+
+
+@pytest.mark.parametrize(
+    ("xml", "pattern"),
+    [
+        ("<mujoco><worldbody><body>", "not well-formed"),
+        ("", "empty document"),
+        ("<robot/>", "expected <mujoco>"),
+        (
+            '<mujoco><worldbody><body><geom size="0.01"/></body><body><geom size="0.01"/></body></worldbody></mujoco>',
+            "holds 2 bodies",
+        ),
+        ("<mujoco><worldbody/></mujoco>", "holds 0 bodies"),
+        ('<mujoco><worldbody><body><joint type="hinge"/><geom size="0.01"/></body></worldbody></mujoco>', "joint"),
+        ('<mujoco><worldbody><body><freejoint/><geom size="0.01"/></body></worldbody></mujoco>', "joint"),
+        (
+            '<mujoco><asset><mesh name="m" file="cup.stl"/></asset><worldbody><body><geom type="mesh" mesh="m"/></body></worldbody></mujoco>',
+            "references a file",
+        ),
+        (
+            '<mujoco><asset><texture name="t" type="2d" file="a.png"/></asset><worldbody><body><geom size="0.01"/></body></worldbody></mujoco>',
+            "references a file",
+        ),
+        ('<mujoco><include file="other.xml"/><worldbody><body><geom size="0.01"/></body></worldbody></mujoco>', "<include>"),
+        ('<mujoco><compiler meshdir="/tmp"/><worldbody><body><geom size="0.01"/></body></worldbody></mujoco>', "meshdir"),
+        (
+            '<mujoco><extension><plugin plugin="mujoco.elasticity.cable"/></extension><worldbody><body><geom size="0.01"/></body></worldbody></mujoco>',
+            "plugin",
+        ),
+        ('<mujoco><worldbody><body><geom type="sphere" size="0"/></body></worldbody></mujoco>', "positive size"),
+        ('<mujoco><worldbody><body><geom type="box" size="0.1 0 0.1"/></body></worldbody></mujoco>', "positive size"),
+        ('<mujoco><worldbody><body><geom type="mesh" mesh="nowhere"/></body></worldbody></mujoco>', "does not compile"),
+        ('<mujoco><worldbody><body><geom type="plane" size="1 1 1"/></body></worldbody></mujoco>', "plane"),
+        ('<mujoco><worldbody><body><geom size="0.01" mass="0"/></body></worldbody></mujoco>', "mass"),
+        (
+            '<mujoco><worldbody><geom size="0.01"/><body><geom size="0.01"/></body></worldbody></mujoco>',
+            "besides the agent body",
+        ),
+        ('<mujoco><worldbody><body><geom type="sphere" size="5"/></body></worldbody></mujoco>', "reaches"),
+        ('<mujoco><worldbody><body><geom size="0.01"/></body></worldbody><keyframe><key qpos=""/></keyframe></mujoco>', "keyframe"),
+        ("<mujoco><worldbody><body><geom size='0.01' bogus='1'/></body></worldbody></mujoco>", "does not parse"),
+    ],
+)
+def test_fragment_rejections(xml: str, pattern: str) -> None:
+    with pytest.raises(FragmentError, match=pattern) as info:
+        check_fragment(xml)
+    assert "valid fragment" in str(info.value)  # every message shows what a valid one looks like
