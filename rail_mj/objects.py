@@ -51,9 +51,7 @@ _FLAT_RATIO = 1e-6
 # Hulls with less volume than this (m^3) are slivers MuJoCo cannot give inertia.
 _MIN_HULL_VOLUME = 1e-12
 
-_Y_UP_TO_Z_UP = np.array(
-    [[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, -1.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]]
-)
+_Y_UP_TO_Z_UP = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, -1.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
 
 
 @dataclass(frozen=True)
@@ -84,13 +82,10 @@ class DecompositionConfig:
             raise ConfigError(f"max_convex_hull must be >= 1, got {self.max_convex_hull}")
         if not 4 <= self.max_hull_vertices <= MJX_MAX_HULL_VERTICES:
             raise ConfigError(
-                f"max_hull_vertices must be in [4, {MJX_MAX_HULL_VERTICES}] (MJX limit), "
-                f"got {self.max_hull_vertices}"
+                f"max_hull_vertices must be in [4, {MJX_MAX_HULL_VERTICES}] (MJX limit), got {self.max_hull_vertices}"
             )
         if self.preprocess_mode not in ("auto", "on", "off"):
-            raise ConfigError(
-                f"preprocess_mode must be one of 'auto', 'on', 'off', got {self.preprocess_mode!r}"
-            )
+            raise ConfigError(f"preprocess_mode must be one of 'auto', 'on', 'off', got {self.preprocess_mode!r}")
         for name in ("preprocess_resolution", "resolution", "mcts_nodes", "mcts_iterations", "mcts_max_depth"):
             if getattr(self, name) < 1:
                 raise ConfigError(f"{name} must be >= 1, got {getattr(self, name)}")

@@ -25,6 +25,7 @@ from rail_mj.mjcf import (
 from rail_mj.objects import reduce_hull
 from rail_mj.types import AgentSetup, RailObject
 
+ONE = '<worldbody><body><geom size="0.01"/></body></worldbody>'  # a minimal agent body, inlined below
 BALL = '<mujoco><worldbody><body name="ball"><geom type="sphere" size="0.02" mass="0.01"/></body></worldbody></mujoco>'
 
 
@@ -120,6 +121,8 @@ def test_agents_placed_by_layout_pose(obj: RailObject) -> None:
     np.testing.assert_allclose(data.xpos[b0], [1.0, 2.1, 0.5], atol=1e-9)
     np.testing.assert_allclose(data.xpos[b1], [1.0, 2.0, 0.7], atol=1e-9)
     np.testing.assert_allclose(data.xquat[b0], quat, atol=1e-9)
+    unnormalised, _ = _compile(build_scene(obj, agents=agents, agents_pos=(1.0, 2.0, 0.5), agents_quat=3 * quat))
+    np.testing.assert_allclose(unnormalised.body_pos[b0], [1.0, 2.1, 0.5], atol=1e-9)
 
 
 @pytest.mark.parametrize("collide", [True, False])
@@ -187,7 +190,9 @@ def test_scene_argument_errors(obj: RailObject) -> None:
 def test_valid_fragment_passes() -> None:
     spec = check_fragment(VALID_FRAGMENT_EXAMPLE)
     assert spec.worldbody.first_body().name == "drop"
-    capsule = '<mujoco><worldbody><body><geom type="capsule" fromto="0 0 0 0 0 0.1" size="0.01"/></body></worldbody></mujoco>'
+    capsule = (
+        '<mujoco><worldbody><body><geom type="capsule" fromto="0 0 0 0 0 0.1" size="0.01"/></body></worldbody></mujoco>'
+    )
     check_fragment(capsule)
     inline_mesh = (
         '<mujoco><asset><mesh name="tet" vertex="0 0 0 0.1 0 0 0 0.1 0 0 0 0.1"/></asset>'
@@ -210,17 +215,24 @@ def test_valid_fragment_passes() -> None:
         ('<mujoco><worldbody><body><joint type="hinge"/><geom size="0.01"/></body></worldbody></mujoco>', "joint"),
         ('<mujoco><worldbody><body><freejoint/><geom size="0.01"/></body></worldbody></mujoco>', "joint"),
         (
-            '<mujoco><asset><mesh name="m" file="cup.stl"/></asset><worldbody><body><geom type="mesh" mesh="m"/></body></worldbody></mujoco>',
+            '<mujoco><asset><mesh name="m" file="cup.stl"/></asset>'
+            '<worldbody><body><geom type="mesh" mesh="m"/></body></worldbody></mujoco>',
             "references a file",
         ),
         (
-            '<mujoco><asset><texture name="t" type="2d" file="a.png"/></asset><worldbody><body><geom size="0.01"/></body></worldbody></mujoco>',
+            f'<mujoco><asset><texture name="t" type="2d" file="a.png"/></asset>{ONE}</mujoco>',
             "references a file",
         ),
-        ('<mujoco><include file="other.xml"/><worldbody><body><geom size="0.01"/></body></worldbody></mujoco>', "<include>"),
-        ('<mujoco><compiler meshdir="/tmp"/><worldbody><body><geom size="0.01"/></body></worldbody></mujoco>', "meshdir"),
         (
-            '<mujoco><extension><plugin plugin="mujoco.elasticity.cable"/></extension><worldbody><body><geom size="0.01"/></body></worldbody></mujoco>',
+            f'<mujoco><include file="other.xml"/>{ONE}</mujoco>',
+            "<include>",
+        ),
+        (
+            f'<mujoco><compiler meshdir="/tmp"/>{ONE}</mujoco>',
+            "meshdir",
+        ),
+        (
+            f'<mujoco><extension><plugin plugin="mujoco.elasticity.cable"/></extension>{ONE}</mujoco>',
             "plugin",
         ),
         ('<mujoco><worldbody><body><geom type="sphere" size="0"/></body></worldbody></mujoco>', "positive size"),
@@ -233,8 +245,16 @@ def test_valid_fragment_passes() -> None:
             "besides the agent body",
         ),
         ('<mujoco><worldbody><body><geom type="sphere" size="5"/></body></worldbody></mujoco>', "reaches"),
-        ('<mujoco><worldbody><body><geom size="0.01"/></body></worldbody><keyframe><key qpos=""/></keyframe></mujoco>', "keyframe"),
+        (
+            f'<mujoco>{ONE}<keyframe><key qpos=""/></keyframe></mujoco>',
+            "keyframe",
+        ),
         ("<mujoco><worldbody><body><geom size='0.01' bogus='1'/></body></worldbody></mujoco>", "does not parse"),
+        ('<!DOCTYPE m [<!ENTITY a "aaaa">]><mujoco/>', "ENTITY"),
+        (
+            f'<mujoco><asset><texture name="s" type="skybox" fileright="r.png"/></asset>{ONE}</mujoco>',
+            "references a file",
+        ),
     ],
 )
 def test_fragment_rejections(xml: str, pattern: str) -> None:

@@ -67,8 +67,12 @@ def test_loads_every_format(tmp_path: Path, ext: str) -> None:
 
 def _two_mesh_scene() -> trimesh.Scene:
     scene = trimesh.Scene()
-    scene.add_geometry(box((0.1, 0.1, 0.1)), node_name="a", transform=trimesh.transformations.translation_matrix([0.5, 0, 0]))
-    scene.add_geometry(box((0.1, 0.1, 0.1)), node_name="b", transform=trimesh.transformations.translation_matrix([0, 0, 0.3]))
+    scene.add_geometry(
+        box((0.1, 0.1, 0.1)), node_name="a", transform=trimesh.transformations.translation_matrix([0.5, 0, 0])
+    )
+    scene.add_geometry(
+        box((0.1, 0.1, 0.1)), node_name="b", transform=trimesh.transformations.translation_matrix([0, 0, 0.3])
+    )
     return scene
 
 
@@ -132,7 +136,12 @@ def _write(path: Path, text: str | bytes) -> Path:
     [
         ("empty.obj", "", 1.0, "empty file"),
         ("points.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n", 1.0, "no faces"),
-        ("nan.obj", "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0 0 nan\nf 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n", 1.0, "NaN or inf"),
+        (
+            "nan.obj",
+            "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0 0 nan\nf 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n",
+            1.0,
+            "NaN or inf",
+        ),
         ("flat.obj", "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0.1 0.1 0\nf 1 2 3\nf 2 4 3\n", 1.0, "flat"),
         ("garbage.stl", b"\x00\x01garbage\xff" * 3, 1.0, "could not be parsed|no faces"),
         ("model.fbx", "whatever", 1.0, r"unknown extension '\.fbx'.*\.obj"),

@@ -60,8 +60,7 @@ SOLREF_TIMECONST_FACTOR = 2.5
 #: Largest allowed bounding radius of an agent about its body origin, metres (a person is ~1 m).
 MAX_AGENT_RADIUS = 3.0
 VALID_FRAGMENT_EXAMPLE = (
-    '<mujoco><worldbody><body name="drop"><geom type="sphere" size="0.01" mass="0.001"/>'
-    "</body></worldbody></mujoco>"
+    '<mujoco><worldbody><body name="drop"><geom type="sphere" size="0.01" mass="0.001"/></body></worldbody></mujoco>'
 )
 _RULES = (
     "a valid fragment is a <mujoco> document whose <worldbody> holds exactly one body "
@@ -69,7 +68,7 @@ _RULES = (
     f"e.g. {VALID_FRAGMENT_EXAMPLE}"
 )
 # Elements and attributes that pull in files, plugins or behaviour a passive agent body must not have.
-_FILE_ATTRS = {"mesh": "file", "texture": "file", "hfield": "file", "skin": "file", "model": "file"}
+_FILE_ELEMENTS = ("mesh", "texture", "hfield", "skin", "model")  # file=, and texture's fileright= etc.
 _COMPILER_DIRS = ("meshdir", "texturedir", "assetdir")
 _FORBIDDEN_ELEMENTS = {
     "include": "<include> pulls in another file",
@@ -98,6 +97,8 @@ def _reject(problem: str) -> FragmentError:
 
 def _scan_xml(xml: str) -> None:
     """Reject file references, plugins and joints by looking at the raw XML."""
+    if "<!DOCTYPE" in xml or "<!ENTITY" in xml:
+        raise _reject("DOCTYPE/ENTITY declarations are not allowed")
     try:
         root = ET.fromstring(xml)
     except ET.ParseError as exc:
@@ -107,10 +108,12 @@ def _scan_xml(xml: str) -> None:
     for el in root.iter():
         if el.tag in _FORBIDDEN_ELEMENTS:
             raise _reject(_FORBIDDEN_ELEMENTS[el.tag])
-        if _FILE_ATTRS.get(el.tag) in el.attrib or (el.tag == "texture" and any(k.startswith("file") for k in el.attrib)):
-            raise _reject(f"<{el.tag}> references a file ({el.attrib.get('file', '')!r}); define assets inline")
-        if el.tag == "compiler" and any(k in el.attrib for k in _COMPILER_DIRS):
-            raise _reject(f"<compiler> sets {', '.join(k for k in _COMPILER_DIRS if k in el.attrib)}; files are not allowed")
+        file_attrs = [k for k in el.attrib if k.startswith("file")] if el.tag in _FILE_ELEMENTS else []
+        if file_attrs:
+            raise _reject(f"<{el.tag}> references a file ({el.attrib[file_attrs[0]]!r}); define assets inline")
+        dirs = [k for k in _COMPILER_DIRS if k in el.attrib] if el.tag == "compiler" else []
+        if dirs:
+            raise _reject(f"<compiler> sets {', '.join(dirs)}; files are not allowed")
         if "plugin" in el.attrib:
             raise _reject(f"<{el.tag}> uses plugin {el.attrib['plugin']!r}; plugins are not allowed")
 
@@ -185,7 +188,11 @@ def _contact(geom: mujoco.MjsGeom, solref: list[float], contype: int, conaffinit
 def _add_object(
     spec: mujoco.MjSpec, obj: RailObject, pos: Sequence[float], quat: Sequence[float], free: bool, solref: list[float]
 ) -> None:
-    body = spec.worldbody.add_body(name=OBJECT_BODY, pos=list(pos), quat=list(quat))
+    body = spec.worldbody.add_body(
+        name=OBJECT_BODY,
+        pos=np.asarray(pos, dtype=np.float64).tolist(),
+        quat=np.asarray(quat, dtype=np.float64).tolist(),
+    )
     if free:
         body.add_freejoint(name=OBJECT_JOINT)
     volumes = np.array([ConvexHull(h).volume for h in obj.hulls])
@@ -195,9 +202,7 @@ def _add_object(
         mesh.uservert = np.asarray(hull, dtype=np.float64).ravel().tolist()
         # MuJoCo recentres mesh assets on their inertial frame and moves the geom frame to
         # compensate, so a geom at the body origin shows the vertices exactly where they are.
-        geom = body.add_geom(
-            name=hull_geom_name(i), type=mujoco.mjtGeom.mjGEOM_MESH, meshname=hull_geom_name(i)
-        )
+        geom = body.add_geom(name=hull_geom_name(i), type=mujoco.mjtGeom.mjGEOM_MESH, meshname=hull_geom_name(i))
         geom.mass = float(obj.mass * share)  # hulls may overlap: split the object's mass by hull volume
         geom.rgba = [0.8, 0.6, 0.4, 1.0]
         geom.friction = list(FRICTION)
@@ -224,7 +229,7 @@ def _add_agents(
         frame = spec.worldbody.add_frame()
         body = frame.attach_body(child.worldbody.first_body(), agent_prefix(i), "")
         body.pos = centre.tolist()
-        body.quat = list(quat)
+        body.quat = np.asarray(quat, dtype=np.float64).tolist()
         body.add_freejoint(name=agent_prefix(i) + "free")
         for geom in body.find_all(mujoco.mjtObj.mjOBJ_GEOM):
             if geom.contype or geom.conaffinity:
@@ -260,8 +265,10 @@ def build_scene(
         ("agents_quat", agents_quat, 4),
     ):
         arr = np.asarray(value, dtype=np.float64)
-        if arr.shape != (n,) or not np.isfinite(arr).all():
-            raise SceneError(f"{label} must be {n} finite numbers, got {value!r}")
+        if arr.shape != (n,) or not np.isfinite(arr).all() or (n == 4 and np.linalg.norm(arr) < 1e-9):
+            raise SceneError(f"{label} must be {n} finite numbers (a quaternion non-zero, wxyz), got {value!r}")
+    object_quat = np.asarray(object_quat, dtype=np.float64) / np.linalg.norm(object_quat)
+    agents_quat = np.asarray(agents_quat, dtype=np.float64) / np.linalg.norm(agents_quat)
     if not obj.hulls:
         raise SceneError(f"object {obj.name!r} has no hulls; build it with rail_mj.objects")
     solref = [SOLREF_TIMECONST_FACTOR * timestep, 1.0]
