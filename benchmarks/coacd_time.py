@@ -1,8 +1,10 @@
 """Time one CoACD decomposition (default DecompositionConfig) of generated household shapes.
 
 Run: ``python benchmarks/coacd_time.py`` (uses a fresh temporary cache, so
-CoACD really runs). Prints wall and CPU seconds, hull count and max hull
-vertices per shape.
+CoACD really runs). Prints wall and CPU seconds, hull count, max hull
+vertices, total hull volume over mesh volume, and for shapes with a cavity the
+fraction of cavity sample points some hull covers (should be ~0: hulls that
+fill a cup's inside make it hold nothing).
 """
 
 from __future__ import annotations
@@ -35,6 +37,12 @@ def bowl(sections: int = 48) -> trimesh.Trimesh:
     return trimesh.creation.revolve(np.vstack([outer, inner]), sections=sections)
 
 
+def open_cup(sections: int = 64) -> trimesh.Trimesh:
+    """A single-surface cup (no wall thickness, open top): not a closed volume, so CoACD remeshes it."""
+    profile = np.vstack([[0, 0], np.column_stack([np.full(30, 0.04), np.linspace(0, 0.1, 30)])])
+    return trimesh.creation.revolve(profile, sections=sections)
+
+
 def stool() -> trimesh.Trimesh:
     """A 45 cm stool: seat slab on four legs."""
     parts = [
@@ -52,6 +60,13 @@ def stool() -> trimesh.Trimesh:
     return trimesh.util.concatenate(parts)
 
 
+def cavity_samples(radius: float, z_lo: float, z_hi: float, n: int = 500) -> np.ndarray:
+    """Points uniformly inside a vertical cylinder (a cup's cavity), fixed seed."""
+    rng = np.random.default_rng(0)
+    r, theta = radius * np.sqrt(rng.random(n)), rng.random(n) * 2 * np.pi
+    return np.column_stack([r * np.cos(theta), r * np.sin(theta), rng.uniform(z_lo, z_hi, n)])
+
+
 def main() -> None:
     os.environ["RAIL_MJ_CACHE"] = tempfile.mkdtemp(prefix="rail_mj_coacd_bench_")
     from rail_mj.objects import DecompositionConfig, decompose, repair_mesh
@@ -60,17 +75,27 @@ def main() -> None:
     print(f"config: {config}")
     print(
         f"{'shape':8s} {'faces':>6s} {'wall_s':>7s} {'cpu_s':>7s} {'hulls':>5s} {'max_v':>5s} "
-        f"{'hull_vol/mesh_vol':>17s}"
+        f"{'hull_vol/mesh_vol':>17s} {'cavity_covered':>14s}"
     )
-    for name, mesh in (("cup", cup()), ("bowl", bowl()), ("stool", stool())):
+    shapes = (
+        ("cup", cup(), cavity_samples(0.034, 0.01, 0.095)),
+        ("bowl", bowl(), cavity_samples(0.05, 0.03, 0.075)),
+        ("open_cup", open_cup(), cavity_samples(0.034, 0.01, 0.095)),
+        ("stool", stool(), None),
+    )
+    for name, mesh, cavity in shapes:
         mesh = repair_mesh(mesh, label=name)
         wall, cpu = time.perf_counter(), time.process_time()
         hulls = decompose(mesh, config)
         wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
-        hull_volume = sum(trimesh.convex.convex_hull(h).volume for h in hulls)
+        hull_meshes = [trimesh.convex.convex_hull(h) for h in hulls]
+        hull_volume = sum(h.volume for h in hull_meshes)
+        covered = "-"
+        if cavity is not None:
+            covered = f"{np.any([h.contains(cavity) for h in hull_meshes], axis=0).mean():.3f}"
         print(
             f"{name:8s} {len(mesh.faces):6d} {wall:7.1f} {cpu:7.1f} {len(hulls):5d} "
-            f"{max(len(h) for h in hulls):5d} {hull_volume / abs(mesh.volume):17.2f}",
+            f"{max(len(h) for h in hulls):5d} {hull_volume / abs(mesh.volume):17.2f} {covered:>14s}",
             flush=True,
         )
 

@@ -63,9 +63,11 @@ class DecompositionConfig:
     CoACD's own defaults (resolution 2000, 150 MCTS iterations) take minutes.
     """
 
-    threshold: float = 0.08  # concavity tolerance; larger = fewer, coarser hulls
+    threshold: float = 0.05  # concavity tolerance; larger = fewer, coarser hulls (0.08 let hulls into a cup)
     max_convex_hull: int = 32  # hull cap (CoACD merges down to it)
     max_hull_vertices: int = MJX_MAX_HULL_VERTICES
+    # "auto": remesh (CoACD's manifold preprocessing) only when the repaired mesh is not a closed
+    # volume — remeshing at low resolution thickens thin walls into the cavity and triples the time
     preprocess_mode: Literal["auto", "on", "off"] = "auto"
     preprocess_resolution: int = 30
     resolution: int = 500  # surface samples per cut evaluation
@@ -164,8 +166,8 @@ def repair_mesh(mesh: trimesh.Trimesh, *, label: str = "mesh") -> trimesh.Trimes
     if largest < MIN_EXTENT:
         raise _fail(
             label,
-            f"is too small: largest extent {largest:.4g} m < {MIN_EXTENT * 1000:g} mm; if the file is not "
-            "in metres pass units= the size of one mesh unit in metres (e.g. units=1.0 for metres)",
+            f"is too small: largest extent {largest:.4g} m < {MIN_EXTENT * 1000:g} mm; pass units= the number "
+            "of metres per mesh unit (1.0 if the file is already in metres; check it was not scaled twice)",
         )
     return out
 
@@ -240,6 +242,12 @@ def _cache_key(digest: str, config: DecompositionConfig) -> str:
     return hashlib.sha256(payload.encode()).hexdigest()
 
 
+def _preprocess_mode(mesh: trimesh.Trimesh, config: DecompositionConfig) -> str:
+    if config.preprocess_mode != "auto":
+        return config.preprocess_mode
+    return "off" if mesh.is_volume else "on"
+
+
 def _run_coacd(mesh: trimesh.Trimesh, config: DecompositionConfig) -> list[np.ndarray]:
     import coacd
 
@@ -249,7 +257,7 @@ def _run_coacd(mesh: trimesh.Trimesh, config: DecompositionConfig) -> list[np.nd
             coacd.Mesh(np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int32)),
             threshold=config.threshold,
             max_convex_hull=config.max_convex_hull,
-            preprocess_mode=config.preprocess_mode,
+            preprocess_mode=_preprocess_mode(mesh, config),
             preprocess_resolution=config.preprocess_resolution,
             resolution=config.resolution,
             mcts_nodes=config.mcts_nodes,

@@ -230,6 +230,14 @@ def test_convex_mesh_skips_coacd(monkeypatch: pytest.MonkeyPatch) -> None:
     assert len(hulls) == 1 and len(hulls[0]) == 20
 
 
+def test_auto_preprocess_only_for_open_meshes() -> None:
+    open_box = box()
+    open_box.update_faces(open_box.face_normals[:, 2] < 0.5)
+    assert objects._preprocess_mode(small_cup(), DecompositionConfig()) == "off"
+    assert objects._preprocess_mode(open_box, DecompositionConfig()) == "on"
+    assert objects._preprocess_mode(small_cup(), DecompositionConfig(preprocess_mode="on")) == "on"
+
+
 def test_coacd_without_hulls_raises(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(objects, "_run_coacd", lambda *a, **k: [])
     with pytest.raises(DecompositionError, match="no usable hull"):
