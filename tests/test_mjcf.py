@@ -261,3 +261,41 @@ def test_fragment_rejections(xml: str, pattern: str) -> None:
     with pytest.raises(FragmentError, match=pattern) as info:
         check_fragment(xml)
     assert "valid fragment" in str(info.value)  # every message shows what a valid one looks like
+
+
+@pytest.fixture(scope="module")
+def cup(tmp_path_factory: pytest.TempPathFactory) -> RailObject:
+    from rail_mj.objects import DecompositionConfig, object_from_mesh
+
+    profile = np.array([[0, 0], [0.03, 0], [0.03, 0.08], [0.026, 0.08], [0.026, 0.005], [0, 0.005]])
+    config = DecompositionConfig(threshold=0.15, max_convex_hull=16, resolution=200, mcts_nodes=4, mcts_iterations=8)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("RAIL_MJ_CACHE", str(tmp_path_factory.mktemp("cache")))
+        return object_from_mesh(trimesh.creation.revolve(profile, sections=12), name="cup", decomposition=config)
+
+
+@pytest.mark.parametrize("upright", [True, False])
+def test_droplets_stay_in_upright_cup_only(cup: RailObject, upright: bool) -> None:
+    drop = (
+        '<mujoco><worldbody><body name="d"><geom type="sphere" size="0.005" mass="0.0005"/></body></worldbody></mujoco>'
+    )
+    grid = np.array([[x, y, 0.0] for x in (-0.012, 0.0, 0.012) for y in (-0.012, 0.0, 0.012)])
+    # inverted: the cup's mouth at z = 0 faces down, it rests on its rim; the drops start above its bottom
+    quat, top = ((1.0, 0.0, 0.0, 0.0), 0.1) if upright else ((0.0, 1.0, 0.0, 0.0), 0.1)
+    spec = build_scene(
+        cup,
+        object_pos=(0, 0, 0) if upright else (0, 0, 0.08),
+        object_quat=quat,
+        agents=AgentSetup(fragment=drop, offsets=grid),
+        agents_pos=(0, 0, top),
+    )
+    model, data = _compile(spec)
+    for _ in range(300):
+        mujoco.mj_step(model, data)
+    bodies = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, f"agent{i}/d") for i in range(len(grid))]
+    pos = data.xpos[bodies]
+    inside = (np.linalg.norm(pos[:, :2], axis=1) < 0.026) & (pos[:, 2] > 0.004) & (pos[:, 2] < 0.08)
+    if upright:
+        assert inside.all(), pos
+    else:
+        assert not inside.any(), pos

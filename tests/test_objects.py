@@ -216,11 +216,23 @@ def test_second_call_hits_cache(cup_object, monkeypatch: pytest.MonkeyPatch) -> 
         raise AssertionError("CoACD must not run on a cache hit")
 
     monkeypatch.setattr(objects, "_run_coacd", boom)
+    assert list((objects.cache_dir("hulls")).glob("*.npz"))  # stored under RAIL_MJ_CACHE/hulls
     again = object_from_mesh(small_cup(), name="cup", decomposition=TINY)
     assert again.mesh_hash == cup_object.mesh_hash
     assert len(again.hulls) == len(cup_object.hulls)
     for a, b in zip(again.hulls, cup_object.hulls, strict=True):
         np.testing.assert_array_equal(a, b)
+
+
+def test_damaged_cache_entry_is_recomputed(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("RAIL_MJ_CACHE", str(tmp_path))
+    sphere = trimesh.creation.icosphere(subdivisions=1, radius=0.05)
+    first = decompose(sphere)
+    (entry,) = (tmp_path / "hulls").glob("*.npz")
+    entry.write_bytes(b"not a zip")
+    again = decompose(sphere)
+    np.testing.assert_array_equal(first[0], again[0])
+    assert entry.stat().st_size > 9
 
 
 def test_convex_mesh_skips_coacd(monkeypatch: pytest.MonkeyPatch) -> None:
