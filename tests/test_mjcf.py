@@ -171,6 +171,13 @@ def test_visual_only_agent_geoms_stay_visual(obj: RailObject) -> None:
     ]
 
 
+def test_unnamed_agent_body_gets_a_name(obj: RailObject) -> None:
+    frag = '<mujoco><worldbody><body><geom size="0.01"/></body></worldbody></mujoco>'
+    model, _ = _compile(build_scene(obj, agents=AgentSetup(fragment=frag, offsets=np.zeros((2, 3)))))
+    assert agent_body_name(frag, 1) == "agent1/agent"
+    assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "agent1/agent") >= 0
+
+
 def test_no_ground(obj: RailObject) -> None:
     model, _ = _compile(build_scene(obj, ground=False))
     assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, GROUND_GEOM) == -1

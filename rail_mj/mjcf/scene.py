@@ -169,9 +169,9 @@ def agent_prefix(i: int) -> str:
 
 
 def agent_body_name(spec_or_xml: mujoco.MjSpec | str, i: int) -> str:
-    """Name of agent ``i``'s body (the fragment's top body, prefixed)."""
+    """Name of agent ``i``'s body: the fragment's top body name (``agent`` if unnamed), prefixed."""
     spec = check_fragment(spec_or_xml) if isinstance(spec_or_xml, str) else spec_or_xml
-    return agent_prefix(i) + spec.worldbody.first_body().name
+    return agent_prefix(i) + (spec.worldbody.first_body().name or "agent")
 
 
 def hull_geom_name(i: int) -> str:
@@ -227,7 +227,9 @@ def _add_agents(
     for i, centre in enumerate(centres):
         child = mujoco.MjSpec.from_string(agents.fragment)  # a fresh spec per agent: attach moves its elements
         frame = spec.worldbody.add_frame()
+        name = agent_body_name(child, i)
         body = frame.attach_body(child.worldbody.first_body(), agent_prefix(i), "")
+        body.name = name
         body.pos = centre.tolist()
         body.quat = np.asarray(quat, dtype=np.float64).tolist()
         body.add_freejoint(name=agent_prefix(i) + "free")
