@@ -82,7 +82,8 @@ class Pipeline:
     def __init__(self, config: RunConfig | None = None):
         self.config = config or RunConfig()
         self.backend = resolve_backend(self.config.backend)
-        self.provider = llm.get_provider(self.config.provider, model=self.config.model)
+        options = {"model": self.config.model} if self.config.model else {}
+        self.provider = llm.get_provider(self.config.provider, **options)
         self._profiles: dict[tuple, ImaginationProfile] = {}
         self._scorers: dict[str, ScoringFunction] = {}
 

@@ -14,7 +14,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from rail_mj.errors import ImaginationError
-from rail_mj.imagination.common import ImaginationConfig, build_scene_model, drive_table, initial_state
+from rail_mj.imagination.common import ImaginationConfig, build_scene_model, drive_table, initial_state, plan_rows
 from rail_mj.types import AgentSetup, Outcomes, RailObject, StablePose, StablePoses
 
 __all__ = ["BACKENDS", "ImaginationConfig", "imagine", "resolve_backend", "mjx_compile_count"]
@@ -44,7 +44,7 @@ def imagine(
     obj: RailObject,
     poses: StablePoses | Sequence[StablePose],
     agents: AgentSetup,
-    trajectories: Sequence[np.ndarray],
+    trajectories: Sequence[np.ndarray] | Sequence[Sequence[np.ndarray]],
     *,
     backend: str = "auto",
     config: ImaginationConfig | None = None,
@@ -53,21 +53,23 @@ def imagine(
     """Simulate every (stable pose, plan) pair, pose-major, and return their outcomes.
 
     ``trajectories[i]`` is plan i's (K_i, 7) via-poses of the layout centre (pos xyz + quat wxyz) in the task
-    frame; agents start at ``via[0] + offsets``. ``progress(done, total)`` is called with simulated steps.
+    frame, shared by all poses; or ``trajectories[p][i]`` per pose (via-poses that scale with each pose's
+    half extents). Agents start at ``via[0] + offsets``. ``progress(done, total)`` is called with simulated steps.
     """
     cfg = config or ImaginationConfig()
     pose_list = list(poses)
     if not pose_list:
         raise ImaginationError("imagine needs at least one stable pose; got none")
     offsets = np.asarray(agents.offsets, dtype=np.float64)
+    rows, n_plans = plan_rows(trajectories, len(pose_list))
     chosen = resolve_backend(backend)
     if chosen == "native":
         from rail_mj.imagination.native import run_native
 
         scene = build_scene_model(obj, agents, cfg)
-        table = drive_table(trajectories, cfg)
-        init = initial_state(scene, pose_list, len(table.n_drive), table, offsets)
+        table = drive_table(rows, cfg)
+        init = initial_state(scene, pose_list, n_plans, table, offsets)
         return run_native(scene, init, table, offsets, cfg, progress=progress)
     from rail_mj.imagination.mjx import run_mjx
 
-    return run_mjx(obj, pose_list, agents, trajectories, cfg, progress=progress)
+    return run_mjx(obj, pose_list, agents, rows, n_plans, cfg, progress=progress)

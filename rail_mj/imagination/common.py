@@ -167,8 +167,30 @@ def _plan_samples(via: np.ndarray, cfg: ImaginationConfig) -> tuple[np.ndarray, 
     return np.concatenate(pos_list), np.concatenate(quat_list)
 
 
+def plan_rows(trajectories: Sequence, n_poses: int) -> tuple[list[np.ndarray], int]:
+    """Drive-table rows and the plan count from trajectories shared by all poses or given per pose.
+
+    ``trajectories`` is either ``[plan] -> (K, 7)`` (one row per plan) or ``[pose][plan] -> (K, 7)``
+    (one row per rollout, pose-major), e.g. when via-poses scale with each pose's half extents.
+    """
+    if not trajectories:
+        raise ImaginationError("imagine needs at least one trajectory (plan); got none")
+    first = trajectories[0]
+    if isinstance(first, np.ndarray) and first.ndim == 2:
+        return list(trajectories), len(trajectories)
+    if len(trajectories) != n_poses:
+        raise ImaginationError(
+            f"per-pose trajectories need one list of plans per stable pose: got {len(trajectories)} lists "
+            f"for {n_poses} poses (or pass one list of (K, 7) arrays shared by all poses)"
+        )
+    n_plans = {len(plans) for plans in trajectories}
+    if len(n_plans) != 1 or 0 in n_plans:
+        raise ImaginationError(f"every stable pose needs the same number (>= 1) of plans; got {sorted(n_plans)}")
+    return [np.asarray(t) for plans in trajectories for t in plans], n_plans.pop()
+
+
 def drive_table(trajectories: Sequence[np.ndarray], cfg: ImaginationConfig, pad_to: int = 0) -> DriveTable:
-    """Step-by-step targets for every plan; rows past a plan's end repeat its last pose at rest."""
+    """Step-by-step targets for every row (plan); rows past a plan's end repeat its last pose at rest."""
     samples = [_plan_samples(t, cfg) for t in trajectories]
     if not samples:
         raise ImaginationError("imagine needs at least one trajectory (plan); got none")
@@ -299,7 +321,10 @@ def _add_agents(spec: mujoco.MjSpec, agents: AgentSetup, solref: list[float], cf
 
 
 def initial_state(scene: Scene, poses: Sequence[StablePose], n_plans: int, table: DriveTable, offsets: np.ndarray) -> dict[str, np.ndarray]:
-    """Per-rollout placement (pose-major): qpos (B, nq), task-frame origins (B, 3), half extents, indices."""
+    """Per-rollout placement (pose-major): qpos (B, nq), task-frame origins (B, 3), half extents, indices.
+
+    ``row`` maps each rollout to its row of the drive table.
+    """
     n_poses = len(poses)
     pose_index = np.repeat(np.arange(n_poses), n_plans)
     plan_index = np.tile(np.arange(n_plans), n_poses)
@@ -311,11 +336,16 @@ def initial_state(scene: Scene, poses: Sequence[StablePose], n_plans: int, table
     obj_quat = np.stack([np.asarray(p.quat, dtype=np.float64) for p in poses])[pose_index]
     qpos[:, scene.object_qpos : scene.object_qpos + 3] = obj_pos
     qpos[:, scene.object_qpos + 3 : scene.object_qpos + 7] = obj_quat
-    start_pos = origin[:, None, :] + table.pos[plan_index, 0][:, None, :] + offsets[None]
+    # the drive table holds one row per plan (shared by all poses) or one per rollout (pose-major)
+    row = plan_index if len(table.n_drive) == n_plans else np.arange(len(pose_index))
+    start_pos = origin[:, None, :] + table.pos[row, 0][:, None, :] + offsets[None]
     for i, adr in enumerate(scene.agent_qpos):
         qpos[:, adr : adr + 3] = start_pos[:, i]
-        qpos[:, adr + 3 : adr + 7] = table.quat[plan_index, 0]
-    return dict(qpos=qpos, origin=origin, half=half, obj_pos=obj_pos, obj_quat=obj_quat, pose_index=pose_index, plan_index=plan_index)
+        qpos[:, adr + 3 : adr + 7] = table.quat[row, 0]
+    return dict(
+        qpos=qpos, origin=origin, half=half, obj_pos=obj_pos, obj_quat=obj_quat,
+        pose_index=pose_index, plan_index=plan_index, row=row,
+    )
 
 
 def at_rest(qvel, scene: Scene, cfg: ImaginationConfig, xp=np):

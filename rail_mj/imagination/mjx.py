@@ -143,6 +143,7 @@ def run_mjx(
     poses: Sequence[StablePose],
     agents: AgentSetup,
     trajectories: Sequence[np.ndarray],
+    n_plans: int,
     cfg: ImaginationConfig,
     *,
     progress: Callable[[int, int], None] | None = None,
@@ -152,8 +153,8 @@ def run_mjx(
     offsets = np.asarray(agents.offsets, dtype=np.float64)
     raw = drive_table(trajectories, cfg)
     table = drive_table(trajectories, cfg, pad_to=_pad_steps(int(raw.n_drive.max())))
-    init = initial_state(scene, poses, len(table.n_drive), table, offsets)
-    plan = init["plan_index"]
+    init = initial_state(scene, poses, n_plans, table, offsets)
+    plan = init["row"]
     pose_table = np.concatenate(
         [
             (init["origin"][:, None, None, :] + table.pos[plan][:, :, None, :] + offsets[None, None]),

@@ -37,7 +37,7 @@ def run_native(
     qvel[:] = 0.0
     batch.forward()
 
-    plan = init["plan_index"]
+    plan = init["row"]
     n_drive = table.n_drive[plan]
     qcols = scene.agent_qpos[:, None] + np.arange(7)
     vcols = scene.agent_dof[:, None] + np.arange(6)
