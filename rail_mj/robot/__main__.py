@@ -21,6 +21,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--affordance", action="append", choices=sorted(DEMO_AFFORDANCES),
                         help="repeatable; default: all")
     parser.add_argument("--trials", type=int, default=4, help="objects per affordance")
+    parser.add_argument("--planner", choices=("imagined", "scripted"), default="imagined",
+                        help="imagined: classify -> functional pose -> best plan (default); scripted: hand-written "
+                             "plans in the upright pose, to check the controller alone")
     parser.add_argument("--force-limit", type=float, default=RobotConfig().force_limit, help="N")
     parser.add_argument("--json", type=Path, help="write the summary here")
     parser.add_argument("--video", "--render", dest="video", type=Path,
@@ -35,7 +38,7 @@ def main(argv: list[str] | None = None) -> int:
             if args.trials < 1:
                 parser.error("--trials must be >= 1")
             summary = run_demo(args.affordance, args.trials, config=RobotConfig(force_limit=args.force_limit),
-                               json_path=args.json, video=args.video)
+                               planner=args.planner, json_path=args.json, video=args.video)
             print(f"success rate {summary['success_rate']:.1%} over {summary['n_trials']} trials, "
                   f"{summary['n_affordances']} affordances; peak hand contact force "
                   f"{summary['max_peak_force']:.1f} N (limit {summary['force_limit']:.1f} N), "

@@ -1,10 +1,12 @@
-"""The robot demo: table-top objects × affordances, executed by the Panda and judged.
+"""The robot demo: table-top objects × affordances, imagined, executed by the Panda and judged.
 
-Until ``rail_mj.pipeline.classify`` is wired in, :func:`plan_offline` stands in
-for it: it returns the same fields as :class:`rail_mj.results.AffordanceResult`
-(functional pose, best plan via-poses, agent fragment, scoring) for objects
-built here from convex parts (so no decomposition is needed), sized for the
-Panda's table-top workspace (the chair, table and stool are doll-sized).
+By default each trial runs the whole chain: ``rail_mj.pipeline.classify``
+(stable poses → offline profile → batched imagination → scoring → functional
+pose) on an object built here from convex parts, sized for the Panda's
+table-top workspace, then executes the best imagined plan in the functional
+pose and judges it with the profile's own scoring code. ``planner="scripted"``
+swaps the imagination for :func:`plan_offline` (upright pose, a hand-written
+plan) to check the controller alone.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ from rail_mj.robot.executor import ExecutionResult, ScoringFunction, execute
 from rail_mj.types import Outcomes, RailObject, StablePose
 
 __all__ = ["DEMO_AFFORDANCES", "DemoCase", "make_object", "upright_pose", "plan_offline", "case_from_result",
-           "run_demo"]
+           "imagined_case", "run_demo"]
 
 _BALL = ('<mujoco><worldbody><body name="ball"><geom type="sphere" size="{r}" density="{rho}" '
          'rgba="0.2 0.4 0.9 1"/></body></worldbody></mujoco>')
@@ -200,10 +202,19 @@ def plan_offline(obj: RailObject, affordance: str) -> DemoCase:
     return DemoCase(obj.name, affordance, True, pose, np.asarray(via, float), fragment, scoring)
 
 
+def imagined_case(obj: RailObject, affordance: str, backend: str = "auto") -> DemoCase | None:
+    """Classify the object for the affordance with the offline provider; the executable result or None."""
+    from rail_mj.pipeline import classify
+
+    return case_from_result(classify([obj], [affordance], provider="offline", backend=backend, progress=False)[0])
+
+
 def run_demo(affordances: list[str] | None = None, trials: int = 4, *, config: RobotConfig | None = None,
-             json_path: Path | None = None, video: Path | None = None,
+             json_path: Path | None = None, video: Path | None = None, planner: str = "imagined",
              progress: Callable[[str], None] | None = print) -> dict:
     """Execute ``trials`` objects per affordance; return (and optionally write) the summary."""
+    if planner not in ("imagined", "scripted"):
+        raise ConfigError(f"unknown planner {planner!r}; valid: imagined, scripted")
     names = affordances or list(DEMO_AFFORDANCES)
     cfg = config or RobotConfig()
     rows = []
@@ -212,8 +223,15 @@ def run_demo(affordances: list[str] | None = None, trials: int = 4, *, config: R
             raise ConfigError(f"no demo plan for {name!r}; known: {', '.join(DEMO_AFFORDANCES)}")
         for seed in range(trials):
             obj = make_object(DEMO_AFFORDANCES[name][0], seed)
-            case = plan_offline(obj, name)
             t0 = time.perf_counter()
+            case = plan_offline(obj, name) if planner == "scripted" else imagined_case(obj, name)
+            if case is None:
+                rows.append({"object": obj.name, "affordance": name, "success": False, "score": -1.0,
+                             "peak_force": 0.0, "force_events": [], "message": "imagination found no functional pose",
+                             "seconds": time.perf_counter() - t0})
+                if progress:
+                    progress(f"{name:11s} {obj.name:14s} success=False (imagination found no functional pose)")
+                continue
             render = video / f"{obj.name}" if video is not None and seed == 0 else None
             res: ExecutionResult = execute(obj, case.pose, case.agent_fragment, case.via_poses, case.scoring,
                                            config=cfg, render=render)
@@ -227,6 +245,7 @@ def run_demo(affordances: list[str] | None = None, trials: int = 4, *, config: R
         "success_rate": n_ok / max(1, len(rows)),
         "n_trials": len(rows),
         "n_affordances": len(names),
+        "planner": planner,
         "force_limit": cfg.force_limit,
         "max_peak_force": max((r["peak_force"] for r in rows), default=0.0),
         "n_force_events": sum(len(r["force_events"]) for r in rows),
