@@ -156,3 +156,25 @@ def test_mjx_agrees_with_native_and_compiles_once_per_bucket(cup, cup_poses):
     second = _pour(other, other_poses, "mjx", n=2, collide=False)
     assert mjx_compile_count() == before + 1
     assert _inside(second)[second.pose_index == 0].mean() >= 0.9
+
+
+def test_per_pose_trajectories_follow_each_pose(cup, cup_poses):
+    """[pose][plan] trajectories: each pose's rollouts start where that pose's own plan says."""
+    block = AgentSetup(fragment=BLOCK.format(s=0.01, m=0.01), offsets=np.zeros((1, 3)), collide_agents=False)
+    starts = (0.3, 0.5)
+    plans = [[np.array([[0.2, 0, z, 1, 0, 0, 0]]), np.array([[-0.2, 0, z, 1, 0, 0, 0]])] for z in starts]
+    out = imagine(cup, cup_poses, block, plans, backend="native", config=ImaginationConfig(settle_time=0.05))
+    assert out.pose_index.tolist() == [0, 0, 1, 1] and out.plan_index.tolist() == [0, 1, 0, 1]
+    # the block falls freely for about 0.1 s (settle checks run every 20 steps): ~6 cm, far less than 0.2 m
+    assert np.all(np.abs(out.agent_pos[out.pose_index == 0, 0, 2] - starts[0]) < 0.08)
+    assert np.all(np.abs(out.agent_pos[out.pose_index == 1, 0, 2] - starts[1]) < 0.08)
+    assert np.allclose(np.sign(out.agent_pos[:, 0, 0]), [1, -1, 1, -1])
+
+
+def test_per_pose_trajectories_must_match_the_poses(cup, cup_poses):
+    block = AgentSetup(fragment=BLOCK.format(s=0.01, m=0.01), offsets=np.zeros((1, 3)))
+    one = np.array([[0, 0, 0.3, 1, 0, 0, 0]])
+    with pytest.raises(ImaginationError, match="one list of plans per stable pose"):
+        imagine(cup, cup_poses, block, [[one]], backend="native")
+    with pytest.raises(ImaginationError, match="same number"):
+        imagine(cup, cup_poses, block, [[one], [one, one]], backend="native")
