@@ -61,6 +61,9 @@ __all__ = [
 ]
 
 IDENTITY = [1.0, 0.0, 0.0, 0.0]
+INF = math.inf
+#: Largest droplet radius standing for a liquid, m: drops 9 mm across leak through 1 cm slots and holes.
+LIQUID_RADIUS = 0.0045
 #: Directions of the side plans, (name, unit x, unit y).
 SIDES = (("front", 1.0, 0.0), ("back", -1.0, 0.0), ("left", 0.0, 1.0), ("right", 0.0, -1.0))
 
@@ -74,47 +77,76 @@ class AffordanceSpec:
     ibd: str
     largest: tuple[float, float]  # plausible range of the largest OBB dim, m
     smallest: tuple[float, float]  # plausible range of the smallest OBB dim, m
-    droplet_scale: float = 0.06  # container droplet radius / middle OBB dim
+    droplet_scale: float = 0.045  # container droplet radius / middle OBB dim: the 3x3x3 grid spans ~30% of it
     min_droplet_radius: float = 0.004  # m
-    max_height: float | None = None  # dish: the object must be at most this tall in its pose, m
+    max_droplet_radius: float = 0.05  # m; liquids: LIQUID_RADIUS, small enough to leak through a basket's slots
+    # Pose-dependent envelope, checked by the scoring code and the analyzer on the pose's task-frame box:
+    # H = 2 h_z, W / L = smaller / larger horizontal full extent, aspect = H / W; rest = the agent's bottom
+    # height above the ground for seat, lie and surface kinds.
+    height: tuple[float, float] = (0.0, INF)
+    width: tuple[float, float] = (0.0, INF)
+    length: tuple[float, float] = (0.0, INF)
+    aspect: tuple[float, float] = (0.0, INF)
+    rest: tuple[float, float] = (0.0, INF)
 
 
 CATALOGUE: dict[str, AffordanceSpec] = {
     s.name: s
     for s in (
         AffordanceSpec("cup", "container", "A cup holds a small amount of liquid in an upward-facing cavity "
-                       "that can be filled from above and keeps the liquid while resting on a table.",
-                       (0.05, 0.25), (0.03, 0.2)),
+                       "that can be filled from above and keeps the liquid while resting on a table; it is held "
+                       "in one hand (rim at most 12.5 cm across, 6-16 cm tall, taller than about half its width).",
+                       (0.06, 0.2), (0.03, 0.15), max_droplet_radius=LIQUID_RADIUS,
+                       height=(0.06, 0.16), width=(0.03, 0.15), length=(0.03, 0.2),
+                       aspect=(0.5, INF)),
         AffordanceSpec("bowl", "container", "A bowl holds food or liquid in a wide, open, upward-facing cavity "
-                       "reachable from above.", (0.08, 0.45), (0.03, 0.3)),
+                       "reachable from above (rim 12.5-35 cm across, at least 4 cm deep, height at most 0.55 of "
+                       "the rim).", (0.125, 0.4), (0.04, 0.2), max_droplet_radius=LIQUID_RADIUS,
+                       height=(0.04, 0.2), width=(0.125, 0.4),
+                       length=(0.125, 0.4), aspect=(0.0, 0.55)),
         AffordanceSpec("vase", "container", "A vase holds water and flower stems in a deep cavity with an "
-                       "opening at the top, often narrower than its body.", (0.08, 1.2), (0.03, 0.6),
-                       droplet_scale=0.035),
-        AffordanceSpec("pot", "container", "A pot holds food or soil in an open cavity, filled from above.",
-                       (0.1, 0.6), (0.05, 0.5)),
+                       "opening at the top, often narrower than its body (15-80 cm tall, clearly taller than "
+                       "wide).", (0.15, 0.85), (0.03, 0.4), droplet_scale=0.035, max_droplet_radius=LIQUID_RADIUS,
+                       height=(0.15, 0.8),
+                       width=(0.03, 0.4), aspect=(1.2, INF)),
+        AffordanceSpec("pot", "container", "A pot holds food or soil in an open cavity, filled from above "
+                       "(rim 15-45 cm, 10-30 cm tall).", (0.15, 0.5), (0.1, 0.45), max_droplet_radius=LIQUID_RADIUS,
+                       height=(0.1, 0.3),
+                       width=(0.15, 0.5), aspect=(0.4, INF)),
         AffordanceSpec("pen holder", "container", "A pen holder keeps pens upright in an open cavity "
-                       "filled from above.", (0.05, 0.2), (0.03, 0.15)),
+                       "filled from above (opening 4-12.5 cm, 7-16 cm tall).", (0.07, 0.2), (0.04, 0.15),
+                       height=(0.07, 0.16), width=(0.04, 0.15)),
         AffordanceSpec("trash bin", "container", "A trash bin collects waste dropped through its top opening "
-                       "and keeps it inside.", (0.2, 1.2), (0.1, 0.8)),
+                       "and keeps it inside (opening at least 18 cm, 30-90 cm tall).", (0.3, 1.0), (0.18, 0.8),
+                       height=(0.3, 0.9), width=(0.18, 0.8)),
         AffordanceSpec("basket", "container", "A basket carries items in an open, often perforated cavity "
-                       "whose holes are smaller than the items.", (0.12, 0.9), (0.05, 0.7),
-                       min_droplet_radius=0.012),
+                       "whose holes are smaller than the items (opening over 12.5 cm, 4-35 cm deep, footprint "
+                       "at most 60 cm, not taller than wide).", (0.14, 0.65), (0.04, 0.6),
+                       min_droplet_radius=0.012, height=(0.04, 0.35), width=(0.14, 0.6), length=(0.14, 0.65),
+                       aspect=(0.0, 1.0)),
         AffordanceSpec("bathtub", "container", "A bathtub holds enough water for a person to bathe in a long "
-                       "open basin on the floor.", (1.0, 2.2), (0.35, 1.0), droplet_scale=0.05),
-        AffordanceSpec("chair", "seat", "A chair lets one person sit: a level seat at knee height, usually "
-                       "with a backrest.", (0.6, 1.4), (0.3, 0.9)),
-        AffordanceSpec("stool", "seat", "A stool lets one person sit on a level seat at knee height, "
-                       "without a backrest.", (0.3, 0.9), (0.2, 0.6)),
-        AffordanceSpec("bench", "seat", "A bench lets people sit side by side on a long level seat at "
-                       "knee height.", (0.8, 3.0), (0.25, 0.9)),
+                       "open basin on the floor (over 1.2 m long inside, 0.35-0.8 m tall).", (1.25, 2.5),
+                       (0.35, 1.2), droplet_scale=0.05, max_droplet_radius=LIQUID_RADIUS,
+                       height=(0.35, 0.8), width=(0.5, 2.5), length=(1.25, 2.5)),
+        AffordanceSpec("chair", "seat", "A chair lets one person sit: a level seat 0.38-0.55 m high and "
+                       "0.3-0.7 m across, usually with a backrest.", (0.4, 1.3), (0.3, 0.9), width=(0.3, 0.8),
+                       length=(0.3, 0.8), rest=(0.36, 0.57)),
+        AffordanceSpec("stool", "seat", "A stool lets one person sit on a level seat 0.38-0.85 m high, "
+                       "without a backrest.", (0.3, 1.0), (0.25, 0.75), width=(0.25, 0.75), length=(0.25, 0.8),
+                       rest=(0.36, 0.87)),
+        AffordanceSpec("bench", "seat", "A bench lets people sit side by side on a long level seat 0.38-0.55 m "
+                       "high.", (0.9, 3.0), (0.25, 0.9), length=(0.9, 3.0), rest=(0.36, 0.57)),
         AffordanceSpec("bed", "lie", "A bed lets a person lie down on a large level surface a little above "
-                       "the floor.", (1.6, 2.6), (0.2, 1.2)),
-        AffordanceSpec("table", "surface", "A table holds items on a level top surface at working height.",
-                       (0.45, 3.0), (0.3, 1.6)),
-        AffordanceSpec("plate", "dish", "A plate holds food on a low, level, nearly flat surface.",
-                       (0.1, 0.45), (0.005, 0.08), max_height=0.08),
-        AffordanceSpec("tray", "dish", "A tray carries items on a flat level base with a low rim.",
-                       (0.2, 0.9), (0.01, 0.12), max_height=0.15),
+                       "the floor.", (1.6, 2.6), (0.2, 1.2), length=(1.6, 2.6), rest=(0.15, 0.9)),
+        AffordanceSpec("table", "surface", "A table holds items on a level top surface 0.55-1.1 m high and "
+                       "at least 0.5 m across, its top at least as wide as it is high.", (0.55, 3.0), (0.3, 1.6),
+                       height=(0.55, 1.12), width=(0.5, 3.0), aspect=(0.0, 1.0), rest=(0.54, 1.12)),
+        AffordanceSpec("plate", "dish", "A plate holds food on a low, level, nearly flat surface "
+                       "(15-32 cm across, 1-4 cm tall).", (0.15, 0.32), (0.01, 0.045), height=(0.01, 0.045),
+                       length=(0.15, 0.32)),
+        AffordanceSpec("tray", "dish", "A tray carries items on a flat level base with a low rim "
+                       "(15-60 cm across, at most 4.5 cm tall).", (0.15, 0.6), (0.01, 0.045),
+                       height=(0.01, 0.045), length=(0.15, 0.6)),
         AffordanceSpec("shelf", "storage", "A shelf stores items on level boards reached horizontally from "
                        "the front.", (0.5, 2.5), (0.15, 0.8)),
         AffordanceSpec("cupboard", "storage", "A cupboard stores items inside an enclosure on level boards, "
@@ -272,9 +304,11 @@ def _shape(spec: AffordanceSpec, dims: list[float]) -> _AgentShape:
     """The agent of a kind, scaled to the object (dims sorted descending)."""
     d0, d1, d2 = dims
     if spec.kind == "container":
-        r = max(spec.min_droplet_radius, min(0.05, spec.droplet_scale * d1))
+        r = max(spec.min_droplet_radius, min(spec.max_droplet_radius, spec.droplet_scale * d1))
         mass = 1000.0 * 4.0 / 3.0 * math.pi * r**3  # water
-        return _AgentShape(f'type="sphere" size="{r:.4f}"', r, r, mass, "droplet")
+        # rolling friction lets droplets that miss come to rest instead of rolling on the ground forever
+        return _AgentShape(f'type="sphere" size="{r:.4f}" condim="6" friction="1 0.005 0.0005"', r, r, mass,
+                           "droplet")
     if spec.kind == "dish":
         a = min(0.12, max(0.02, 0.25 * d1))
         c = min(0.015, max(0.005, 0.1 * a))
@@ -339,7 +373,8 @@ def offline_plans(task: TaskDescription) -> MotionPlans:
         plans = [MotionPlan(name="above", description="Hold the droplet grid centred above the opening, just over "
                                                      "the rim; release it so the droplets fall in.")]
         plans += [MotionPlan(name=f"above_{side}", description=f"Hold the droplet grid above the rim, offset to the "
-                                                               f"{side} by 0.6 of the half size; release it.")
+                                                               f"{side} by {_CONTAINER_OFFSET:g} of the half size (the opening "
+                                                               "may be off the box centre); release it.")
                   for side, _, _ in SIDES]
         return MotionPlans(plans=plans)
     if spec.kind == "seat":
@@ -364,6 +399,9 @@ def offline_plans(task: TaskDescription) -> MotionPlans:
     return MotionPlans(plans=_lowering_plans(label, what, _LOWER_OFFSET[spec.kind]))
 
 
+#: Horizontal offset (units of h) of the above_<side> container plans: a handle shifts the box centre off the
+#: cavity's axis by a fraction of the half size, so the grid must move by about that much, not onto the rim.
+_CONTAINER_OFFSET = 0.3
 #: Horizontal offset (units of h) of the above_<side> plans of lowering kinds.
 _LOWER_OFFSET = {"lie": 0.3, "surface": 0.5, "dish": 0.4}
 #: Height (units of h_z) of the side storage plans; off-centre so a middle board does not stop them all.
@@ -384,7 +422,7 @@ def offline_trajectories(task: TaskDescription, layout: AgentLayout) -> Trajecto
     trajs: list[PlanTrajectory] = []
     for plan in offline_plans(task).plans:
         if spec.kind == "container":
-            ox, oy = _side_offset(plan.name, 0.6)
+            ox, oy = _side_offset(plan.name, _CONTAINER_OFFSET)
             via = [_via((ox, oy, 1), (0, 0, spread_z + gap)), _via((ox, oy, 1), (0, 0, spread_z + 0.002))]
         elif spec.kind == "seat":
             above_seat = 0.65 + shape.radius + 0.05  # higher than any seat, pelvis included
@@ -441,37 +479,111 @@ _REST_BODY = '''    """Fraction of agents resting as intended ({what}), minus 0.
 '''
 
 
+#: Half height (m) of the resting agents of seat, lie and surface kinds (see :func:`_shape`).
+_AGENT_HALF_Z = {"seat": 0.05, "lie": 0.075, "surface": 0.015}
+
+
+def _envelope(spec: AffordanceSpec) -> list[tuple[str, str, tuple[float, float]]]:
+    """(name, numpy expression over ``e`` = pose half extents (n, 3), range) of the pose-dependent size checks."""
+    terms = [("height", "2.0 * e[:, 2]", spec.height),
+             ("width", "2.0 * np.minimum(e[:, 0], e[:, 1])", spec.width),
+             ("length", "2.0 * np.maximum(e[:, 0], e[:, 1])", spec.length),
+             ("height/width", "e[:, 2] / np.maximum(np.minimum(e[:, 0], e[:, 1]), 1e-9)", spec.aspect)]
+    return [t for t in terms if t[2] != (0.0, INF)]
+
+
+def _envelope_source(spec: AffordanceSpec) -> str:
+    conds = []
+    for _, expr, (lo, hi) in _envelope(spec):
+        if lo > 0.0:
+            conds.append(f"({expr} >= {lo:g})")
+        if hi < INF:
+            conds.append(f"({expr} <= {hi:g})")
+    return "".join(f" & {c}" for c in conds)
+
+
+def _envelope_ok(spec: AffordanceSpec, half: list[float]) -> tuple[bool, str]:
+    hx, hy, hz = half
+    values = {"height": 2 * hz, "width": 2 * min(hx, hy), "length": 2 * max(hx, hy),
+              "height/width": hz / max(min(hx, hy), 1e-9)}
+    for name, _, (lo, hi) in _envelope(spec):
+        if not lo <= values[name] <= hi:
+            return False, f"in this pose its {name} is {values[name]:.3f}; a {spec.name} has {lo:g}-{hi:g}"
+    return True, ""
+
+
+_CONTAINER_BODY = '''    """Fraction of droplets inside the box below the rim and off the ground, minus {min_frac}; -1 if tipped
+    or the pose is outside the {name} size envelope ({envelope})."""
+    e = object_half_extents
+    h = e[:, None, :]
+    inside = (np.abs(agent_pos[:, :, 0]) < h[:, :, 0]) & (np.abs(agent_pos[:, :, 1]) < h[:, :, 1])
+    inside = inside & (agent_pos[:, :, 2] < h[:, :, 2]) & (contacts_ground == 0)
+    frac = np.mean(inside, axis=1)
+    ok = (object_tilt < {max_tilt:.4f}){object_cond}
+    return np.where(ok, frac - {min_frac}, -1.0)
+'''
+
+_REST_BODY = '''    """Fraction of agents resting as intended ({what}), minus 0.5; -1 if the object tipped
+    or the pose is outside the {name} size envelope ({envelope})."""
+    e = object_half_extents
+    h = e[:, None, :]
+    footprint = (np.abs(agent_pos[:, :, 0]) < h[:, :, 0]) & (np.abs(agent_pos[:, :, 1]) < h[:, :, 1])
+    bottom = agent_pos[:, :, 2] - {half_z:.4f}
+    height = (bottom > {lo}) & (bottom < {hi})
+    cos_tilt = 1.0 - 2.0 * (agent_quat[:, :, 1] ** 2 + agent_quat[:, :, 2] ** 2)
+    upright = cos_tilt > {cos_agent:.4f}
+    resting = footprint & height & upright & (contacts_object > 0) & (contacts_ground == 0)
+    frac = np.mean(resting, axis=1)
+    ok = (object_tilt < {max_tilt:.4f}){object_cond}
+    return np.where(ok, frac - 0.5, -1.0)
+'''
+
+
+def _envelope_doc(spec: AffordanceSpec) -> str:
+    parts = [f"{name} {lo:g}-{hi:g}" for name, _, (lo, hi) in _envelope(spec)]
+    return ", ".join(parts) if parts else "any size"
+
+
 def offline_scoring(task: TaskDescription) -> ScoringCode:
-    """Stage 6: vectorised numpy scoring source for the kind (constants baked in)."""
+    """Stage 6: vectorised numpy scoring source for the kind (constants and size envelope baked in)."""
     spec = lookup(task.affordance)
     shape = _shape(spec, list(task.obb_dims))
+    object_cond = _envelope_source(spec)
+    envelope = _envelope_doc(spec)
     if spec.kind == "container":
-        body = _CONTAINER_BODY.format(min_frac=0.5, max_tilt=math.radians(15))
+        body = _CONTAINER_BODY.format(min_frac=0.5, max_tilt=math.radians(15), name=spec.name, envelope=envelope,
+                                      object_cond=object_cond)
         return ScoringCode(description="Success when more than half the droplets rest inside the object's box "
-                                           "below the rim and off the ground, and the object is upright.",
-                               source=_HEADER + body)
+                                       f"below the rim and off the ground, the object is upright and its pose has "
+                                       f"the size of a {spec.name} ({envelope}).",
+                           source=_HEADER + body)
     # bottom-height window of the agent, as task-frame z expressions (hz broadcast over agents)
+    rest = f"at {spec.rest[0]:g}-{spec.rest[1]:g} m above the ground"
     windows = {
-        "seat": ("-h[:, :, 2] + 0.3", "-h[:, :, 2] + 0.65", 15, 15, "upright at seat height 0.3-0.65 m"),
-        "lie": ("-h[:, :, 2] + 0.15", "-h[:, :, 2] + 0.9", 15, 15, "level at bed height 0.15-0.9 m"),
-        "surface": ("np.maximum(-h[:, :, 2] + 0.4, 0.0)", "-h[:, :, 2] + 1.1", 10, 10,
-                    "level on top at table height 0.4-1.1 m"),
+        "seat": (f"-h[:, :, 2] + {spec.rest[0]:g}", f"-h[:, :, 2] + {spec.rest[1]:g}", 15, 15, f"upright {rest}"),
+        "lie": (f"-h[:, :, 2] + {spec.rest[0]:g}", f"-h[:, :, 2] + {spec.rest[1]:g}", 15, 15, f"level {rest}"),
+        "surface": (f"np.maximum(-h[:, :, 2] + {spec.rest[0]:g}, 0.0)", f"-h[:, :, 2] + {spec.rest[1]:g}", 10, 10,
+                    f"level on top {rest}"),
         "dish": ("-h[:, :, 2] - 0.005", "h[:, :, 2] + 0.01", 15, 15, "level on the dish"),
         "storage": ("-h[:, :, 2]", "h[:, :, 2] - " + f"{2 * shape.half_z:.4f}", 20, 10, "inside, on a board"),
     }
     lo, hi, agent_deg, object_deg, what = windows[spec.kind]
-    object_cond = f" & (2.0 * object_half_extents[:, 2] <= {spec.max_height:g})" if spec.max_height is not None else ""
-    extra_doc = f" or is taller than {spec.max_height:g} m" if spec.max_height is not None else ""
-    body = _REST_BODY.format(what=what, extra_doc=extra_doc, half_z=shape.half_z, lo=lo, hi=hi,
+    body = _REST_BODY.format(what=what, name=spec.name, envelope=envelope, half_z=shape.half_z, lo=lo, hi=hi,
                              cos_agent=math.cos(math.radians(agent_deg)), max_tilt=math.radians(object_deg),
                              object_cond=object_cond)
     return ScoringCode(description=f"Success when the {shape.label} rests {what}, touching the object and not "
-                                       "the ground, and the object does not tip.",
-                           source=_HEADER + body)
+                                   f"the ground, the object does not tip and its pose has the size of a "
+                                   f"{spec.name} ({envelope}).",
+                       source=_HEADER + body)
 
 
-def _candidate_ok(kind: str | None, c: CandidateInteraction, h: list[float]) -> tuple[bool, str]:
+def _candidate_ok(spec: AffordanceSpec | None, c: CandidateInteraction, h: list[float]) -> tuple[bool, str]:
     """Common-sense rules of the offline Functional Pose Analyzer for one candidate."""
+    kind = spec.kind if spec is not None else None
+    if spec is not None:
+        fits, why = _envelope_ok(spec, h)
+        if not fits:
+            return False, why
     s = c.summary
     hx, hy, hz = h
     start = c.via_poses[0]
@@ -486,12 +598,13 @@ def _candidate_ok(kind: str | None, c: CandidateInteraction, h: list[float]) -> 
                            f"({s.frac_on_ground:.0%} on the ground)")
         return True, f"{s.frac_inside_bbox:.0%} of droplets from above rest inside below the rim"
     if kind in ("seat", "lie", "surface", "dish"):
-        limits = {"seat": (15, 0.3, 0.8), "lie": (15, 0.15, 1.0), "surface": (10, 0.4, 1.15), "dish": (15, 0.0, 10.0)}
-        max_tilt, lo, hi = limits[kind]
+        max_tilt = 10 if kind == "surface" else 15
+        rest = (-INF, INF) if spec is None or kind == "dish" else spec.rest
+        lo, hi = rest[0] + _AGENT_HALF_Z.get(kind, 0.0), rest[1] + _AGENT_HALF_Z.get(kind, 0.0)
         if s.agent_tilt_deg >= max_tilt:
             return False, f"the agent is tilted {s.agent_tilt_deg:.0f} deg"
         if not lo <= ground_height <= hi:
-            return False, f"the agent rests {ground_height:.2f} m above the ground; plausible: {lo}-{hi} m"
+            return False, f"the agent's centre rests {ground_height:.2f} m above the ground; plausible: {lo:g}-{hi:g} m"
         if s.frac_touching_object < 1.0 or s.frac_on_ground > 0.0:
             return False, "the agent does not rest on the object alone"
         if kind in ("surface", "dish") and s.mean_height < 0.0:
@@ -508,6 +621,23 @@ def _candidate_ok(kind: str | None, c: CandidateInteraction, h: list[float]) -> 
     return True, "the object stayed upright and the agents did not end on the ground"
 
 
+#: Surface kinds: how many of the five lowering plans must succeed — a top at least half a metre across holds
+#: the box placed off centre too, a small pedestal foot or a stretcher only at one place.
+_SURFACE_MIN_PLANS = 4
+
+
+def _pose_rules(spec: AffordanceSpec | None, accepted: list[CandidateInteraction]) -> tuple[list[CandidateInteraction], str]:
+    """Rules over a pose's accepted candidates together: (candidates still accepted, why the pose is rejected)."""
+    if spec is None or not accepted:
+        return accepted, ""
+    if spec.kind == "surface" and len(accepted) < _SURFACE_MIN_PLANS:
+        return [], (f"only {len(accepted)} of the placements hold the box; a {spec.name} top holds it at the centre "
+                    f"and off centre ({_SURFACE_MIN_PLANS} needed)")
+    if spec.kind == "dish" and all(c.plan != "above" for c in accepted):
+        return [], f"the food placed at the centre does not stay; a {spec.name} has a solid centre"
+    return accepted, ""
+
+
 def offline_functional_poses(request: FunctionalPoseRequest) -> FunctionalPoseVerdict:
     """Stage 7 by rules: accept a pose when one of its candidates passes its kind's rules; best = top score.
 
@@ -515,21 +645,24 @@ def offline_functional_poses(request: FunctionalPoseRequest) -> FunctionalPoseVe
     agents not mostly on the ground).
     """
     try:
-        kind: str | None = lookup(request.affordance).kind
+        spec: AffordanceSpec | None = lookup(request.affordance)
     except UnknownAffordanceError:
-        kind = None
+        spec = None
     verdicts: list[PoseVerdict] = []
     best: tuple[float, float, int, str] | None = None
     for pose in request.poses:
         accepted: list[CandidateInteraction] = []
         reasons: list[str] = []
         for c in pose.candidates:
-            ok, why = _candidate_ok(kind, c, list(pose.half_extents))
+            ok, why = _candidate_ok(spec, c, list(pose.half_extents))
             reasons.append(f"{c.plan}: {why}")
             if ok:
                 accepted.append(c)
         if not pose.candidates:
             reasons.append("no plan succeeded")
+        accepted, why_not = _pose_rules(spec, accepted)
+        if why_not:
+            reasons.append(why_not)
         top = max(accepted, key=lambda c: c.score) if accepted else None
         verdicts.append(PoseVerdict(pose_index=pose.pose_index, accept=top is not None, reason="; ".join(reasons),
                                     plan=top.plan if top else None))
