@@ -256,7 +256,7 @@ _OUTLINES: dict[str, tuple[str, str, str]] = {
         "and the {name} stays upright.",
     ),
     "seat": (
-        "One box standing for a sitting person's pelvis, about 0.35 x 0.35 x 0.1 m.",
+        "One box standing for a sitting person's pelvis, about 0.28 x 0.28 x 0.1 m.",
         "The pelvis is lowered onto the object from above, or arrives from the front, back, left or right "
         "above seat height and is then lowered; it is released at the first contact.",
         "The pelvis rests upright on the {name} at seat height (0.3–0.65 m above the ground), not touching "
@@ -315,7 +315,8 @@ def _shape(spec: AffordanceSpec, dims: list[float]) -> _AgentShape:
         mass = 800.0 * math.pi * a * a * 2 * c
         return _AgentShape(f'type="cylinder" size="{a:.4f} {c:.4f}"', math.hypot(a, c), c, mass, "food")
     if spec.kind == "seat":
-        half = (min(0.18, max(0.1, 0.35 * d1)),) * 2 + (0.05,)
+        # at most 0.28 m across: fits the narrowest seat (0.3 m) and passes between armrests
+        half = (min(0.14, max(0.1, 0.35 * d1)),) * 2 + (0.05,)
         label = "pelvis"
     elif spec.kind == "lie":
         k = min(1.2, max(0.7, d0 / 2.0))
