@@ -256,7 +256,7 @@ _OUTLINES: dict[str, tuple[str, str, str]] = {
         "and the {name} stays upright.",
     ),
     "seat": (
-        "One box standing for a sitting person's pelvis, about 0.28 x 0.28 x 0.1 m.",
+        "One box standing for a sitting person's pelvis's contact patch, 0.2 x 0.2 x 0.1 m.",
         "The pelvis is lowered onto the object from above, or arrives from the front, back, left or right "
         "above seat height and is then lowered; it is released at the first contact.",
         "The pelvis rests upright on the {name} at seat height (0.3–0.65 m above the ground), not touching "
@@ -315,8 +315,9 @@ def _shape(spec: AffordanceSpec, dims: list[float]) -> _AgentShape:
         mass = 800.0 * math.pi * a * a * 2 * c
         return _AgentShape(f'type="cylinder" size="{a:.4f} {c:.4f}"', math.hypot(a, c), c, mass, "food")
     if spec.kind == "seat":
-        # at most 0.28 m across: fits the narrowest seat (0.3 m) and passes between armrests
-        half = (min(0.14, max(0.1, 0.35 * d1)),) * 2 + (0.05,)
+        # the contact patch of a sitting pelvis, 0.2 m across: fits the narrowest seat (0.3 m) and the gap between
+        # armrests as the object's convex hulls render it (a 0.28 m box lands on the armrests of a dataset chair)
+        half = (0.1, 0.1, 0.05)
         label = "pelvis"
     elif spec.kind == "lie":
         k = min(1.2, max(0.7, d0 / 2.0))
@@ -640,7 +641,8 @@ def _pose_rules(spec: AffordanceSpec | None, accepted: list[CandidateInteraction
 
 
 def offline_functional_poses(request: FunctionalPoseRequest) -> FunctionalPoseVerdict:
-    """Stage 7 by rules: accept a pose when one of its candidates passes its kind's rules; best = top score.
+    """Stage 7 by rules: accept a pose when one of its candidates passes its kind's rules; best = the pose
+    accepted with the most plans, then the top score, then the most probable.
 
     Affordances outside the catalogue get the generic rules (object not tipped,
     agents not mostly on the ground).
@@ -650,7 +652,8 @@ def offline_functional_poses(request: FunctionalPoseRequest) -> FunctionalPoseVe
     except UnknownAffordanceError:
         spec = None
     verdicts: list[PoseVerdict] = []
-    best: tuple[float, float, int, str] | None = None
+    # best = (accepted plans, top score, probability, pose, plan): the pose that works from the most approaches
+    best: tuple[int, float, float, int, str] | None = None
     for pose in request.poses:
         accepted: list[CandidateInteraction] = []
         reasons: list[str] = []
@@ -667,11 +670,11 @@ def offline_functional_poses(request: FunctionalPoseRequest) -> FunctionalPoseVe
         top = max(accepted, key=lambda c: c.score) if accepted else None
         verdicts.append(PoseVerdict(pose_index=pose.pose_index, accept=top is not None, reason="; ".join(reasons),
                                     plan=top.plan if top else None))
-        if top is not None and (best is None or (top.score, pose.probability) > best[:2]):
-            best = (top.score, pose.probability, pose.pose_index, top.plan)
+        if top is not None and (best is None or (len(accepted), top.score, pose.probability) > best[:3]):
+            best = (len(accepted), top.score, pose.probability, pose.pose_index, top.plan)
     if best is None:
         return FunctionalPoseVerdict(poses=verdicts, best_pose=None, best_plan=None,
                                      reason="no candidate interaction is consistent with common sense")
-    return FunctionalPoseVerdict(poses=verdicts, best_pose=best[2], best_plan=best[3],
-                                 reason=f"pose {best[2]} with plan {best[3]!r} has the best accepted score "
-                                        f"({best[0]:.3f})")
+    return FunctionalPoseVerdict(poses=verdicts, best_pose=best[3], best_plan=best[4],
+                                 reason=f"pose {best[3]} works with the most plans ({best[0]}); plan {best[4]!r} "
+                                        f"has its best accepted score ({best[1]:.3f})")
