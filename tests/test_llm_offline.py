@@ -24,7 +24,12 @@ from rail_mj.llm import (
     result_summary,
     trajectory_array,
 )
-from rail_mj.llm.checks import InvalidAnswerError, check_layout, check_trajectories, layout_offsets
+from rail_mj.llm.checks import (
+    InvalidAnswerError,
+    check_layout,
+    check_trajectories,
+    layout_offsets,
+)
 from rail_mj.llm.offline import CATALOGUE, LIQUID_RADIUS, PAPER_AFFORDANCES
 from rail_mj.scoring import compile_scoring
 from rail_mj.types import Outcomes
@@ -206,6 +211,34 @@ def test_functional_pose_rules_for_a_chair_and_no_valid_pose():
     none = analyze_functional_poses(FunctionalPoseRequest(affordance="chair", expected_outcome="seated", poses=[
         PoseCandidates(pose_index=0, probability=1.0, half_extents=h, candidates=[too_high])]))
     assert none.best_pose is None and none.best_plan is None
+
+
+def test_pose_size_envelope_in_scoring_and_analyzer():
+    inside = np.random.default_rng(1).uniform(-0.03, 0.03, (27, 3))
+    cup_pose, bowl_pose = [0.04, 0.04, 0.05], [0.1, 0.1, 0.04]  # 8 x 10 cm cup; 20 cm wide, 8 cm tall bowl
+    assert _score("cup", [0.1, 0.08, 0.08], _outcomes(inside, cup_pose)) > 0
+    assert _score("cup", [0.2, 0.2, 0.08], _outcomes(inside, bowl_pose)) < 0  # too wide and shallow for a cup
+    assert _score("bowl", [0.2, 0.2, 0.08], _outcomes(inside, bowl_pose)) > 0
+    assert _score("bowl", [0.1, 0.08, 0.08], _outcomes(inside, cup_pose)) < 0  # too narrow and deep for a bowl
+    filled = _candidate("above", [0.0, 0.0, 0.1])
+    verdict = analyze_functional_poses(FunctionalPoseRequest(affordance="bowl", expected_outcome="filled", poses=[
+        PoseCandidates(pose_index=0, probability=1.0, half_extents=cup_pose, candidates=[filled])]))
+    assert verdict.best_pose is None and "width" in verdict.poses[0].reason
+
+
+def test_table_needs_a_wide_top_and_plate_a_solid_centre():
+    h = [0.5, 0.5, 0.375]  # 1 m across, 0.75 m high: the box centre rests 0.765 m up
+    placed = {p: _candidate(p, [0.0, 0.0, 1.0], frac_touching_object=1.0, mean_height=1.04)
+              for p in ("above", "above_front", "above_back", "above_left", "above_right")}
+    top = PoseCandidates(pose_index=0, probability=0.2, half_extents=h, candidates=list(placed.values()))
+    foot = PoseCandidates(pose_index=1, probability=0.8, half_extents=h, candidates=[placed["above"]])
+    verdict = analyze_functional_poses(FunctionalPoseRequest(affordance="table", expected_outcome="held",
+                                                             poses=[foot, top]))
+    assert [v.accept for v in verdict.poses] == [False, True] and verdict.best_pose == 0
+    ring = [_candidate(p, [0.0, 0.0, 0.1], frac_touching_object=1.0, mean_height=0.5) for p in ("above_front", "above_left")]
+    dish = analyze_functional_poses(FunctionalPoseRequest(affordance="plate", expected_outcome="held", poses=[
+        PoseCandidates(pose_index=0, probability=1.0, half_extents=[0.1, 0.1, 0.01], candidates=ring)]))
+    assert dish.best_pose is None and "centre" in dish.poses[0].reason
 
 
 def test_result_summary_of_outcomes():

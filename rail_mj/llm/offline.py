@@ -46,6 +46,7 @@ from rail_mj.llm.schemas import (
 __all__ = [
     "AffordanceSpec",
     "CATALOGUE",
+    "LIQUID_RADIUS",
     "PAPER_AFFORDANCES",
     "known_affordances",
     "normalize_affordance",
