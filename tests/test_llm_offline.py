@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -158,6 +159,13 @@ def test_container_scoring_fills_spills_and_tips():
     spilled = inside + [0.1, 0.0, 0.0]
     assert _score("cup", [0.1, 0.08, 0.08], _outcomes(spilled, h, on_ground=1)) < 0
     assert _score("cup", [0.1, 0.08, 0.08], _outcomes(inside, h, tilt=math.radians(60))) < 0
+    leaked = inside.copy()
+    leaked[0] = [0.0, 0.0, -0.045]  # one droplet came through the bottom
+    on_ground = np.zeros((1, 27), dtype=np.int64)
+    on_ground[0, 0] = 1
+    out = _outcomes(leaked, h)
+    out = dataclasses.replace(out, contacts_ground=on_ground)
+    assert _score("cup", [0.1, 0.08, 0.08], out) < 0
 
 
 def test_seat_scoring_height_and_uprightness():

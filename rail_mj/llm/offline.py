@@ -107,9 +107,8 @@ CATALOGUE: dict[str, AffordanceSpec] = {
                        length=(0.125, 0.4), aspect=(0.0, 0.55)),
         AffordanceSpec("vase", "container", "A vase holds water and flower stems in a deep cavity with an "
                        "opening at the top, often narrower than its body (15-80 cm tall, clearly taller than "
-                       "wide).", (0.15, 0.85), (0.03, 0.4), droplet_scale=0.035, max_droplet_radius=LIQUID_RADIUS,
-                       height=(0.15, 0.8),
-                       width=(0.03, 0.4), aspect=(1.2, INF)),
+                       "wide, its body rarely over 23 cm across).", (0.15, 0.85), (0.03, 0.23), droplet_scale=0.035,
+                       max_droplet_radius=LIQUID_RADIUS, height=(0.15, 0.8), width=(0.03, 0.23), aspect=(1.2, INF)),
         AffordanceSpec("pot", "container", "A pot holds food or soil in an open cavity, filled from above "
                        "(rim 15-45 cm, 10-30 cm tall).", (0.15, 0.5), (0.1, 0.45), max_droplet_radius=LIQUID_RADIUS,
                        height=(0.1, 0.3),
@@ -515,14 +514,18 @@ def _envelope_ok(spec: AffordanceSpec, half: list[float]) -> tuple[bool, str]:
     return True, ""
 
 
-_CONTAINER_BODY = '''    """Fraction of droplets inside the box below the rim and off the ground, minus {min_frac}; -1 if tipped
-    or the pose is outside the {name} size envelope ({envelope})."""
+_CONTAINER_BODY = '''    """Fraction of droplets inside the box below the rim and off the ground, minus {min_frac}; -1 if tipped,
+    if a droplet leaked through to the ground under the object, or if the pose is outside the {name} size
+    envelope ({envelope})."""
     e = object_half_extents
     h = e[:, None, :]
     inside = (np.abs(agent_pos[:, :, 0]) < h[:, :, 0]) & (np.abs(agent_pos[:, :, 1]) < h[:, :, 1])
     inside = inside & (agent_pos[:, :, 2] < h[:, :, 2]) & (contacts_ground == 0)
     frac = np.mean(inside, axis=1)
-    ok = (object_tilt < {max_tilt:.4f}){object_cond}
+    # a droplet on the ground under the middle of the object came through it: the container leaks
+    under = (agent_pos[:, :, 0] / h[:, :, 0]) ** 2 + (agent_pos[:, :, 1] / h[:, :, 1]) ** 2 < 0.25
+    leaked = np.any(under & (contacts_ground > 0), axis=1)
+    ok = (object_tilt < {max_tilt:.4f}) & ~leaked{object_cond}
     return np.where(ok, frac - {min_frac}, -1.0)
 '''
 
@@ -557,7 +560,8 @@ def offline_scoring(task: TaskDescription) -> ScoringCode:
         body = _CONTAINER_BODY.format(min_frac=0.5, max_tilt=math.radians(15), name=spec.name, envelope=envelope,
                                       object_cond=object_cond)
         return ScoringCode(description="Success when more than half the droplets rest inside the object's box "
-                                       f"below the rim and off the ground, the object is upright and its pose has "
+                                       "below the rim and off the ground, none leaks through to the ground under "
+                                       f"the object, the object is upright and its pose has "
                                        f"the size of a {spec.name} ({envelope}).",
                            source=_HEADER + body)
     # bottom-height window of the agent, as task-frame z expressions (hz broadcast over agents)
