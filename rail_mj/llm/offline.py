@@ -523,7 +523,8 @@ _CONTAINER_BODY = '''    """Fraction of droplets inside the box below the rim an
     inside = inside & (agent_pos[:, :, 2] < h[:, :, 2]) & (contacts_ground == 0)
     frac = np.mean(inside, axis=1)
     # a droplet on the ground under the middle of the object came through it: the container leaks
-    under = (agent_pos[:, :, 0] / h[:, :, 0]) ** 2 + (agent_pos[:, :, 1] / h[:, :, 1]) ** 2 < 0.25
+    rel = agent_pos - object_pos[:, None, :]  # the object may have slid under the droplets' impacts
+    under = (rel[:, :, 0] / h[:, :, 0]) ** 2 + (rel[:, :, 1] / h[:, :, 1]) ** 2 < 0.25
     leaked = np.any(under & (contacts_ground > 0), axis=1)
     ok = (object_tilt < {max_tilt:.4f}) & ~leaked{object_cond}
     return np.where(ok, frac - {min_frac}, -1.0)
