@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from rail_mj.errors import ImaginationError
+from rail_mj.errors import FragmentError, ImaginationError
 from rail_mj.imagination import ImaginationConfig, imagine, mjx_compile_count
 from rail_mj.stable_poses import pose_from_up
 from rail_mj.types import AgentSetup, RailObject
@@ -136,7 +136,8 @@ def test_bad_inputs_raise_imagination_errors(cup, cup_poses):
         imagine(cup, cup_poses, drops, [np.zeros((1, 7))], backend="bullet")
     with pytest.raises(ImaginationError, match=r"\(K, 7\)"):
         imagine(cup, cup_poses, drops, [np.zeros((2, 3))], backend="native")
-    with pytest.raises(ImaginationError, match="exactly one body"):
+    # the scene module's fragment check names the problem and shows a valid fragment
+    with pytest.raises(FragmentError, match="expected exactly one"):
         imagine(cup, cup_poses, AgentSetup(fragment="<mujoco><worldbody/></mujoco>", offsets=np.zeros((1, 3))),
                 [np.array([[0, 0, 0.1, 1, 0, 0, 0]])], backend="native")
 

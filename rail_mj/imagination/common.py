@@ -12,10 +12,10 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
-import trimesh
 from pydantic import BaseModel, ConfigDict, Field
 
-from rail_mj.errors import ImaginationError
+from rail_mj.errors import ImaginationError, SceneError
+from rail_mj.mjcf import GROUND_BIT, OBJECT_BIT, build_scene
 from rail_mj.types import AgentSetup, Outcomes, RailObject, StablePose
 
 __all__ = [
@@ -33,9 +33,6 @@ __all__ = [
     "quat_rotate",
 ]
 
-#: contype/conaffinity bits: object and ground collide with everything, agents with each other only on request.
-_STATIC_BIT = 1
-_AGENT_BIT = 2
 #: geom class codes in Scene.geom_owner (agents are 0..N-1)
 GROUND = -1
 OBJECT = -2
@@ -210,37 +207,6 @@ def drive_table(trajectories: Sequence[np.ndarray], cfg: ImaginationConfig, pad_
     return DriveTable(pos=pos, quat=quat, linvel=linvel, angvel=angvel, n_drive=n_drive)
 
 
-def _hull_mesh_name(i: int) -> str:
-    return f"object_hull{i}"
-
-
-def _add_object(spec: mujoco.MjSpec, obj: RailObject, cfg: ImaginationConfig, hull_boxes: int) -> None:
-    body = spec.worldbody.add_body(name="object")
-    body.add_freejoint(name="object")
-    solref = [cfg.solref_factor * cfg.timestep, 1.0]
-    common = dict(contype=_STATIC_BIT, conaffinity=_STATIC_BIT | _AGENT_BIT, solref=solref, friction=[cfg.friction, 0.005, 0.0001])
-    if hull_boxes == 0:
-        for i, hull in enumerate(obj.hulls):
-            mesh = spec.add_mesh(name=_hull_mesh_name(i))
-            mesh.uservert = np.asarray(hull, dtype=np.float64).ravel()
-            mesh.maxhullvert = cfg.max_hull_vertices  # collision cost grows with hull vertices
-            body.add_geom(name=f"object/hull{i}", type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh.name, density=obj.density, **common)
-        return
-    # MJX-JAX box geoms: one oriented box per hull, padded with tiny massless boxes hidden inside the first hull
-    if len(obj.hulls) > hull_boxes:
-        raise ImaginationError(f"object {obj.name!r} has {len(obj.hulls)} hulls, more than the bucket of {hull_boxes}")
-    for i, hull in enumerate(obj.hulls):
-        to_origin, extents = trimesh.bounds.oriented_bounds(np.asarray(hull))
-        frame = np.linalg.inv(to_origin)
-        quat = np.zeros(4)
-        mujoco.mju_mat2Quat(quat, np.ascontiguousarray(frame[:3, :3]).ravel())
-        body.add_geom(name=f"object/hull{i}", type=mujoco.mjtGeom.mjGEOM_BOX, size=np.maximum(extents / 2, 1e-4),
-                      pos=frame[:3, 3], quat=quat, density=0.0, **common)
-    inner = np.asarray(obj.hulls[0]).mean(axis=0)
-    for i in range(len(obj.hulls), hull_boxes):
-        body.add_geom(name=f"object/pad{i}", type=mujoco.mjtGeom.mjGEOM_BOX, size=[1e-5] * 3, pos=inner, density=0.0, **common)
-
-
 def build_scene_model(
     obj: RailObject,
     agents: AgentSetup | None,
@@ -255,15 +221,19 @@ def build_scene_model(
 
     ``inertial`` = (mass, ipos, inertia diag, iquat) overrides the object's inertia so box and mesh scenes weigh the same.
     """
-    spec = mujoco.MjSpec()
-    spec.option.timestep = cfg.timestep
+    try:
+        spec = build_scene(obj, object_free=True, agents=agents, timestep=cfg.timestep, hull_boxes=hull_boxes,
+                           max_hull_vertices=cfg.max_hull_vertices)
+    except SceneError as exc:
+        raise ImaginationError(f"the imagination scene for {obj.name!r} cannot be built: {exc}") from exc
+    spec.modelname = "rail_imagination"  # MJX keeps names static: one name per bucket, not per object
     spec.option.iterations = cfg.iterations
     spec.option.ls_iterations = cfg.ls_iterations
-    solref = [cfg.solref_factor * cfg.timestep, 1.0]
-    spec.worldbody.add_geom(name="ground", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 1],
-                            contype=_STATIC_BIT, conaffinity=_STATIC_BIT | _AGENT_BIT, solref=solref,
-                            friction=[cfg.friction, 0.005, 0.0001])
-    _add_object(spec, obj, cfg, hull_boxes)
+    for g in spec.geoms:
+        if g.contype or g.conaffinity:
+            g.solref = [cfg.solref_factor * cfg.timestep, 1.0]
+            if g.contype & (GROUND_BIT | OBJECT_BIT):  # agents keep their fragment's friction
+                g.friction = [cfg.friction, 0.005, 0.0001]
     obj_body = spec.body("object")
     if inertial is not None:
         mass, ipos, inertia, iquat = inertial
@@ -274,9 +244,7 @@ def build_scene_model(
         for g in obj_body.geoms:
             g.condim = 6
             g.friction = [cfg.friction, rolling_friction, rolling_friction]
-    n_agents = 0
-    if agents is not None:
-        n_agents = _add_agents(spec, agents, solref, cfg)
+    n_agents = 0 if agents is None else len(agents.offsets)
     try:
         model = spec.compile()
     except ValueError as exc:
@@ -292,32 +260,6 @@ def build_scene_model(
     jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, "object")
     return Scene(model=model, n_agents=n_agents, object_qpos=int(model.jnt_qposadr[jid]), object_dof=int(model.jnt_dofadr[jid]),
                  agent_qpos=agent_qpos, agent_dof=agent_dof, geom_owner=owner)
-
-
-def _add_agents(spec: mujoco.MjSpec, agents: AgentSetup, solref: list[float], cfg: ImaginationConfig) -> int:
-    offsets = np.asarray(agents.offsets, dtype=np.float64)
-    if offsets.ndim != 2 or offsets.shape[1] != 3 or len(offsets) == 0:
-        raise ImaginationError(f"AgentSetup.offsets must be an (N, 3) array with N >= 1; got shape {offsets.shape}")
-    try:
-        fragment = mujoco.MjSpec.from_string(agents.fragment)
-    except ValueError as exc:
-        raise ImaginationError(f"the agent fragment does not parse as MJCF: {exc}") from exc
-    bodies = fragment.worldbody.bodies
-    if len(bodies) != 1:
-        raise ImaginationError(f"the agent fragment's <worldbody> must hold exactly one body; it holds {len(bodies)}")
-    spec.copy_during_attach = True  # one fragment, attached once per agent
-    affinity = _STATIC_BIT | (_AGENT_BIT if agents.collide_agents else 0)
-    for g in fragment.geoms:
-        if g.contype or g.conaffinity:  # visual-only geoms stay out of collisions
-            g.contype, g.conaffinity = _AGENT_BIT, affinity
-            g.solref = solref
-    for i in range(len(offsets)):
-        frame = spec.worldbody.add_frame()
-        body = frame.attach_body(bodies[0], f"agent{i}/", "")
-        body.pos = offsets[i]
-        body.quat = [1.0, 0.0, 0.0, 0.0]
-        body.add_freejoint(name=f"agent{i}/free")
-    return len(offsets)
 
 
 def initial_state(scene: Scene, poses: Sequence[StablePose], n_plans: int, table: DriveTable, offsets: np.ndarray) -> dict[str, np.ndarray]:

@@ -23,6 +23,7 @@ from collections.abc import Sequence
 
 import mujoco
 import numpy as np
+import trimesh
 from scipy.spatial import ConvexHull
 
 from rail_mj.errors import FragmentError, SceneError
@@ -186,7 +187,14 @@ def _contact(geom: mujoco.MjsGeom, solref: list[float], contype: int, conaffinit
 
 
 def _add_object(
-    spec: mujoco.MjSpec, obj: RailObject, pos: Sequence[float], quat: Sequence[float], free: bool, solref: list[float]
+    spec: mujoco.MjSpec,
+    obj: RailObject,
+    pos: Sequence[float],
+    quat: Sequence[float],
+    free: bool,
+    solref: list[float],
+    hull_boxes: int,
+    max_hull_vertices: int | None,
 ) -> None:
     body = spec.worldbody.add_body(
         name=OBJECT_BODY,
@@ -198,14 +206,32 @@ def _add_object(
     volumes = np.array([ConvexHull(h).volume for h in obj.hulls])
     shares = volumes / volumes.sum()
     for i, (hull, share) in enumerate(zip(obj.hulls, shares, strict=True)):
-        mesh = spec.add_mesh(name=hull_geom_name(i))
-        mesh.uservert = np.asarray(hull, dtype=np.float64).ravel().tolist()
-        # MuJoCo recentres mesh assets on their inertial frame and moves the geom frame to
-        # compensate, so a geom at the body origin shows the vertices exactly where they are.
-        geom = body.add_geom(name=hull_geom_name(i), type=mujoco.mjtGeom.mjGEOM_MESH, meshname=hull_geom_name(i))
+        if hull_boxes:
+            # MJX-JAX collides spheres with general hulls wrongly (design.md): one oriented box per hull
+            to_origin, extents = trimesh.bounds.oriented_bounds(np.asarray(hull))
+            frame = np.linalg.inv(to_origin)
+            box_quat = np.zeros(4)
+            mujoco.mju_mat2Quat(box_quat, np.ascontiguousarray(frame[:3, :3]).ravel())
+            geom = body.add_geom(name=hull_geom_name(i), type=mujoco.mjtGeom.mjGEOM_BOX,
+                                 size=np.maximum(extents / 2, 1e-4), pos=frame[:3, 3], quat=box_quat)
+        else:
+            mesh = spec.add_mesh(name=hull_geom_name(i))
+            mesh.uservert = np.asarray(hull, dtype=np.float64).ravel().tolist()
+            if max_hull_vertices is not None:
+                mesh.maxhullvert = max_hull_vertices
+            # MuJoCo recentres mesh assets on their inertial frame and moves the geom frame to
+            # compensate, so a geom at the body origin shows the vertices exactly where they are.
+            geom = body.add_geom(name=hull_geom_name(i), type=mujoco.mjtGeom.mjGEOM_MESH, meshname=hull_geom_name(i))
         geom.mass = float(obj.mass * share)  # hulls may overlap: split the object's mass by hull volume
         geom.rgba = [0.8, 0.6, 0.4, 1.0]
         geom.friction = list(FRICTION)
+        _contact(geom, solref, OBJECT_BIT, GROUND_BIT | AGENT_BIT)
+    # pad to the bucket's geom count with tiny massless boxes hidden inside the first hull, so a new
+    # object of the same bucket has the same shapes (MJX compiles once per bucket)
+    inner = np.asarray(obj.hulls[0]).mean(axis=0)
+    for i in range(len(obj.hulls), hull_boxes):
+        geom = body.add_geom(name=f"{OBJECT_BODY}/pad{i}", type=mujoco.mjtGeom.mjGEOM_BOX, size=[1e-5] * 3, pos=inner)
+        geom.mass = 0.0
         _contact(geom, solref, OBJECT_BIT, GROUND_BIT | AGENT_BIT)
 
 
@@ -249,6 +275,8 @@ def build_scene(
     agents_quat: Sequence[float] = (1.0, 0.0, 0.0, 0.0),
     timestep: float = 0.005,
     ground: bool = True,
+    hull_boxes: int = 0,
+    max_hull_vertices: int | None = None,
 ) -> mujoco.MjSpec:
     """Compose ground, object and agents into one spec (compiled once here to check it).
 
@@ -257,6 +285,9 @@ def build_scene(
     Agent ``i`` is the fragment's body, prefixed ``agent{i}/``, with a free joint
     ``agent{i}/free``, at ``agents_pos + R(agents_quat) @ offsets[i]`` with
     orientation ``agents_quat`` (the fragment body's own pos/quat are replaced).
+    ``hull_boxes`` > 0 replaces each hull by its oriented box and pads the object to
+    that many geoms (the MJX-JAX shape buckets). ``max_hull_vertices`` lets MuJoCo
+    simplify each hull mesh further (collision cost grows with hull vertices).
     """
     if not (np.isfinite(timestep) and timestep > 0):
         raise SceneError(f"timestep must be a positive number of seconds, got {timestep}")
@@ -273,6 +304,8 @@ def build_scene(
     agents_quat = np.asarray(agents_quat, dtype=np.float64) / np.linalg.norm(agents_quat)
     if not obj.hulls:
         raise SceneError(f"object {obj.name!r} has no hulls; build it with rail_mj.objects")
+    if hull_boxes and len(obj.hulls) > hull_boxes:
+        raise SceneError(f"object {obj.name!r} has {len(obj.hulls)} hulls, more than the bucket of {hull_boxes}")
     solref = [SOLREF_TIMECONST_FACTOR * timestep, 1.0]
     spec = mujoco.MjSpec()
     spec.modelname = f"rail_{obj.name}"
@@ -281,7 +314,7 @@ def build_scene(
         plane = spec.worldbody.add_geom(name=GROUND_GEOM, type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0.0, 0.0, 0.05])
         plane.friction = list(FRICTION)
         _contact(plane, solref, GROUND_BIT, 0)
-    _add_object(spec, obj, object_pos, object_quat, object_free, solref)
+    _add_object(spec, obj, object_pos, object_quat, object_free, solref, hull_boxes, max_hull_vertices)
     if agents is not None:
         _add_agents(spec, agents, agents_pos, agents_quat, solref)
     try:
