@@ -231,7 +231,10 @@ def run_eval(cfg: EvalConfig, out: Path, *, resume: bool = False, progress: bool
         missing = [a for a in affordances if a not in r.affordances]
         if missing:
             raise ConfigError(f"{r.mesh} has no label for {missing}; labelled: {sorted(r.affordances)}")
-    done = {ln["key"] for ln in _load_lines(results_path)}
+    finished = _load_lines(results_path)
+    if finished:  # rewrite without a torn last line, so appending starts on a fresh line
+        results_path.write_text("".join(json.dumps(ln) + "\n" for ln in finished))
+    done = {ln["key"] for ln in finished}
     pending = [(r, [a for a in affordances if f"{r.mesh}::{a}" not in done]) for r in records]
     pending = [(r, affs) for r, affs in pending if affs]
     total = sum(len(affs) for _, affs in pending)
