@@ -29,7 +29,7 @@ def render_png(model, data, path: Path, *, width: int = 640, height: int = 480, 
     cam = mujoco.MjvCamera()
     cam.lookat[:] = lookat if lookat is not None else model.stat.center
     cam.distance = distance if distance is not None else 2.5 * model.stat.extent
-    cam.azimuth, cam.elevation = 135.0, -30.0
+    cam.azimuth, cam.elevation = 135.0, -55.0  # steep enough to see into containers
     renderer.update_scene(data, camera=cam)
     pixels = renderer.render()
     renderer.close()
@@ -86,4 +86,4 @@ def render_result(
     model = spec.compile()
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
-    return render_png(model, data, path, lookat=np.array([0.0, 0.0, h[2]]), distance=4.0 * float(np.max(h)) + 0.2)
+    return render_png(model, data, path, lookat=np.array([0.0, 0.0, h[2]]), distance=3.5 * float(np.max(h)) + 0.1)

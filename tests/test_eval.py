@@ -97,3 +97,23 @@ def test_broken_mesh_becomes_an_error_line(tiny_dataset, tmp_path):
 def test_cli_bad_dataset_folder(tmp_path, capsys):
     assert rail_eval.main(["--dataset", str(tmp_path), "--out", str(tmp_path / "o"), "--no-progress"]) == 2
     assert "labels.jsonl" in capsys.readouterr().err
+
+
+def test_one_object_cli_json_and_render(tiny_dataset, tmp_path, capsys):
+    from rail_mj.__main__ import main as cli
+
+    cup = next(r for r in read_labels(tiny_dataset) if r.class_name == "cup")
+    png = tmp_path / "cup.png"
+    assert cli([str(tiny_dataset / cup.mesh), "-a", "cup", "--provider", "offline", "--json", "--render", str(png)]) == 0
+    result = json.loads(capsys.readouterr().out.strip().splitlines()[0])
+    assert result["functional"] and result["functional_pose"]["index"] >= 0
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 2000
+
+
+def test_one_object_cli_bad_mesh(tmp_path, capsys):
+    from rail_mj.__main__ import main as cli
+
+    bad = tmp_path / "empty.obj"
+    bad.write_text("")
+    assert cli([str(bad), "-a", "cup", "--provider", "offline"]) == 1
+    assert "MeshError" in capsys.readouterr().out
