@@ -459,28 +459,6 @@ def _side_offset(plan: str, amount: float) -> tuple[float, float]:
 _HEADER = ("def score(agent_pos, agent_quat, agent_vel, contacts_object, contacts_agents, contacts_ground, "
            "object_pos, object_tilt, object_half_extents):\n")
 
-_CONTAINER_BODY = '''    """Fraction of droplets inside the box below the rim and off the ground, minus {min_frac}; -1 if tipped."""
-    h = object_half_extents[:, None, :]
-    inside = (np.abs(agent_pos[:, :, 0]) < h[:, :, 0]) & (np.abs(agent_pos[:, :, 1]) < h[:, :, 1])
-    inside = inside & (agent_pos[:, :, 2] < h[:, :, 2]) & (contacts_ground == 0)
-    frac = np.mean(inside, axis=1)
-    return np.where(object_tilt < {max_tilt:.4f}, frac - {min_frac}, -1.0)
-'''
-
-_REST_BODY = '''    """Fraction of agents resting as intended ({what}), minus 0.5; -1 if the object tipped{extra_doc}."""
-    h = object_half_extents[:, None, :]
-    footprint = (np.abs(agent_pos[:, :, 0]) < h[:, :, 0]) & (np.abs(agent_pos[:, :, 1]) < h[:, :, 1])
-    bottom = agent_pos[:, :, 2] - {half_z:.4f}
-    height = (bottom > {lo}) & (bottom < {hi})
-    cos_tilt = 1.0 - 2.0 * (agent_quat[:, :, 1] ** 2 + agent_quat[:, :, 2] ** 2)
-    upright = cos_tilt > {cos_agent:.4f}
-    resting = footprint & height & upright & (contacts_object > 0) & (contacts_ground == 0)
-    frac = np.mean(resting, axis=1)
-    ok = (object_tilt < {max_tilt:.4f}){object_cond}
-    return np.where(ok, frac - 0.5, -1.0)
-'''
-
-
 #: Half height (m) of the resting agents of seat, lie and surface kinds (see :func:`_shape`).
 _AGENT_HALF_Z = {"seat": 0.05, "lie": 0.075, "surface": 0.015}
 
