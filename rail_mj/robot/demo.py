@@ -21,6 +21,7 @@ import numpy as np
 import trimesh
 
 from rail_mj.errors import ConfigError
+from rail_mj.objects import mesh_hash
 from rail_mj.robot.control import RobotConfig
 from rail_mj.robot.executor import ExecutionResult, ScoringFunction, execute
 from rail_mj.types import Outcomes, RailObject, StablePose
@@ -77,12 +78,13 @@ def _parts(kind: str, rng: np.random.Generator) -> list[np.ndarray]:
         return float(rng.uniform(lo, hi))
 
     if kind in ("cup", "vase", "pen_holder", "pot", "bowl"):
-        r, h = {"cup": (u(0.035, 0.045), u(0.08, 0.11)), "vase": (u(0.035, 0.045), u(0.14, 0.18)),
-                "pen_holder": (u(0.03, 0.035), u(0.10, 0.12)), "pot": (u(0.06, 0.075), u(0.09, 0.12)),
+        # real-world sizes (the imagination's dimension check knows them), within the Panda's reach
+        r, h = {"cup": (u(0.035, 0.045), u(0.08, 0.11)), "vase": (u(0.04, 0.05), u(0.2, 0.24)),
+                "pen_holder": (u(0.03, 0.035), u(0.10, 0.12)), "pot": (u(0.085, 0.1), u(0.12, 0.15)),
                 "bowl": (u(0.06, 0.08), u(0.045, 0.06))}[kind]
         return [_disk_hull(r + 0.005, 0, 0.006)] + _ring_walls(r, 0.005, 0, h)
     if kind in ("basket", "tray"):
-        hx, hy, h = (u(0.07, 0.09), u(0.06, 0.08), u(0.07, 0.09)) if kind == "basket" else \
+        hx, hy, h = (u(0.1, 0.12), u(0.08, 0.1), u(0.08, 0.12)) if kind == "basket" else \
             (u(0.09, 0.11), u(0.07, 0.09), u(0.02, 0.03))
         return [_box_hull([-hx, -hy, 0], [hx, hy, 0.006])] + _square_walls(hx, hy, 0.006, 0, h)
     if kind == "plate":
@@ -106,7 +108,8 @@ def make_object(kind: str, seed: int = 0, density: float = 600.0) -> RailObject:
     hulls = tuple(_parts(kind, np.random.default_rng(seed)))
     mesh = trimesh.util.concatenate([trimesh.convex.convex_hull(h) for h in hulls])
     volume = float(sum(trimesh.convex.convex_hull(h).volume for h in hulls))
-    return RailObject(name=f"{kind}_{seed}", mesh=mesh, hulls=hulls, mesh_hash=f"demo:{kind}:{seed}",
+    # content hash: stable poses are cached by it, so a resized demo object must not reuse old ones
+    return RailObject(name=f"{kind}_{seed}", mesh=mesh, hulls=hulls, mesh_hash=mesh_hash(mesh),
                       obb_dims=np.sort(mesh.extents)[::-1].copy(), com=np.asarray(mesh.center_mass, float),
                       mass=volume * density, density=density)
 
