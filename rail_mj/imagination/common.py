@@ -55,6 +55,9 @@ class ImaginationConfig(BaseModel):
     ls_iterations: int = Field(10, ge=1, description="solver line-search iterations")
     nthread: int = Field(0, ge=0, description="native threads; 0 = all CPUs")
     max_hull_vertices: int = Field(32, ge=4, description="MuJoCo simplifies each hull to at most this many vertices")
+    speculative: bool = Field(
+        True, description="speculative contacts (native): fast small droplets do not tunnel through thin bottoms"
+    )
 
 
 @dataclass(frozen=True)
@@ -229,6 +232,8 @@ def build_scene_model(
     spec.modelname = "rail_imagination"  # MJX keeps names static: one name per bucket, not per object
     spec.option.iterations = cfg.iterations
     spec.option.ls_iterations = cfg.ls_iterations
+    if cfg.speculative and not hull_boxes:  # MJX (box scenes) does not implement the flag
+        spec.option.enableflags |= mujoco.mjtEnableBit.mjENBL_SPECULATIVE
     for g in spec.geoms:
         if g.contype or g.conaffinity:
             g.solref = [cfg.solref_factor * cfg.timestep, 1.0]
