@@ -255,3 +255,20 @@ def test_result_summary_of_outcomes():
     s = result_summary(_outcomes(pos, h, on_ground=0), 0)
     assert s.frac_inside_bbox == 0.5 and s.frac_touching_object == 1.0
     assert s.mean_height == pytest.approx(-0.6) and s.object_tilt_deg == 0.0
+
+
+def test_plate_pose_with_the_rim_around_the_food_wins():
+    """An upturned plate's flat bottom also holds the disc; the upright plate keeps it inside its rim."""
+    h = [0.11, 0.11, 0.012]
+    plans = ["above", "above_front", "above_back", "above_left", "above_right"]
+
+    def pose(i, prob, mean_height):
+        cands = [_candidate(p, [0.0, 0.0, 0.05], score=0.5, frac_touching_object=1.0, mean_height=mean_height)
+                 for p in plans]
+        return PoseCandidates(pose_index=i, probability=prob, half_extents=h, candidates=cands)
+
+    upturned, upright = pose(0, 0.55, 1.6), pose(1, 0.45, -0.2)
+    verdict = analyze_functional_poses(FunctionalPoseRequest(affordance="plate", expected_outcome="food stays",
+                                                             poses=[upturned, upright]))
+    assert [v.accept for v in verdict.poses] == [True, True]
+    assert verdict.best_pose == 1

@@ -593,7 +593,8 @@ def _candidate_ok(spec: AffordanceSpec | None, c: CandidateInteraction, h: list[
             return False, f"the agent's centre rests {ground_height:.2f} m above the ground; plausible: {lo:g}-{hi:g} m"
         if s.frac_touching_object < 1.0 or s.frac_on_ground > 0.0:
             return False, "the agent does not rest on the object alone"
-        if kind in ("surface", "dish") and s.mean_height < 0.0:
+        # on a table the item belongs on top; on a plate, food resting low inside the rim is the point
+        if kind == "surface" and s.mean_height < 0.0:
             return False, "the agent rests in the lower half of the object, not on top"
         return True, f"the agent rests level on the object {ground_height:.2f} m above the ground"
     if kind == "storage":
@@ -636,8 +637,11 @@ def offline_functional_poses(request: FunctionalPoseRequest) -> FunctionalPoseVe
     except UnknownAffordanceError:
         spec = None
     verdicts: list[PoseVerdict] = []
-    # best = (accepted plans, top score, probability, pose, plan): the pose that works from the most approaches
-    best: tuple[int, float, float, int, str] | None = None
+    # best = (held by a rim, accepted plans, top score, probability, pose, plan): the pose that works from the
+    # most approaches; for dishes first the one whose rim rises around the food (an upturned plate's flat
+    # bottom also holds a disc, but nothing keeps it there)
+    best: tuple[int, int, float, float, int, str] | None = None
+    dish = spec is not None and spec.kind == "dish"
     for pose in request.poses:
         accepted: list[CandidateInteraction] = []
         reasons: list[str] = []
@@ -654,11 +658,13 @@ def offline_functional_poses(request: FunctionalPoseRequest) -> FunctionalPoseVe
         top = max(accepted, key=lambda c: c.score) if accepted else None
         verdicts.append(PoseVerdict(pose_index=pose.pose_index, accept=top is not None, reason="; ".join(reasons),
                                     plan=top.plan if top else None))
-        if top is not None and (best is None or (len(accepted), top.score, pose.probability) > best[:3]):
-            best = (len(accepted), top.score, pose.probability, pose.pose_index, top.plan)
+        held = sum(c.summary.mean_height < 1.0 for c in accepted) if dish else 0
+        key = (held, len(accepted), top.score if top else 0.0, pose.probability)
+        if top is not None and (best is None or key > best[:4]):
+            best = (*key, pose.pose_index, top.plan)
     if best is None:
         return FunctionalPoseVerdict(poses=verdicts, best_pose=None, best_plan=None,
                                      reason="no candidate interaction is consistent with common sense")
-    return FunctionalPoseVerdict(poses=verdicts, best_pose=best[3], best_plan=best[4],
-                                 reason=f"pose {best[3]} works with the most plans ({best[0]}); plan {best[4]!r} "
-                                        f"has its best accepted score ({best[1]:.3f})")
+    return FunctionalPoseVerdict(poses=verdicts, best_pose=best[4], best_plan=best[5],
+                                 reason=f"pose {best[4]} works with the most plans ({best[1]}); plan {best[5]!r} "
+                                        f"has its best accepted score ({best[2]:.3f})")
