@@ -11,6 +11,11 @@ Heavy modules (MuJoCo, JAX) load on first use of the names below.
 from __future__ import annotations
 
 import importlib
+import os
+
+# MuJoCo picks its GL backend when first imported; default to headless EGL (reports render offscreen)
+# unless the user chose one.
+os.environ.setdefault("MUJOCO_GL", "egl")
 
 from rail_mj.errors import RailError
 

@@ -1,11 +1,10 @@
 """Pictures of results: the object in a pose with the agents where the imagination left them.
 
-Headless: set ``MUJOCO_GL=egl`` (done here if unset) before MuJoCo creates a context.
+Headless: ``import rail_mj`` sets ``MUJOCO_GL=egl`` unless it is set (MuJoCo reads it at import).
 """
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
@@ -19,7 +18,6 @@ __all__ = ["render_result", "render_png"]
 
 def render_png(model, data, path: Path, *, width: int = 640, height: int = 480, lookat=None, distance=None) -> Path:
     """Render one frame of ``data`` with a free camera aimed at ``lookat`` and write a PNG."""
-    os.environ.setdefault("MUJOCO_GL", "egl")
     import mujoco
 
     try:
