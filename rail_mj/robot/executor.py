@@ -435,7 +435,7 @@ def _agent_scale(fragment: str, half_extents: np.ndarray, cfg: RobotConfig) -> f
 
 
 def _outcomes(sim: _Sim, obj_pos0: np.ndarray, obj_quat0: np.ndarray) -> Outcomes:
-    scene, data, model = sim.scene, sim.data, sim.model
+    scene, data = sim.scene, sim.data
     obj_pos = data.xpos[scene.object_body].copy()
     obj_quat = data.xquat[scene.object_body].copy()
     inv0 = np.empty(4)
