@@ -4,6 +4,11 @@ Each settled drop gives the mesh-frame direction that ends up pointing to world 
 ``tolerance_deg`` form one pose; its orientation is snapped to the nearest quasi-static pose from trimesh (an
 exact face/rim contact) when one lies within the tolerance, and its yaw is normalised (shortest rotation that
 takes the up direction to +z). Drops that never stop (round objects rolling) are counted, not clustered.
+
+Random drops miss poses with small basins: a chair or a legged table falls over before it can land on its
+feet, a bulbous vase rolls off its base. So every quasi-static pose no drop found is also placed at rest on
+the ground and simulated for a short while, and kept when it stays put. A pose's probability averages the two
+estimates of its basin: the fraction of drops that ended in it and trimesh's quasi-static probability.
 """
 
 from __future__ import annotations
@@ -26,9 +31,12 @@ __all__ = ["find_stable_poses", "pose_from_up", "STABLE_POSE_BACKENDS"]
 
 STABLE_POSE_BACKENDS = ("auto", "native")
 #: bump when the algorithm changes, so old cache entries are ignored
-_CACHE_VERSION = 1
+_CACHE_VERSION = 2
 #: two resting shapes match when their height signatures differ by less than this fraction of the object size
 _CONGRUENT = 0.02
+#: quasi-static poses are checked by setting the object down this much off the pose and simulating this long (s)
+_VERIFY_TILT_DEG = 3.0
+_VERIFY_TIME = 1.5
 
 
 def _uniform_quats(rng: np.random.Generator, n: int) -> np.ndarray:
@@ -115,20 +123,24 @@ def _merge_symmetric(obj: RailObject, reps: list[np.ndarray], tol: float) -> lis
     return list(groups.values())
 
 
-def _quasi_static_ups(obj: RailObject) -> np.ndarray:
-    """Mesh-frame ups of trimesh's quasi-static poses (exact contacts, symmetric copies listed separately)."""
-    transforms, _ = trimesh.poses.compute_stable_poses(obj.mesh, center_mass=obj.com)
-    return np.array([t[2, :3] for t in transforms]).reshape(-1, 3)
+def _quasi_static(obj: RailObject) -> tuple[np.ndarray, np.ndarray]:
+    """Mesh-frame ups (n, 3) and probabilities (n,) of trimesh's quasi-static poses (symmetric copies apart)."""
+    transforms, probs = trimesh.poses.compute_stable_poses(obj.mesh, center_mass=obj.com)
+    return np.array([t[2, :3] for t in transforms]).reshape(-1, 3), np.asarray(probs, dtype=np.float64).reshape(-1)
 
 
-def _drop(obj: RailObject, n_drops: int, seed: int, settle_time: float, drop_height: float) -> tuple[np.ndarray, np.ndarray]:
-    """Simulate every drop in one batch; return the final orientations (n, 4) and whether each settled (n,)."""
+def _drop(
+    obj: RailObject, quats: np.ndarray, settle_time: float, drop_height: float, min_time: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """Drop the object from each orientation ``quats`` (n, 4) in one batch; return the final orientations (n, 4)
+    and whether each settled (n,). Rest before ``min_time`` does not count: an object set down on an unstable
+    balance point starts at rest and needs a moment to fall."""
     cfg = ImaginationConfig(settle_speed=0.005)
     size = float(np.max(obj.extents))
     mass_scale = max(obj.mass, 1e-3)
+    n_drops = len(quats)
     # damping and rolling friction let round objects (a cup on its side) come to rest within the settle time
     scene = build_scene_model(obj, None, cfg, joint_damping=0.05 * mass_scale, rolling_friction=0.01 * size)
-    quats = _uniform_quats(np.random.default_rng(seed), n_drops)
     verts = np.concatenate([np.asarray(h) for h in obj.hulls])
     qpos0 = np.tile(scene.model.qpos0, (n_drops, 1))
     for i, q in enumerate(quats):
@@ -145,17 +157,42 @@ def _drop(obj: RailObject, n_drops: int, seed: int, settle_time: float, drop_hei
     settled = np.zeros(n_drops, dtype=bool)
     quiet = np.zeros(n_drops, dtype=bool)
     steps, limit = 0, int(np.ceil(settle_time / cfg.timestep))
+    first_check = int(np.ceil(min_time / cfg.timestep))
     while steps < limit:
         running = np.nonzero(~settled)[0]
         if len(running) == 0:
             break
         batch.step(ids=running, nstep=cfg.check_every)
         steps += cfg.check_every
-        rest = at_rest(qvel, scene, cfg)
+        rest = at_rest(qvel, scene, cfg) & (steps >= first_check)
         settled |= rest & quiet
         quiet = rest
     final = np.array(qpos[:, 3:7])
     return final / np.linalg.norm(final, axis=1, keepdims=True), settled
+
+
+def _verified(
+    obj: RailObject, ups: np.ndarray, probs: np.ndarray, tol: float, rng: np.random.Generator
+) -> list[tuple[np.ndarray, float]]:
+    """Quasi-static poses (mesh-frame ups, probabilities) that hold in physics: each cluster of ups within ``tol``
+    is set on the ground tilted by ``_VERIFY_TILT_DEG`` about a random horizontal axis, and kept when its up is
+    back within ``tol`` after ``_VERIFY_TIME`` (an unstable balance falls well past ``tol`` in that time). Returns (up, summed probability) per kept cluster."""
+    if len(ups) == 0:
+        return []
+    clusters = _cluster(ups, tol)
+    seeds = [ups[m[np.argmax(probs[m])]] for m in clusters]
+    quats = []
+    for up in seeds:
+        angle = rng.uniform(0, 2 * np.pi)
+        half = np.deg2rad(_VERIFY_TILT_DEG) / 2
+        tilt = np.array([np.cos(half), np.sin(half) * np.cos(angle), np.sin(half) * np.sin(angle), 0.0])
+        q = np.zeros(4)
+        mujoco.mju_mulQuat(q, tilt, _rotation_to_z(up))
+        quats.append(q)
+    # judged by where it ends, not by coming to rest: a legged table rocks on its hulls' corners for a while
+    final, _ = _drop(obj, np.array(quats), _VERIFY_TIME, 0.002, min_time=_VERIFY_TIME)
+    kept = np.einsum("ij,ij->i", _ups(final), np.array(seeds)) > np.cos(tol)
+    return [(seeds[i], float(probs[clusters[i]].sum())) for i in np.nonzero(kept)[0]]
 
 
 def _cache_path(obj: RailObject, params: dict) -> Path:
@@ -204,14 +241,14 @@ def find_stable_poses(
     path = _cache_path(obj, params)
     if use_cache and path.exists():
         return _from_json(path.read_text())
-    quats, settled = _drop(obj, n_drops, seed, settle_time, drop_height)
+    quats, settled = _drop(obj, _uniform_quats(np.random.default_rng(seed), n_drops), settle_time, drop_height)
     if not settled.any():
         raise StablePoseError(
             f"none of {n_drops} drops of {obj.name!r} came to rest within {settle_time} s; raise settle_time"
         )
     tol = np.deg2rad(tolerance_deg)
     ups = _ups(quats[settled])
-    exact = _quasi_static_ups(obj)
+    exact, exact_p = _quasi_static(obj)
     reps, counts = [], []
     for members in _cluster(ups, tol):
         mean = ups[members].mean(axis=0)
@@ -221,10 +258,21 @@ def find_stable_poses(
             up = nearest if nearest @ up > np.cos(tol) else up
         reps.append(up)
         counts.append(len(members))
+    quasi = [0.0] * len(reps)
+    missed = np.ones(len(exact), dtype=bool)
+    for k, up in enumerate(exact):
+        near = int(np.argmax(np.array(reps) @ up))
+        if reps[near] @ up > np.cos(tol):
+            quasi[near] += float(exact_p[k])
+            missed[k] = False
+    for up, p in _verified(obj, exact[missed], exact_p[missed], tol, np.random.default_rng(seed + 1)):
+        reps.append(up)
+        counts.append(0)
+        quasi.append(p)
     poses = []
     for group in _merge_symmetric(obj, reps, _CONGRUENT):
-        best = max(group, key=lambda i: counts[i])
-        probability = sum(counts[i] for i in group) / n_drops
+        best = max(group, key=lambda i: (counts[i], quasi[i]))
+        probability = 0.5 * sum(counts[i] / n_drops + quasi[i] for i in group)
         if probability >= min_probability:
             poses.append(pose_from_up(obj, reps[best], probability))
     poses.sort(key=lambda p: -p.probability)
