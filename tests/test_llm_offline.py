@@ -31,7 +31,7 @@ from rail_mj.llm.checks import (
     check_trajectories,
     layout_offsets,
 )
-from rail_mj.llm.offline import CATALOGUE, LIQUID_RADIUS, PAPER_AFFORDANCES
+from rail_mj.llm.offline import CATALOGUE, LIQUID_RADIUS, PAPER_AFFORDANCES, _envelope_ok, dims_fit
 from rail_mj.scoring import compile_scoring
 from rail_mj.types import Outcomes
 
@@ -107,6 +107,13 @@ def test_dimension_check_and_alternative(name, dims, alternative):
     assert not profile.analysis.fits
     assert profile.analysis.alternative == alternative
     assert profile.affordance == name  # still imagined as asked; the caller decides
+
+
+@pytest.mark.parametrize("name", ["bowl", "basket"])
+def test_a_small_bowl_fits_the_bowl_and_basket_sizes(name):
+    # a bowl with a 13 cm rim, 5 cm deep, upright: the smallest the dataset makes, and it is both
+    assert dims_fit(CATALOGUE[name], [0.13, 0.13, 0.05])
+    assert _envelope_ok(CATALOGUE[name], [0.065, 0.065, 0.025])[0]
 
 
 def test_provider_selection(monkeypatch):

@@ -121,8 +121,8 @@ CATALOGUE: dict[str, AffordanceSpec] = {
                        height=(0.3, 0.9), width=(0.18, 0.8)),
         AffordanceSpec("basket", "container", "A basket carries items in an open, often perforated cavity "
                        "whose holes are smaller than the items (opening over 12.5 cm, 4-35 cm deep, footprint "
-                       "at most 60 cm, not taller than wide).", (0.14, 0.65), (0.04, 0.6),
-                       min_droplet_radius=0.012, height=(0.04, 0.35), width=(0.14, 0.6), length=(0.14, 0.65),
+                       "at most 60 cm, not taller than wide).", (0.125, 0.65), (0.04, 0.6),
+                       min_droplet_radius=0.012, height=(0.04, 0.35), width=(0.125, 0.6), length=(0.125, 0.65),
                        aspect=(0.0, 1.0)),
         AffordanceSpec("bathtub", "container", "A bathtub holds enough water for a person to bathe in a long "
                        "open basin on the floor (over 1.2 m long inside, 0.35-0.8 m tall).", (1.25, 2.5),
