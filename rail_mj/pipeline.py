@@ -204,7 +204,7 @@ class Pipeline:
         n_plans = len(profile.plans.plans)
         pose_candidates = []
         for k, i in enumerate(kept):
-            cands = [
+            tried = [
                 CandidateInteraction(
                     plan=plan.name,
                     description=plan.description,
@@ -213,8 +213,8 @@ class Pipeline:
                     summary=llm.result_summary(outcomes, k * n_plans + j),
                 )
                 for j, plan in enumerate(profile.plans.plans)
-                if scores[k * n_plans + j] > 0
             ]
+            cands = [c for c in tried if c.score > 0]
             if cands:
                 pose_candidates.append(
                     PoseCandidates(
@@ -222,6 +222,7 @@ class Pipeline:
                         probability=float(poses[i].probability),
                         half_extents=[float(v) for v in poses[i].half_extents],
                         candidates=cands,
+                        failed=[c for c in tried if c.score <= 0],
                     )
                 )
         if not pose_candidates:

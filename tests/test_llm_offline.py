@@ -262,6 +262,23 @@ def test_result_summary_of_outcomes():
     s = result_summary(_outcomes(pos, h, on_ground=0), 0)
     assert s.frac_inside_bbox == 0.5 and s.frac_touching_object == 1.0
     assert s.mean_height == pytest.approx(-0.6) and s.object_tilt_deg == 0.0
+    assert s.frac_through_object == 0.0
+    # on the ground: the one beneath the middle came through the object, the one beside it did not
+    s = result_summary(_outcomes([[0.005, 0.0, -0.045], [0.2, 0.0, -0.045]], h, on_ground=1), 0)
+    assert s.frac_through_object == 0.5
+
+
+def test_a_container_that_leaks_under_any_plan_is_rejected():
+    """A bowl with a hole in its base: droplets poured off centre stay, those poured at the centre fall through."""
+    h = [0.08, 0.08, 0.028]
+    held = _candidate("above_right", [0.024, 0.0, 0.1], score=0.43)
+    leaked = _candidate("above", [0.0, 0.0, 0.1], score=-1.0, frac_through_object=0.04)
+    missed = _candidate("above", [0.0, 0.0, 0.1], score=-1.0, frac_on_ground=0.3)
+    verdicts = [analyze_functional_poses(FunctionalPoseRequest(affordance="basket", expected_outcome="held", poses=[
+        PoseCandidates(pose_index=0, probability=1.0, half_extents=h, candidates=[held], failed=[failed])]))
+        for failed in (leaked, missed)]
+    assert verdicts[0].best_pose is None and "beneath" in verdicts[0].poses[0].reason
+    assert verdicts[1].best_pose == 0  # droplets that missed the opening are no evidence of a leak
 
 
 def test_plate_pose_with_the_rim_around_the_food_wins():

@@ -405,7 +405,7 @@ def offline_plans(task: TaskDescription) -> MotionPlans:
 #: cavity's axis by a fraction of the half size, so the grid must move by about that much, not onto the rim.
 _CONTAINER_OFFSET = 0.3
 #: Horizontal offset (units of h) of the above_<side> plans of lowering kinds.
-_LOWER_OFFSET = {"lie": 0.3, "surface": 0.5, "dish": 0.4}
+_LOWER_OFFSET = {"lie": 0.3, "surface": 0.75, "dish": 0.4}
 #: Height (units of h_z) of the side storage plans; off-centre so a middle board does not stop them all.
 #: front_high / front_low run one agent size below the top / above the ground instead.
 _STORAGE_MID_Z = 0.15
@@ -613,10 +613,17 @@ def _candidate_ok(spec: AffordanceSpec | None, c: CandidateInteraction, h: list[
 _SURFACE_MIN_PLANS = 4
 
 
-def _pose_rules(spec: AffordanceSpec | None, accepted: list[CandidateInteraction]) -> tuple[list[CandidateInteraction], str]:
-    """Rules over a pose's accepted candidates together: (candidates still accepted, why the pose is rejected)."""
+def _pose_rules(
+    spec: AffordanceSpec | None, accepted: list[CandidateInteraction], tried: list[CandidateInteraction]
+) -> tuple[list[CandidateInteraction], str]:
+    """Rules over a pose's accepted candidates together, with every plan ``tried`` in it as evidence:
+    (candidates still accepted, why the pose is rejected)."""
     if spec is None or not accepted:
         return accepted, ""
+    through = [c.plan for c in tried if c.summary.frac_through_object > 0]
+    if spec.kind == "container" and through:
+        return [], (f"under plan {through[0]!r} agents came through the object to the ground beneath it; "
+                    f"a {spec.name} that leaks anywhere does not hold")
     if spec.kind == "surface" and len(accepted) < _SURFACE_MIN_PLANS:
         return [], (f"only {len(accepted)} of the placements hold the box; a {spec.name} top holds it at the centre "
                     f"and off centre ({_SURFACE_MIN_PLANS} needed)")
@@ -652,7 +659,7 @@ def offline_functional_poses(request: FunctionalPoseRequest) -> FunctionalPoseVe
                 accepted.append(c)
         if not pose.candidates:
             reasons.append("no plan succeeded")
-        accepted, why_not = _pose_rules(spec, accepted)
+        accepted, why_not = _pose_rules(spec, accepted, pose.candidates + pose.failed)
         if why_not:
             reasons.append(why_not)
         top = max(accepted, key=lambda c: c.score) if accepted else None

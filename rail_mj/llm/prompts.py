@@ -39,7 +39,7 @@ PROMPT_VERSION: dict[str, str] = {
     "motion_planner": "1",
     "trajectory": "1",
     "scoring": "1",
-    "functional_pose": "1",
+    "functional_pose": "2",
 }
 
 
@@ -102,10 +102,13 @@ no imports, no dunder names, no I/O, no loops over rollouts."""),
         StageSpec("functional_pose", FunctionalPoseVerdict, """You are the Functional Pose Analyzer. For each stable \
 pose you get its probability, its half extents and the candidate interactions that the scoring function called \
 successful, each with its plan, via-poses (task frame, m), score and a summary of the resultant configuration \
-(fractions of agents inside the bounding box / on the ground / touching the object, mean agent height in units of \
-h_z where +1 is the top and -1 the ground, object and agent tilts in degrees, agent speed). Decide per pose whether \
-the success is consistent with common sense for the affordance (reject successes that rely on the object tipping \
-over, agents arriving from an implausible direction, or resting at an implausible height), give a reason, the best \
+(fractions of agents inside the bounding box / on the ground / touching the object / on the ground beneath the \
+object's middle, mean agent height in units of h_z where +1 is the top and -1 the ground, object and agent tilts in \
+degrees, agent speed); `failed` lists the pose's other plans, which the scoring function called failures, as \
+evidence about the object. Decide per pose whether the success is consistent with common sense for the affordance \
+(reject successes that rely on the object tipping over, agents arriving from an implausible direction, or resting \
+at an implausible height, and a container through which any plan's agents reached the ground beneath it: it \
+leaks), give a reason, the best \
 accepted plan of the pose, and the best (pose, plan) overall (null when none is accepted). One verdict per pose, in \
 the same order."""),
     )

@@ -196,10 +196,14 @@ class ResultSummary(_Model):
     object_tilt_deg: float
     agent_tilt_deg: float = Field(description="mean angle between agent +z and task +z")
     agent_speed: float = Field(description="mean agent speed at the end, m/s")
+    frac_through_object: float = Field(
+        0.0, description="agents on the ground beneath the middle of the object (within half its footprint): "
+                         "they came through it"
+    )
 
 
 class CandidateInteraction(_Model):
-    """A plan whose score said success, with what happened."""
+    """A plan and what happened: a candidate when its score said success, evidence when it said failure."""
 
     plan: str
     description: str
@@ -215,6 +219,9 @@ class PoseCandidates(_Model):
     probability: float = Field(ge=0, le=1)
     half_extents: Vec3
     candidates: list[CandidateInteraction]
+    failed: list[CandidateInteraction] = Field(
+        default_factory=list, description="the pose's plans that the scoring function called failures: evidence"
+    )
 
 
 class FunctionalPoseRequest(_Model):

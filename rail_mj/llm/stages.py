@@ -219,6 +219,8 @@ def result_summary(outcomes: Outcomes, b: int) -> ResultSummary:
     pos = outcomes.agent_pos[b]
     q = outcomes.agent_quat[b]
     cos_tilt = np.clip(1.0 - 2.0 * (q[:, 1] ** 2 + q[:, 2] ** 2), -1.0, 1.0)
+    rel = pos - outcomes.object_pos[b]  # the object may have slid under the agents' impacts
+    beneath = (rel[:, 0] / h[0]) ** 2 + (rel[:, 1] / h[1]) ** 2 < 0.25
     return ResultSummary(
         frac_inside_bbox=float(np.mean(np.all(np.abs(pos) < h, axis=1))),
         frac_on_ground=float(np.mean(outcomes.contacts_ground[b] > 0)),
@@ -227,4 +229,5 @@ def result_summary(outcomes: Outcomes, b: int) -> ResultSummary:
         object_tilt_deg=float(np.degrees(outcomes.object_tilt[b])),
         agent_tilt_deg=float(np.mean(np.degrees(np.arccos(cos_tilt)))),
         agent_speed=float(np.mean(np.linalg.norm(outcomes.agent_vel[b], axis=1))),
+        frac_through_object=float(np.mean(beneath & (outcomes.contacts_ground[b] > 0))),
     )
