@@ -2,8 +2,8 @@
 
 Each settled drop gives the mesh-frame direction that ends up pointing to world +z ("up"). Ups closer than
 ``tolerance_deg`` form one pose; its orientation is snapped to the nearest quasi-static pose from trimesh (an
-exact face/rim contact) when one lies within the tolerance, and its yaw is normalised (shortest rotation that
-takes the up direction to +z). Drops that never stop (round objects rolling) are counted, not clustered.
+exact face/rim contact) when one lies within the tolerance, and its yaw puts the footprint's smallest bounding
+rectangle on the world axes. Drops that never stop (round objects rolling) are counted, not clustered.
 
 Random drops miss poses with small basins: a chair or a legged table falls over before it can land on its
 feet, a bulbous vase rolls off its base. So every quasi-static pose no drop found is also placed at rest on
@@ -20,6 +20,7 @@ from pathlib import Path
 import mujoco
 import mujoco.batch
 import numpy as np
+import scipy.spatial
 import trimesh
 
 from rail_mj.errors import ConfigError, StablePoseError
@@ -31,7 +32,7 @@ __all__ = ["find_stable_poses", "pose_from_up", "STABLE_POSE_BACKENDS"]
 
 STABLE_POSE_BACKENDS = ("auto", "native")
 #: bump when the algorithm changes, so old cache entries are ignored
-_CACHE_VERSION = 2
+_CACHE_VERSION = 3
 #: two resting shapes match when their height signatures differ by less than this fraction of the object size
 _CONGRUENT = 0.02
 #: quasi-static poses are checked by setting the object down this much off the pose and simulating this long (s)
@@ -56,10 +57,34 @@ def _rotation_to_z(up: np.ndarray) -> np.ndarray:
     return q / np.linalg.norm(q)
 
 
+def _footprint_yaw(xy: np.ndarray) -> float:
+    """Yaw (rad) that turns the points' smallest-area bounding rectangle onto the x/y axes, its long side on x."""
+    hull = xy[scipy.spatial.ConvexHull(xy).vertices] if len(xy) >= 3 else xy
+    best = (np.inf, 0.0, 0.0)
+    for a, b in zip(hull, np.roll(hull, -1, axis=0)):
+        theta = float(np.arctan2(b[1] - a[1], b[0] - a[0]))
+        c, s = np.cos(theta), np.sin(theta)
+        p = hull @ np.array([[c, -s], [s, c]])  # rotated by -theta
+        ext = p.max(axis=0) - p.min(axis=0)
+        if ext[0] * ext[1] < best[0] - 1e-12:
+            best = (ext[0] * ext[1], -theta, ext[1] - ext[0])
+    _, yaw, longer_y = best
+    return yaw + np.pi / 2 if longer_y > 1e-9 else yaw
+
+
 def pose_from_up(obj: RailObject, up: np.ndarray, probability: float) -> StablePose:
-    """The yaw-normalised stable pose whose mesh-frame ``up`` points to world +z, AABB centred, bottom at z = 0."""
-    quat = _rotation_to_z(np.asarray(up, dtype=np.float64))
+    """The stable pose whose mesh-frame ``up`` points to world +z, AABB centred, bottom at z = 0.
+
+    Its yaw puts the footprint's smallest bounding rectangle on the world axes, long side along x, so the
+    task-frame box is the object's own box: a table set diagonally would have placements off its corners.
+    """
+    tilt = _rotation_to_z(np.asarray(up, dtype=np.float64))
     rot = np.zeros(9)
+    mujoco.mju_quat2Mat(rot, tilt)
+    verts = np.asarray(obj.mesh.vertices) @ rot.reshape(3, 3).T
+    yaw = _footprint_yaw(verts[:, :2])
+    quat = np.zeros(4)
+    mujoco.mju_mulQuat(quat, np.array([np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]), tilt)
     mujoco.mju_quat2Mat(rot, quat)
     verts = np.asarray(obj.mesh.vertices) @ rot.reshape(3, 3).T
     lo, hi = verts.min(axis=0), verts.max(axis=0)

@@ -57,6 +57,14 @@ def test_pose_is_placed_on_the_ground_and_centred(box):
     np.testing.assert_allclose(pose.pos[:2], 0.0, atol=1e-12)
 
 
+def test_pose_yaw_puts_the_footprint_on_the_axes_long_side_along_x():
+    slab = trimesh.creation.box(extents=[0.3, 0.8, 0.05])
+    slab.apply_transform(trimesh.transformations.rotation_matrix(np.deg2rad(35), [0, 0, 1]))
+    pose = pose_from_up(_object("slab", [slab.vertices]), np.array([0.0, 0.0, 1.0]), 1.0)
+    np.testing.assert_allclose(pose.half_extents, [0.4, 0.15, 0.025], atol=1e-9)
+    np.testing.assert_allclose(pose.up_in_mesh_frame, [0, 0, 1], atol=1e-12)
+
+
 def test_cup_upright_upside_down_and_on_its_side(tmp_path, monkeypatch):
     monkeypatch.setenv("RAIL_MJ_CACHE", str(tmp_path))
     cup = _cup()
