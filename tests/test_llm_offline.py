@@ -268,7 +268,7 @@ def test_result_summary_of_outcomes():
     assert s.frac_through_object == 0.5
 
 
-def test_a_container_that_leaks_under_any_plan_is_rejected():
+def test_a_container_that_leaks_under_the_centre_pour_is_rejected():
     """A bowl with a hole in its base: droplets poured off centre stay, those poured at the centre fall through."""
     h = [0.08, 0.08, 0.028]
     held = _candidate("above_right", [0.024, 0.0, 0.1], score=0.43)
@@ -279,6 +279,12 @@ def test_a_container_that_leaks_under_any_plan_is_rejected():
         for failed in (leaked, missed)]
     assert verdicts[0].best_pose is None and "beneath" in verdicts[0].poses[0].reason
     assert verdicts[1].best_pose == 0  # droplets that missed the opening are no evidence of a leak
+    # droplets spilt past a cup's handle end on the ground beneath its box: no evidence either
+    spilt = _candidate("above_front", [0.024, 0.0, 0.1], score=-1.0, frac_through_object=0.1)
+    cup = analyze_functional_poses(FunctionalPoseRequest(affordance="cup", expected_outcome="held", poses=[
+        PoseCandidates(pose_index=0, probability=1.0, half_extents=[0.06, 0.042, 0.05], candidates=[held],
+                       failed=[spilt])]))
+    assert cup.best_pose == 0
 
 
 def test_plate_pose_with_the_rim_around_the_food_wins():

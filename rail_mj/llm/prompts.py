@@ -107,8 +107,8 @@ object's middle, mean agent height in units of h_z where +1 is the top and -1 th
 degrees, agent speed); `failed` lists the pose's other plans, which the scoring function called failures, as \
 evidence about the object. Decide per pose whether the success is consistent with common sense for the affordance \
 (reject successes that rely on the object tipping over, agents arriving from an implausible direction, or resting \
-at an implausible height, and a container through which any plan's agents reached the ground beneath it: it \
-leaks), give a reason, the best \
+at an implausible height, and a container through which agents poured at its centre reached the ground \
+beneath it: it leaks), give a reason, the best \
 accepted plan of the pose, and the best (pose, plan) overall (null when none is accepted). One verdict per pose, in \
 the same order."""),
     )
