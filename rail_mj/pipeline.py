@@ -204,6 +204,8 @@ class Pipeline:
         n_plans = len(profile.plans.plans)
         pose_candidates = []
         for k, i in enumerate(kept):
+            if not np.any(scores[k * n_plans : (k + 1) * n_plans] > 0):
+                continue  # no candidate: the pose is not put to the analyser
             tried = [
                 CandidateInteraction(
                     plan=plan.name,
@@ -214,17 +216,15 @@ class Pipeline:
                 )
                 for j, plan in enumerate(profile.plans.plans)
             ]
-            cands = [c for c in tried if c.score > 0]
-            if cands:
-                pose_candidates.append(
-                    PoseCandidates(
-                        pose_index=i,
-                        probability=float(poses[i].probability),
-                        half_extents=[float(v) for v in poses[i].half_extents],
-                        candidates=cands,
-                        failed=[c for c in tried if c.score <= 0],
-                    )
+            pose_candidates.append(
+                PoseCandidates(
+                    pose_index=i,
+                    probability=float(poses[i].probability),
+                    half_extents=[float(v) for v in poses[i].half_extents],
+                    candidates=[c for c in tried if c.score > 0],
+                    failed=[c for c in tried if c.score <= 0],
                 )
+            )
         if not pose_candidates:
             return None
         request = FunctionalPoseRequest(

@@ -201,7 +201,8 @@ def _verified(
 ) -> list[tuple[np.ndarray, float]]:
     """Quasi-static poses (mesh-frame ups, probabilities) that hold in physics: each cluster of ups within ``tol``
     is set on the ground tilted by ``_VERIFY_TILT_DEG`` about a random horizontal axis, and kept when its up is
-    back within ``tol`` after ``_VERIFY_TIME`` (an unstable balance falls well past ``tol`` in that time). Returns (up, summed probability) per kept cluster."""
+    back within ``tol`` after ``_VERIFY_TIME`` (an unstable balance falls well past ``tol`` in that time).
+    Returns (up, summed probability) per kept cluster."""
     if len(ups) == 0:
         return []
     clusters = _cluster(ups, tol)
@@ -283,13 +284,12 @@ def find_stable_poses(
             up = nearest if nearest @ up > np.cos(tol) else up
         reps.append(up)
         counts.append(len(members))
-    quasi = [0.0] * len(reps)
-    missed = np.ones(len(exact), dtype=bool)
-    for k, up in enumerate(exact):
-        near = int(np.argmax(np.array(reps) @ up))
-        if reps[near] @ up > np.cos(tol):
-            quasi[near] += float(exact_p[k])
-            missed[k] = False
+    # each quasi-static pose adds its probability to the drop cluster it lies in; the rest are verified
+    similarity = exact @ np.array(reps).T
+    missed = similarity.max(axis=1, initial=-1.0) <= np.cos(tol)
+    quasi = np.zeros(len(reps))
+    np.add.at(quasi, similarity.argmax(axis=1)[~missed], exact_p[~missed])
+    quasi = quasi.tolist()
     for up, p in _verified(obj, exact[missed], exact_p[missed], tol, np.random.default_rng(seed + 1)):
         reps.append(up)
         counts.append(0)
