@@ -23,6 +23,7 @@ __all__ = [
     "ScoringRuntimeError",
     "DatasetError",
     "RobotError",
+    "FolderInUseError",
 ]
 
 
@@ -91,3 +92,12 @@ class DatasetError(RailError):
 
 class RobotError(RailError):
     """The robot model could not be obtained or an execution could not be set up."""
+
+
+class FolderInUseError(RailError):
+    """Another live process holds an output folder's lock (e.g. a second eval run on one ``--out``).
+
+    The message names the holder (pid, host, start time, command). CLI exit status 1, not 2: the
+    command line is valid (the same command succeeds once the holder has ended), and 2 would tell a
+    script to change it; nothing was written.
+    """
