@@ -219,16 +219,17 @@ def test_valid_fragment_passes() -> None:
             "holds 2 bodies",
         ),
         ("<mujoco><worldbody/></mujoco>", "holds 0 bodies"),
-        ('<mujoco><worldbody><body><joint type="hinge"/><geom size="0.01"/></body></worldbody></mujoco>', "joint"),
-        ('<mujoco><worldbody><body><freejoint/><geom size="0.01"/></body></worldbody></mujoco>', "joint"),
+        ('<mujoco><worldbody><body><joint type="hinge"/><geom size="0.01"/></body></worldbody></mujoco>',
+         r"<joint> is not allowed inside <body> \(the scene adds a free joint"),
+        ('<mujoco><worldbody><body><freejoint/><geom size="0.01"/></body></worldbody></mujoco>', "<freejoint>"),
         (
             '<mujoco><asset><mesh name="m" file="cup.stl"/></asset>'
             '<worldbody><body><geom type="mesh" mesh="m"/></body></worldbody></mujoco>',
-            "references a file",
+            r"<mesh> attribute 'file' is not allowed; allowed <mesh> attributes: name, class, vertex",
         ),
         (
             f'<mujoco><asset><texture name="t" type="2d" file="a.png"/></asset>{ONE}</mujoco>',
-            "references a file",
+            r"<texture> is not allowed inside <asset> \(it can read an image file\); allowed there: <mesh>, <material>",
         ),
         (
             f'<mujoco><include file="other.xml"/>{ONE}</mujoco>',
@@ -249,18 +250,21 @@ def test_valid_fragment_passes() -> None:
         ('<mujoco><worldbody><body><geom size="0.01" mass="0"/></body></worldbody></mujoco>', "mass"),
         (
             '<mujoco><worldbody><geom size="0.01"/><body><geom size="0.01"/></body></worldbody></mujoco>',
-            "besides the agent body",
+            "<geom> is not allowed inside <worldbody>; allowed there: <body>",
         ),
         ('<mujoco><worldbody><body><geom type="sphere" size="5"/></body></worldbody></mujoco>', "reaches"),
         (
             f'<mujoco>{ONE}<keyframe><key qpos=""/></keyframe></mujoco>',
             "keyframe",
         ),
-        ("<mujoco><worldbody><body><geom size='0.01' bogus='1'/></body></worldbody></mujoco>", "does not parse"),
+        ("<mujoco><worldbody><body><geom size='0.01' bogus='1'/></body></worldbody></mujoco>",
+         "<geom> attribute 'bogus' is not allowed"),
+        ('<mujoco><worldbody><body name="a"><geom size="0.01"/></body></worldbody></mujoco', "not well-formed"),
+        ('<mujoco><worldbody><body><geom size="big"/></body></worldbody></mujoco>', "does not parse"),
         ('<!DOCTYPE m [<!ENTITY a "aaaa">]><mujoco/>', "ENTITY"),
         (
             f'<mujoco><asset><texture name="s" type="skybox" fileright="r.png"/></asset>{ONE}</mujoco>',
-            "references a file",
+            "<texture> is not allowed",
         ),
     ],
 )
@@ -268,6 +272,123 @@ def test_fragment_rejections(xml: str, pattern: str) -> None:
     with pytest.raises(FragmentError, match=pattern) as info:
         check_fragment(xml)
     assert "valid fragment" in str(info.value)  # every message shows what a valid one looks like
+
+
+def _flexcomp(path) -> str:
+    return (f'<mujoco><worldbody><body name="a"><flexcomp name="f" type="mesh" file="{path}" rigid="true" '
+            'scale="0.05 0.05 0.05"/><geom size="0.01"/></body></worldbody></mujoco>')
+
+
+def test_flexcomp_file_is_refused_whatever_the_file_holds(tmp_path) -> None:
+    """A rigid mesh flexcomp read an STL from disk and passed; other targets leaked their content in the error."""
+    trimesh.creation.box().export(tmp_path / "box.stl")
+    (tmp_path / "notes.txt").write_text("secret text\n")
+    messages = set()
+    for target in (tmp_path / "box.stl", tmp_path / "notes.txt", tmp_path / "missing.stl"):
+        with pytest.raises(FragmentError) as info:
+            check_fragment(_flexcomp(target))
+        messages.add(str(info.value).replace(str(target), "PATH"))
+    (message,) = messages  # the same refusal for every file: nothing about the file is read
+    assert "<flexcomp> is not allowed inside <body>" in message
+    assert "allowed there: <body>, <geom>, <site>, <inertial>" in message
+
+
+@pytest.mark.parametrize(
+    ("xml", "pattern"),
+    [
+        ('<mujoco><asset><mesh name="m" content_type="model/stl" vertex="0 0 0 1 0 0 0 1 0 0 0 1"/></asset>'
+         '<worldbody><body><geom type="mesh" mesh="m"/></body></worldbody></mujoco>', "'content_type' is not allowed"),
+        ('<mujoco><worldbody><body><geom type="sdf" size="0.01"/></body></worldbody></mujoco>',
+         "<geom> type 'sdf' is not allowed; allowed: sphere, capsule, ellipsoid, cylinder, box, mesh"),
+        (f'<mujoco><default><geom type="hfield"/></default>{ONE}</mujoco>', "type 'hfield' is not allowed"),
+        ('<mujoco><worldbody><body><geom size="0.01" plugin="p"/></body></worldbody></mujoco>',
+         "'plugin' is not allowed"),
+        ('<mujoco><worldbody><body><geom size="0.01" hfield="h"/></body></worldbody></mujoco>', "'hfield' is not allowed"),
+        (f'<mujoco><compiler assetdir="/etc"/>{ONE}</mujoco>', "<compiler> attribute 'assetdir'.*: angle, eulerseq"),
+        (f'<mujoco><asset><model name="m" file="a.xml"/></asset>{ONE}</mujoco>', "<model> is not allowed inside <asset>"),
+        (f'<mujoco>{ONE}<actuator/></mujoco>', "<actuator> is not allowed inside <mujoco>; allowed there: <compiler>"),
+        ('<mujoco><worldbody><body><composite type="cable"/><geom size="0.01"/></body></worldbody></mujoco>',
+         "<composite> is not allowed"),
+        ('<mujoco><worldbody><body><frame><geom size="0.01"/></frame></body></worldbody></mujoco>',
+         "<frame> is not allowed"),
+        (f'<mujoco model="m" version="1">{ONE}</mujoco>', "<mujoco> attribute 'version'"),
+    ],
+)
+def test_only_allow_listed_elements_and_attributes_pass(xml: str, pattern: str) -> None:
+    with pytest.raises(FragmentError, match=pattern):
+        check_fragment(xml)
+
+
+def _sphere_mesh(n: int) -> str:
+    rng = np.random.default_rng(0)
+    v = rng.normal(size=(n, 3))
+    v = 0.02 * v / np.linalg.norm(v, axis=1, keepdims=True)
+    return " ".join(f"{x:.4f}" for x in v.ravel())
+
+
+def test_a_rich_agent_at_the_caps_is_accepted(obj: RailObject) -> None:
+    """Everything the allow-list names, with geoms and inline vertices at their caps, inside the byte cap."""
+    from rail_mj.mjcf import MAX_FRAGMENT_BYTES, MAX_FRAGMENT_GEOMS, MAX_FRAGMENT_VERTICES
+
+    primitives = "".join(f'<geom type="box" size="0.005 0.005 0.005" pos="0 0 {0.01 * i:.2f}"/>'
+                         for i in range(MAX_FRAGMENT_GEOMS - 2))
+    xml = (
+        '<mujoco model="person"><compiler angle="radian" eulerseq="xyz"/>'
+        '<default><default class="skin"><geom rgba="0.9 0.7 0.6 1" density="1000"/></default></default>'
+        f'<asset><material name="m" rgba="1 0 0 1"/><mesh name="head" vertex="{_sphere_mesh(MAX_FRAGMENT_VERTICES)}"/>'
+        '</asset><worldbody><body name="pelvis" childclass="skin" euler="0 0 1.57">'
+        '<inertial pos="0 0 0" mass="1" diaginertia="0.01 0.01 0.01"/><site name="s" size="0.01"/>'
+        f'<geom type="mesh" mesh="head" material="m"/>{primitives}'
+        '<body name="leg" pos="0.1 0 0"><geom type="capsule" fromto="0 0 0 0 0 -0.1" size="0.01"/></body>'
+        '</body></worldbody></mujoco>'
+    )
+    assert len(xml.encode()) <= MAX_FRAGMENT_BYTES
+    assert check_fragment(xml).compile().ngeom == MAX_FRAGMENT_GEOMS
+    build_scene(obj, agents=AgentSetup(fragment=xml, offsets=np.zeros((1, 3))))
+
+
+@pytest.mark.parametrize(
+    ("kind", "pattern"),
+    [
+        ("bytes", r"the document is \d+ bytes, more than 65536"),
+        ("geoms", "the body has 65 geoms, more than 64"),
+        ("vertices", "the meshes have 1025 vertices in all, more than 1024"),
+        ("elements", "more than 256 elements"),
+    ],
+)
+def test_fragment_caps_are_checked_before_mujoco_parses(kind: str, pattern: str, monkeypatch) -> None:
+    """A 20,000-geom fragment took 19.6 s to validate; every cap is now checked on the raw XML."""
+    geom = '<geom size="0.01"/>'
+    body = {
+        "bytes": geom * 20_000,
+        "geoms": geom * 65,
+        "vertices": geom,
+        "elements": geom + '<site size="0.01"/>' * 260,
+    }[kind]
+    asset = f'<asset><mesh name="m" vertex="{_sphere_mesh(1025)}"/></asset>' if kind == "vertices" else ""
+    xml = f"<mujoco>{asset}<worldbody><body>{body}</body></worldbody></mujoco>"
+
+    def no_parse(*args, **kwargs):
+        raise AssertionError("MuJoCo parsed a fragment over the caps")
+
+    monkeypatch.setattr(mujoco.MjSpec, "from_string", no_parse)
+    with pytest.raises(FragmentError, match=pattern) as info:
+        check_fragment(xml)
+    assert "at most 65536 bytes" in str(info.value) and "256 elements, 64 geoms and 1024 inline mesh vertices" in str(
+        info.value)
+
+
+def test_robot_executor_refuses_a_flexcomp_fragment(obj: RailObject, tmp_path) -> None:
+    """rail_mj.robot.execute compiled agent fragments without the fragment rules."""
+    from rail_mj.robot import execute
+    from rail_mj.types import StablePose
+
+    trimesh.creation.box().export(tmp_path / "box.stl")
+    pose = StablePose(pos=np.zeros(3), quat=np.array([1.0, 0, 0, 0]), probability=1.0,
+                      half_extents=np.array([0.1, 0.05, 0.045]))
+    via = np.array([[0.0, 0.0, 0.3, 1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.2, 1.0, 0.0, 0.0, 0.0]])
+    with pytest.raises(FragmentError, match="<flexcomp> is not allowed"):
+        execute(obj, pose, _flexcomp(tmp_path / "box.stl"), via, lambda outcomes: np.ones(1))
 
 
 @pytest.fixture(scope="module")

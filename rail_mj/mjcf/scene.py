@@ -40,6 +40,10 @@ __all__ = [
     "SOLREF_TIMECONST_FACTOR",
     "MAX_AGENT_RADIUS",
     "VALID_FRAGMENT_EXAMPLE",
+    "MAX_FRAGMENT_BYTES",
+    "MAX_FRAGMENT_ELEMENTS",
+    "MAX_FRAGMENT_GEOMS",
+    "MAX_FRAGMENT_VERTICES",
     "check_fragment",
     "agent_prefix",
     "agent_body_name",
@@ -63,26 +67,60 @@ MAX_AGENT_RADIUS = 3.0
 VALID_FRAGMENT_EXAMPLE = (
     '<mujoco><worldbody><body name="drop"><geom type="sphere" size="0.01" mass="0.001"/></body></worldbody></mujoco>'
 )
-_RULES = (
-    "a valid fragment is a <mujoco> document whose <worldbody> holds exactly one body "
-    "(nested bodies allowed) with geoms of positive size, no joints, no files, no plugins, "
-    f"e.g. {VALID_FRAGMENT_EXAMPLE}"
-)
-# Elements and attributes that pull in files, plugins or behaviour a passive agent body must not have.
-_FILE_ELEMENTS = ("mesh", "texture", "hfield", "skin", "model")  # file=, and texture's fileright= etc.
-_COMPILER_DIRS = ("meshdir", "texturedir", "assetdir")
-_FORBIDDEN_ELEMENTS = {
-    "include": "<include> pulls in another file",
-    "extension": "<extension> loads engine plugins",
-    "plugin": "<plugin> instantiates an engine plugin",
-    "instance": "<instance> instantiates an engine plugin",
-    "keyframe": "<keyframe> sets a state that breaks once the scene adds joints",
-    "actuator": "<actuator> needs joints, and agents have none",
-    "tendon": "<tendon> needs joints, and agents have none",
-    "equality": "<equality> constraints are not part of a rigid agent",
-    "joint": "a joint is present (the scene adds a free joint itself)",
-    "freejoint": "a joint is present (the scene adds a free joint itself)",
+#: Caps on one agent fragment (the layout replicates it), checked before MuJoCo parses it. Real agents are a
+#: handful of primitives (the offline library's have one geom); the caps bound validation to milliseconds.
+MAX_FRAGMENT_BYTES = 65_536
+MAX_FRAGMENT_ELEMENTS = 256
+MAX_FRAGMENT_GEOMS = 64
+MAX_FRAGMENT_VERTICES = 1024  # inline mesh vertices, all meshes together
+
+_POSE = ("pos", "quat", "axisangle", "euler", "xyaxes", "zaxis")
+_GEOM_ATTRS = ("name", "class", "type", "size", "fromto", *_POSE, "mass", "density", "rgba", "material", "friction",
+               "condim", "contype", "conaffinity", "group", "priority", "solmix", "solref", "solimp", "margin", "gap",
+               "mesh", "shellinertia")
+_SITE_ATTRS = ("name", "class", "type", "size", "fromto", *_POSE, "rgba", "material", "group")
+_MESH_ATTRS = ("name", "class", "vertex", "face", "normal", "scale", "refpos", "refquat", "maxhullvert", "inertia",
+               "smoothnormal")
+_MATERIAL_ATTRS = ("name", "class", "rgba", "emission", "specular", "shininess", "reflectance", "metallic",
+                   "roughness")
+# The allow-list: element -> (its allowed attributes, its allowed child elements). An agent is one rigid body of
+# primitive or inline-mesh geoms; anything else (files, plugins, joints, flexes, actuators, ...) is refused.
+_ALLOWED: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
+    "mujoco": (("model",), ("compiler", "default", "asset", "worldbody")),
+    "compiler": (("angle", "eulerseq"), ()),
+    "default": (("class",), ("default", "geom", "site", "mesh", "material")),
+    "asset": ((), ("mesh", "material")),
+    "mesh": (_MESH_ATTRS, ()),
+    "material": (_MATERIAL_ATTRS, ()),
+    "worldbody": ((), ("body",)),
+    "body": (("name", "childclass", *_POSE), ("body", "geom", "site", "inertial")),
+    "geom": (_GEOM_ATTRS, ()),
+    "site": (_SITE_ATTRS, ()),
+    "inertial": ((*_POSE, "mass", "diaginertia", "fullinertia"), ()),
 }
+_GEOM_TYPES = ("sphere", "capsule", "ellipsoid", "cylinder", "box", "mesh")
+_SITE_TYPES = ("sphere", "capsule", "ellipsoid", "cylinder", "box")
+# Why common refused elements are refused (the allow-list alone would refuse them too).
+_WHY = {
+    "include": "it pulls in another file",
+    "joint": "the scene adds a free joint itself and agents are rigid",
+    "freejoint": "the scene adds a free joint itself",
+    "flexcomp": "it builds a deformable body and can read a mesh file",
+    "texture": "it can read an image file",
+    "hfield": "it can read a file, and height fields cannot move",
+    "skin": "it can read a file",
+    "extension": "it loads engine plugins",
+    "plugin": "it instantiates an engine plugin",
+    "keyframe": "it sets a state that breaks once the scene adds joints",
+}
+_RULES = (
+    f"a valid fragment is a <mujoco> document of at most {MAX_FRAGMENT_BYTES} bytes whose <worldbody> holds exactly "
+    "one rigid body (nested bodies allowed) made only of <body>, <geom> (type "
+    f"{', '.join(_GEOM_TYPES)}; a mesh given inline by <asset><mesh vertex=...>), <site> and <inertial>, plus "
+    "optional <compiler angle/eulerseq>, <default> and <asset> (<mesh>, <material>); no files, plugins or joints; "
+    f"at most {MAX_FRAGMENT_ELEMENTS} elements, {MAX_FRAGMENT_GEOMS} geoms and {MAX_FRAGMENT_VERTICES} inline mesh "
+    f"vertices; geoms of positive size; e.g. {VALID_FRAGMENT_EXAMPLE}"
+)
 _SIZE_DIMS = {
     mujoco.mjtGeom.mjGEOM_SPHERE: 1,
     mujoco.mjtGeom.mjGEOM_CAPSULE: 2,
@@ -96,8 +134,32 @@ def _reject(problem: str) -> FragmentError:
     return FragmentError(f"invalid agent fragment: {problem}; {_RULES}")
 
 
+def _check_element(el: ET.Element, parent: str) -> None:
+    """One element against the allow-list: allowed under its parent, allowed attributes, allowed types."""
+    allowed_children = _ALLOWED[parent][1]
+    if el.tag not in allowed_children:
+        why = f" ({_WHY[el.tag]})" if el.tag in _WHY else ""
+        raise _reject(
+            f"<{el.tag}> is not allowed inside <{parent}>{why}; allowed there: "
+            f"{', '.join(f'<{t}>' for t in allowed_children) or 'nothing'}"
+        )
+    attributes = _ALLOWED[el.tag][0]
+    bad = [k for k in el.attrib if k not in attributes]
+    if bad:
+        raise _reject(
+            f"<{el.tag}> attribute {bad[0]!r} is not allowed; allowed <{el.tag}> attributes: "
+            f"{', '.join(attributes) or 'none'}"
+        )
+    types = {"geom": _GEOM_TYPES, "site": _SITE_TYPES}.get(el.tag)
+    if types is not None and el.attrib.get("type", "sphere") not in types:
+        raise _reject(f"<{el.tag}> type {el.attrib['type']!r} is not allowed; allowed: {', '.join(types)}")
+
+
 def _scan_xml(xml: str) -> None:
-    """Reject file references, plugins and joints by looking at the raw XML."""
+    """Check size caps, the element and attribute allow-list by looking at the raw XML, before MuJoCo parses it."""
+    size = len(xml.encode("utf-8"))
+    if size > MAX_FRAGMENT_BYTES:
+        raise _reject(f"the document is {size} bytes, more than {MAX_FRAGMENT_BYTES}")
     if "<!DOCTYPE" in xml or "<!ENTITY" in xml:
         raise _reject("DOCTYPE/ENTITY declarations are not allowed")
     try:
@@ -106,17 +168,26 @@ def _scan_xml(xml: str) -> None:
         raise _reject(f"not well-formed XML ({exc})") from exc
     if root.tag != "mujoco":
         raise _reject(f"root element is <{root.tag}>, expected <mujoco>")
-    for el in root.iter():
-        if el.tag in _FORBIDDEN_ELEMENTS:
-            raise _reject(_FORBIDDEN_ELEMENTS[el.tag])
-        file_attrs = [k for k in el.attrib if k.startswith("file")] if el.tag in _FILE_ELEMENTS else []
-        if file_attrs:
-            raise _reject(f"<{el.tag}> references a file ({el.attrib[file_attrs[0]]!r}); define assets inline")
-        dirs = [k for k in _COMPILER_DIRS if k in el.attrib] if el.tag == "compiler" else []
-        if dirs:
-            raise _reject(f"<compiler> sets {', '.join(dirs)}; files are not allowed")
-        if "plugin" in el.attrib:
-            raise _reject(f"<{el.tag}> uses plugin {el.attrib['plugin']!r}; plugins are not allowed")
+    bad = [k for k in root.attrib if k not in _ALLOWED["mujoco"][0]]
+    if bad:
+        raise _reject(f"<mujoco> attribute {bad[0]!r} is not allowed; allowed <mujoco> attributes: model")
+    n_elements = n_geoms = n_vertices = 0
+    queue: list[tuple[ET.Element, bool]] = [(root, False)]  # (element, inside <worldbody>), breadth first
+    for el, in_world in queue:
+        n_elements += 1
+        if n_elements > MAX_FRAGMENT_ELEMENTS:
+            raise _reject(f"the document has more than {MAX_FRAGMENT_ELEMENTS} elements")
+        for child in el:
+            _check_element(child, el.tag)
+            queue.append((child, in_world or child.tag == "worldbody"))
+        if el.tag == "geom" and in_world:
+            n_geoms += 1
+        if el.tag == "mesh" and "vertex" in el.attrib:
+            n_vertices += len(el.attrib["vertex"].split()) // 3
+    if n_geoms > MAX_FRAGMENT_GEOMS:
+        raise _reject(f"the body has {n_geoms} geoms, more than {MAX_FRAGMENT_GEOMS}")
+    if n_vertices > MAX_FRAGMENT_VERTICES:
+        raise _reject(f"the meshes have {n_vertices} vertices in all, more than {MAX_FRAGMENT_VERTICES}")
 
 
 def check_fragment(xml: str) -> mujoco.MjSpec:
@@ -131,16 +202,8 @@ def check_fragment(xml: str) -> mujoco.MjSpec:
     n_top = len(spec.worldbody.bodies)
     if n_top != 1:
         raise _reject(f"worldbody holds {n_top} bodies, expected exactly one")
-    if spec.joints:
-        raise _reject(f"{len(spec.joints)} joint(s) present (the scene adds a free joint itself)")
-    if spec.plugins:
-        raise _reject("plugins are not allowed")
-    if spec.worldbody.geoms or spec.worldbody.frames:
-        raise _reject("worldbody holds geoms or frames besides the agent body; put every geom inside the body")
     for geom in spec.geoms:
         dims = _SIZE_DIMS.get(geom.type)
-        if geom.type in (mujoco.mjtGeom.mjGEOM_PLANE, mujoco.mjtGeom.mjGEOM_HFIELD):
-            raise _reject(f"geom {geom.name or '(unnamed)'} is a {geom.type.name[7:].lower()}, which cannot move")
         has_fromto = np.isfinite(geom.fromto).all() and np.any(np.asarray(geom.fromto) != 0)
         if dims is not None and not (np.asarray(geom.size[: 1 if has_fromto else dims]) > 0).all():
             raise _reject(

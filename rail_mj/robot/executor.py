@@ -22,6 +22,7 @@ import mujoco
 import numpy as np
 
 from rail_mj.errors import FragmentError, RobotError
+from rail_mj.mjcf import check_fragment
 from rail_mj.robot.control import (
     HOME_QPOS,
     MONITORED_BODIES,
@@ -131,6 +132,7 @@ class RobotScene:
 
 def _fragment(fragment: str) -> tuple[mujoco.MjsBody, mujoco.MjModel]:
     """The fragment's single body and its compiled model; FragmentError otherwise."""
+    check_fragment(fragment)  # untrusted MJCF: the allow-list and caps of rail_mj.mjcf before MuJoCo reads it
     try:
         spec = mujoco.MjSpec.from_string(fragment)
         model = spec.compile()
