@@ -27,17 +27,21 @@ from rail_mj.llm.schemas import (
     TrajectoryRequest,
 )
 
-__all__ = ["Reply", "MessagesServer", "offline_answer", "request_payload", "schema_title", "text_reply"]
+__all__ = ["Reply", "MessagesServer", "error_reply", "offline_answer", "request_payload", "schema_title", "text_reply"]
 
 
 @dataclass
 class Reply:
-    """What the server sends back: an HTTP status, a JSON body, headers, after an optional delay."""
+    """What the server sends back: an HTTP status, a body, headers, after an optional delay.
+
+    ``body`` is sent as JSON (any JSON value); ``raw`` text, when given, is sent instead, verbatim.
+    """
 
     status: int
-    body: dict[str, Any]
+    body: Any
     headers: dict[str, str] = field(default_factory=dict)
     delay_s: float = 0.0
+    raw: str | None = None
 
 
 def text_reply(text: str, model: str = "test-model") -> Reply:
@@ -106,7 +110,7 @@ class MessagesServer:
                 else:
                     reply = server.responder(body)
                 time.sleep(reply.delay_s)
-                data = json.dumps(reply.body).encode()
+                data = (json.dumps(reply.body) if reply.raw is None else reply.raw).encode()
                 try:
                     self.send_response(reply.status)
                     self.send_header("content-type", "application/json")

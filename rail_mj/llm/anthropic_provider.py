@@ -2,16 +2,16 @@
 
 from __future__ import annotations
 
+import json
 import os
 from typing import Any
 
-import anthropic
 import pydantic
 
 from rail_mj.errors import ConfigError, ProviderError, StageError
 from rail_mj.llm.cache import ResponseCache, cache_enabled, cache_key
 from rail_mj.llm.prompts import StageSpec, repair_prompt, system_prompt, user_prompt
-from rail_mj.llm.providers import REJECTIONS, Provider
+from rail_mj.llm.provider_base import REJECTIONS, Provider
 
 __all__ = ["MODEL_ENV", "DEFAULT_MODEL", "DEFAULT_TEMPERATURE", "AnthropicProvider"]
 
@@ -23,12 +23,14 @@ DEFAULT_TEMPERATURE = 0.1
 
 
 class AnthropicProvider(Provider):
-    """Stage answers from ``client.messages.parse(output_format=<stage schema>)``.
+    """Stage answers from the Messages API with structured output (the stage schema as ``output_config``).
 
-    An answer that fails its schema or check is sent back with the error text
-    for up to ``max_retries`` repair rounds. Validated answers are cached (see
-    :mod:`rail_mj.llm.cache`). HTTP 429/5xx are retried by the SDK itself
-    (``http_retries``); other SDK and network failures become ProviderError.
+    An answer that fails its schema or check, or an HTTP 200 reply that is no
+    Message or holds no text, is a failed attempt: it is sent back with the
+    error text for up to ``max_retries`` repair rounds. Validated answers are
+    cached (see :mod:`rail_mj.llm.cache`). HTTP 429/5xx are retried by the SDK
+    itself (``http_retries``); other SDK and network failures become
+    ProviderError. The SDK is imported when a provider is made, not with rail_mj.
     """
 
     name = "anthropic"
@@ -59,6 +61,8 @@ class AnthropicProvider(Provider):
         self.timeout = timeout
         self.temperature = temperature
         self.max_tokens = max_tokens
+        import anthropic  # here, not at module level: only this provider needs the SDK
+
         self.client = anthropic.Anthropic(api_key=key, base_url=base_url, timeout=timeout, max_retries=http_retries)
         self.cache = ResponseCache(cache_root)
 
@@ -81,23 +85,27 @@ class AnthropicProvider(Provider):
         system = system_prompt(stage)
         problem = ""
         for _ in range(max_retries + 1):
+            body = self._call(stage, system, messages)
             try:
-                message = self._call(stage, system, messages)
-            except pydantic.ValidationError as exc:
-                # the text is gone with the exception; the error lists the offending values
-                problem = f"the answer does not match the schema: {exc}"
+                text, stop_reason = _reply_text(body)
+            except ProviderError as exc:  # an HTTP 200 that is no usable Message: a failed attempt
+                problem = str(exc)
                 messages.append({"role": "user", "content": repair_prompt(problem)})
                 continue
-            text, result = _text_and_parsed(message)
-            if result is None:
-                problem = f"the answer held no JSON text (stop_reason {message.stop_reason!r})"
-                messages.append({"role": "user", "content": repair_prompt(problem)})
+            turn = [{"role": "assistant", "content": text}] if text.strip() else []
+            try:
+                result = stage.output_type.model_validate_json(text)
+            except pydantic.ValidationError as exc:
+                cut = (f"the answer was cut off at max_tokens={self.max_tokens} (stop_reason 'max_tokens'); "
+                       "give a complete, shorter answer; " if stop_reason == "max_tokens" else "")
+                problem = f"{cut}the answer does not match the schema: {exc}"
+                messages += [*turn, {"role": "user", "content": repair_prompt(problem)}]
                 continue
             try:
                 check(result)
             except REJECTIONS as exc:
                 problem = str(exc)
-                messages += [{"role": "assistant", "content": text}, {"role": "user", "content": repair_prompt(problem)}]
+                messages += [*turn, {"role": "user", "content": repair_prompt(problem)}]
                 continue
             if use_cache:
                 meta = {"provider": self.name, "model": self.model, "prompt_version": stage.version,
@@ -109,18 +117,22 @@ class AnthropicProvider(Provider):
             f"(model {self.model}); last problem: {problem}"
         )
 
-    def _call(self, stage: StageSpec, system: str, messages: list[dict[str, Any]]):
-        """One request; SDK and network failures become ProviderError."""
+    def _call(self, stage: StageSpec, system: str, messages: list[dict[str, Any]]) -> str:
+        """One request; the raw HTTP 200 body. SDK and network failures become ProviderError."""
+        import anthropic
+
         extra = {"temperature": self.temperature} if self.temperature is not None else None
+        output = {"format": {"type": "json_schema", "schema": anthropic.transform_schema(stage.output_type)}}
         try:
-            return self.client.messages.parse(
+            # the raw body, so that a reply of any shape is read here (the SDK's parser crashed on non-Messages)
+            return self.client.messages.with_raw_response.create(
                 model=self.model,
                 max_tokens=self.max_tokens,
                 system=system,
                 messages=messages,
-                output_format=stage.output_type,
+                output_config=output,
                 extra_body=extra,
-            )
+            ).http_response.text
         except anthropic.APITimeoutError as exc:
             raise ProviderError(
                 f"stage {stage.name!r}: the Anthropic API did not answer within {self.timeout:g} s; "
@@ -140,9 +152,28 @@ class AnthropicProvider(Provider):
             ) from exc
 
 
-def _text_and_parsed(message) -> tuple[str, Any]:
-    """The first text block's raw text and parsed answer, or ("", None)."""
-    for block in message.content:
-        if block.type == "text":
-            return block.text, block.parsed_output
-    return "", None
+_JSON_TYPES = {list: "array", str: "string", int: "number", float: "number", bool: "boolean", type(None): "null"}
+
+
+def _reply_text(body: str) -> tuple[str, str | None]:
+    """The first text block's text and the stop reason of a Messages API reply; ProviderError for any other shape."""
+    shown = repr(body[:300]) + (f" (+{len(body) - 300} characters)" if len(body) > 300 else "")
+    try:
+        message = json.loads(body)
+    except ValueError:
+        raise ProviderError(f"the API's HTTP 200 reply is not JSON: {shown}") from None
+    if not isinstance(message, dict) or message.get("type") != "message":
+        what = f"type {message.get('type')!r}" if isinstance(message, dict) else f"a JSON {_JSON_TYPES[type(message)]}"
+        raise ProviderError(f"the API's HTTP 200 reply is not a Message ({what}): {shown}")
+    content, stop_reason = message.get("content"), message.get("stop_reason")
+    typed = isinstance(content, list) and all(isinstance(b, dict) and isinstance(b.get("type"), str) for b in content)
+    if not typed:
+        raise ProviderError(f"the API's HTTP 200 Message has no list of typed content blocks: {shown}")
+    for block in content:
+        if block["type"] == "text":
+            if not isinstance(block.get("text"), str):
+                raise ProviderError(f"the API's HTTP 200 Message has a text block without text: {shown}")
+            return block["text"], stop_reason
+    raise ProviderError(
+        f"the answer held no text (stop_reason {stop_reason!r}, content blocks {[b['type'] for b in content]})"
+    )

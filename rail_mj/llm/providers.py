@@ -3,16 +3,11 @@
 from __future__ import annotations
 
 import os
-from abc import ABC, abstractmethod
-from collections.abc import Callable
-from typing import Any, TypeVar
+from typing import Any
 
-from pydantic import BaseModel
-
-from rail_mj.errors import ConfigError, FragmentError, StageError, UnsafeCodeError
+from rail_mj.errors import ConfigError, StageError
 from rail_mj.llm import offline
-from rail_mj.llm.checks import InvalidAnswerError
-from rail_mj.llm.prompts import StageSpec
+from rail_mj.llm.provider_base import REJECTIONS, Provider
 from rail_mj.llm.schemas import (
     AgentModelRequest,
     AnalyzerRequest,
@@ -25,32 +20,8 @@ from rail_mj.llm.schemas import (
 
 __all__ = ["Provider", "OfflineProvider", "PROVIDERS", "get_provider", "REJECTIONS"]
 
-T = TypeVar("T", bound=BaseModel)
-
-#: Errors a check raises for an answer that parsed but is wrong (repairable by an LLM).
-REJECTIONS: tuple[type[Exception], ...] = (InvalidAnswerError, FragmentError, UnsafeCodeError)
-
 #: Provider names accepted by :func:`get_provider`.
 PROVIDERS = ("auto", "offline", "anthropic")
-
-
-class Provider(ABC):
-    """Answers stage requests; ``check`` raises one of ``REJECTIONS`` for an unacceptable answer."""
-
-    name: str
-    model: str
-
-    @abstractmethod
-    def answer(
-        self,
-        stage: StageSpec,
-        request: BaseModel,
-        check: Callable[[Any], None],
-        *,
-        max_retries: int = 2,
-        cache: bool = True,
-    ) -> Any:
-        """A validated answer of type ``stage.output_type``; StageError when none is found."""
 
 
 class OfflineProvider(Provider):
@@ -98,7 +69,7 @@ def get_provider(name: str = "auto", **options: Any) -> Provider:
             raise ConfigError(f"the offline provider takes no options; got {sorted(options)}")
         return OfflineProvider()
     if key == "anthropic":
-        from rail_mj.llm.anthropic_provider import AnthropicProvider
+        from rail_mj.llm.anthropic_provider import AnthropicProvider  # imported when asked for: it loads the SDK
 
         return AnthropicProvider(**options)
     raise ConfigError(f"unknown LLM provider {name!r}; valid: {', '.join(PROVIDERS)}")
