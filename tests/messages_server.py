@@ -1,4 +1,4 @@
-"""A loopback HTTP server that speaks enough of the Anthropic Messages API for ``messages.parse``.
+"""A loopback HTTP server that speaks enough of the Anthropic Messages API for the SDK client.
 
 Each POST /v1/messages is recorded (headers and JSON body) and answered by
 the ``responder``: a callable taking the request body and returning a
