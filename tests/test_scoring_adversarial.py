@@ -220,3 +220,84 @@ def test_huge_error_message_is_clipped(arena):
         f(**batch)
     assert len(str(info.value)) < 3000
     _assert_unharmed(watched, cwd, batch)
+
+
+# ---- memory escapes (issue 11 §2): RSS of the worker that served the calls, read from /proc ----
+
+def _serving_worker() -> pool._Worker:
+    """The worker the next call will take (the most recently released one)."""
+    with pool._LOCK:
+        return pool._IDLE[-1]
+
+
+def _status_mb(pid: int, field: str = "VmRSS") -> float:
+    """A memory figure of /proc/PID/status (VmRSS resident, VmSize address space, VmPeak its peak), in MB."""
+    with open(f"/proc/{pid}/status") as f:
+        return next(int(line.split()[1]) for line in f if line.startswith(field + ":")) / 1024
+
+
+def test_huge_assert_message_is_formatted_under_the_limits(arena):
+    watched, cwd, batch = arena
+    worker = _serving_worker()
+    before = _status_mb(worker.proc.pid)
+    # str() of this list is 10 GB: built after the limits were lifted, it grew the worker until the parent's kill
+    f = compile_scoring(_body("s = 'x' * 10**5\nc = [s] * 10**5\nassert False, c"), timeout_s=2.0, memory_mb=64)
+    with pytest.raises(ScoringRuntimeError, match=r"at line 4: AssertionError: \['xxx") as info:
+        f(**batch)
+    assert "timed out" not in str(info.value) and len(str(info.value)) < 3000
+    assert _serving_worker() is worker and worker.proc.poll() is None  # answered by the worker, not killed
+    assert _status_mb(worker.proc.pid) < before + 64
+    _assert_unharmed(watched, cwd, batch)
+
+
+def test_message_too_big_to_build_under_the_limit_is_replaced(arena):
+    watched, cwd, batch = arena
+    # repr() of the 50 MB key needs another 50 MB, more than is left of the call's 64 MB (+ slack)
+    f = compile_scoring(_body("k = 'x' * (50 * 2**20)\nd = {}\nreturn d[k]"), memory_mb=64)
+    with pytest.raises(ScoringRuntimeError, match=r"at line 4: KeyError: \(the message could not be shown: MemoryError"):
+        f(**batch)
+    _assert_unharmed(watched, cwd, batch)
+
+
+def test_message_that_cannot_be_formatted_is_reported(arena):
+    watched, cwd, batch = arena
+    # str() of a 5001-digit int raises ValueError; raised in the worker's error handler it killed the worker
+    f = compile_scoring(_body("assert False, 10 ** 5000"))
+    with pytest.raises(ScoringRuntimeError, match=r"at line 2: AssertionError: \(the message could not be shown"):
+        f(**batch)
+    _assert_unharmed(watched, cwd, batch)
+
+
+@pytest.mark.parametrize("elements,memory_mb,calls", [(3 * 10**7, 512, 6), (10**7, 256, 20)],
+                         ids=["240MB-x6-cap512", "80MB-x20-cap256"])
+def test_cyclic_garbage_is_collected_and_the_cap_does_not_ratchet(arena, elements, memory_mb, calls):
+    watched, cwd, batch = arena
+    f = compile_scoring(_body(f"x = [np.ones({elements})]\nx.append(x)\nreturn object_tilt"), memory_mb=memory_mb)
+    pool.close_workers()
+    warm_up(1)  # a fresh worker, so that its VmPeak covers these calls only
+    worker = _serving_worker()
+    rss_before, size_before = _status_mb(worker.proc.pid), _status_mb(worker.proc.pid, "VmSize")
+    rss = []
+    for _ in range(calls):
+        np.testing.assert_array_equal(f(**batch), batch["object_tilt"])
+        rss.append(_status_mb(worker.proc.pid))
+    # each call's cycle held 8 * elements bytes; uncollected, they piled up (258 → 1402 MB) while each call's
+    # cap, measured afresh above them, let the next call add as much again
+    assert max(rss) < rss_before + 64, f"worker RSS after each call (MB): {rss}, before: {rss_before:.0f}"
+    assert _status_mb(worker.proc.pid, "VmPeak") < size_before + memory_mb + pool.RESTING_SLACK_MB + 16
+    assert _serving_worker() is worker  # nothing was left to recycle it for
+    _assert_unharmed(watched, cwd, batch)
+
+
+def test_worker_resting_above_its_budget_is_retired(arena, monkeypatch):
+    watched, cwd, batch = arena
+    f = compile_scoring(LEGIT)
+    want = batch["contacts_object"].sum(axis=1) - 0.5
+    np.testing.assert_array_equal(f(**batch), want)
+    first = _serving_worker()
+    monkeypatch.setattr(pool, "RESTING_SLACK_MB", -1)  # every worker now ends its call above its budget
+    np.testing.assert_array_equal(f(**batch), want)
+    assert first.proc.poll() is not None and first not in pool._LIVE and first not in pool._IDLE
+    np.testing.assert_array_equal(f(**batch), want)  # a fresh worker served it
+    monkeypatch.undo()
+    _assert_unharmed(watched, cwd, batch)

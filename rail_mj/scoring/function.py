@@ -25,7 +25,10 @@ class ScoringFunction:
 
     Call it with an :class:`~rail_mj.types.Outcomes` or with the arrays of
     :data:`~rail_mj.types.SCORING_ARGS` by name; it returns float64 scores of
-    shape (B,) (success when > 0) or raises ``ScoringRuntimeError``.
+    shape (B,) (success when > 0) or raises ``ScoringRuntimeError``. Each call
+    may run ``timeout_s`` seconds of wall time and allocate at least ``memory_mb``
+    MB (at most :data:`~rail_mj.scoring.pool.RESTING_SLACK_MB` more) beyond
+    the worker's resting size and its inputs.
     """
 
     __slots__ = ("source", "timeout_s", "memory_mb", "digest", "_code")

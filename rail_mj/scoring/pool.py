@@ -7,7 +7,9 @@ minimal environment (no API keys). Inputs go through a per-worker memfd that
 both sides map, so 10k rollouts cost one memcpy; replies are JSON plus raw
 float64 bytes, never pickle (requests are pickled: the worker trusts its parent, not the
 reverse). A worker that times out or dies is killed and
-replaced; one that reports an error in the code stays warm.
+replaced; one that reports an error in the code stays warm, unless it ends a
+call (after its garbage collection) more than :data:`RESTING_SLACK_MB` above
+the size it started with: then it is retired and the next call starts a fresh one.
 """
 
 from __future__ import annotations
@@ -31,7 +33,12 @@ import numpy as np
 from rail_mj.errors import ScoringRuntimeError
 from rail_mj.scoring import sandbox
 
-__all__ = ["run_in_worker", "warm_up", "close_workers", "worker_count"]
+__all__ = ["run_in_worker", "warm_up", "close_workers", "worker_count", "RESTING_SLACK_MB", "WorkerStartError"]
+
+#: How far (MB of address space) above its starting size a worker may rest between calls. A call's cap is
+#: fixed: the starting size plus its inputs, its ``memory_mb`` and this slack, so what one call leaves behind
+#: never raises the next one's cap and every call has at least ``memory_mb`` to itself.
+RESTING_SLACK_MB = 16
 
 _START_TIMEOUT_S = 60.0  # a cold interpreter + numpy import on a loaded 2-core box
 _GRACE_S = 1.0  # the worker's own alarm answers at timeout_s; the kill is the backstop
@@ -40,6 +47,10 @@ _ALIGN = 64
 _MIN_SHM = 1 << 20
 _ENV_KEEP = ("PATH", "PYTHONPATH", "PYTHONHOME", "VIRTUAL_ENV", "LANG", "LC_ALL", "LD_LIBRARY_PATH", "TMPDIR")
 _THREAD_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+
+
+class WorkerStartError(ScoringRuntimeError):
+    """No scoring worker could be started: a problem of this machine, not of the scoring code."""
 
 
 def _worker_env() -> dict[str, str]:
@@ -95,7 +106,7 @@ class _Worker:
             for fd in (req_r, req_w, rep_r, rep_w, shm_fd):
                 os.close(fd)
             shutil.rmtree(tmpdir, ignore_errors=True)
-            raise ScoringRuntimeError(f"could not start a scoring worker: {exc}") from exc
+            raise WorkerStartError(f"could not start a scoring worker: {exc}") from exc
         os.close(req_r)
         os.close(rep_w)
         return cls(proc, Connection(req_w, readable=False), Connection(rep_r, writable=False),
@@ -105,11 +116,11 @@ class _Worker:
         if self.ready:
             return
         if not self.reply.poll(_START_TIMEOUT_S):
-            raise ScoringRuntimeError(f"the scoring worker did not start within {_START_TIMEOUT_S} s")
+            raise WorkerStartError(f"the scoring worker did not start within {_START_TIMEOUT_S} s")
         try:
             json.loads(self.reply.recv_bytes(maxlength=4096))
         except (EOFError, OSError, ValueError) as exc:
-            raise ScoringRuntimeError(
+            raise WorkerStartError(
                 f"the scoring worker failed to start: {_death_reason(self.proc.poll())}") from exc
         self.ready = True
 
@@ -181,6 +192,22 @@ def _release(worker: _Worker) -> None:
     worker.close()
 
 
+def _retire(worker: _Worker) -> None:
+    """Stop a worker that rests above its budget (memory it cannot give back); the next call starts afresh."""
+    with _LOCK:
+        _LIVE.discard(worker)
+    worker.kill()
+    worker.close()
+
+
+def _settle(worker: _Worker, header: dict) -> None:
+    resting = header.get("resting_mb")
+    if isinstance(resting, (int, float)) and resting <= RESTING_SLACK_MB:
+        _release(worker)
+    else:
+        _retire(worker)
+
+
 def _discard(worker: _Worker) -> str:
     """Kill a worker that timed out or died, start its replacement, and say why it went."""
     if worker.proc.poll() is None:
@@ -207,20 +234,15 @@ def run_in_worker(code: bytes, digest: str, arrays: dict[str, np.ndarray], batch
         raise
     try:
         shm_size, layout = worker.write_inputs(arrays)
-        request = {"digest": digest, "code": code, "arrays": layout, "shm_size": shm_size,
-                   "batch": batch, "timeout_s": timeout_s, "memory_mb": memory_mb}
+        request = {"digest": digest, "code": code, "arrays": layout, "shm_size": shm_size, "batch": batch,
+                   "timeout_s": timeout_s, "memory_mb": memory_mb, "slack_mb": RESTING_SLACK_MB}
         worker.request.send_bytes(pickle.dumps(request, protocol=pickle.HIGHEST_PROTOCOL))
         if not worker.reply.poll(timeout_s + _GRACE_S):
             _discard(worker)
             raise ScoringRuntimeError(
-                f"scoring timed out: the code ran past the wall-time limit of {timeout_s} s and its worker was killed")
+                f"scoring timed out after {timeout_s:g} s (the wall-time limit); its worker was killed")
         header = json.loads(worker.reply.recv_bytes(maxlength=1 << 16))
-        if not header.get("ok"):
-            _release(worker)
-            line = header.get("line")
-            where = f" at line {line}" if line else ""
-            raise ScoringRuntimeError(f"scoring failed ({header.get('kind')}){where}: {header.get('message')}")
-        raw = worker.reply.recv_bytes(maxlength=8 * batch + 8)
+        raw = worker.reply.recv_bytes(maxlength=8 * batch + 8) if header.get("ok") else None
     except (EOFError, OSError, ValueError) as exc:
         reason = _discard(worker)
         raise ScoringRuntimeError(f"the scoring worker {reason} while running the code") from exc
@@ -229,7 +251,11 @@ def run_in_worker(code: bytes, digest: str, arrays: dict[str, np.ndarray], batch
     except BaseException:
         _discard(worker)  # e.g. KeyboardInterrupt mid-call: its reply would desynchronise the protocol
         raise
-    _release(worker)
+    _settle(worker, header)
+    if raw is None:
+        line = header.get("line")
+        where = f" at line {line}" if line else ""
+        raise ScoringRuntimeError(f"scoring failed ({header.get('kind')}){where}: {header.get('message')}")
     scores = np.frombuffer(raw, dtype="<f8").astype(np.float64)
     if scores.shape != (batch,) or not np.isfinite(scores).all():
         raise ScoringRuntimeError(f"the scoring worker returned {scores.shape[0]} scores; expected {batch} finite ones")

@@ -14,17 +14,27 @@ Protocol (one request at a time):
 * worker → parent: a JSON header (never pickle: the parent must not unpickle
   what the untrusted side produced), then, on success, the raw ``float64``
   scores.
+
+Memory: the worker's resting address-space size is measured once, when it
+starts; every call may use ``memory_mb`` (plus the parent's ``slack_mb``)
+above that and the mapped inputs, never above what the previous call left
+behind. Garbage (cycles included) is collected after each call, and the
+header reports how far above its resting size the worker ended
+(``resting_mb``) so that the parent can retire a worker that stays bloated.
 """
 
 from __future__ import annotations
 
 import builtins
+import ctypes
+import gc
 import json
 import marshal
 import math
 import mmap
 import os
 import pickle
+import reprlib
 import resource
 import signal
 import sys
@@ -97,6 +107,7 @@ SOURCE_FILENAME = "<scoring>"
 _PROTOCOL_FDS = 3  # argv: request fd, reply fd, shared-memory fd
 _CODE_CACHE_SIZE = 64
 _MAX_MESSAGE = 2000  # the parent reads at most 64 KiB of header; messages come from untrusted code
+_MB = 2**20
 
 
 class _ScoringTimeout(BaseException):
@@ -130,6 +141,23 @@ def make_globals() -> dict:
     }
 
 
+_M_MMAP_THRESHOLD = -3  # glibc <malloc.h>
+_MMAP_THRESHOLD = 128 * 1024
+
+
+def _glibc():
+    """The C library if it is glibc (``mallopt`` and ``malloc_trim``), else None."""
+    try:
+        libc = ctypes.CDLL(None)
+        libc.mallopt, libc.malloc_trim  # noqa: B018 (probe)
+    except (OSError, AttributeError):
+        return None
+    return libc
+
+
+_LIBC = _glibc()
+
+
 def _vm_bytes() -> int:
     """Current virtual address-space size of this process (what RLIMIT_AS counts)."""
     with open("/proc/self/statm") as f:
@@ -150,6 +178,29 @@ def _clip(text: str) -> str:
     return text if len(text) <= _MAX_MESSAGE else text[:_MAX_MESSAGE] + f"... ({len(text)} characters)"
 
 
+def _short_repr() -> reprlib.Repr:
+    short = reprlib.Repr()
+    short.maxlevel, short.maxstring, short.maxother = 3, 200, 200
+    short.maxlist = short.maxtuple = short.maxdict = short.maxset = short.maxfrozenset = short.maxdeque = 8
+    return short
+
+
+_SHORT = _short_repr()
+
+
+def _describe(exc: BaseException) -> str:
+    """``Type: message``, clipped; called with the limits held, so a message too big to build fails inside them."""
+    try:
+        if len(exc.args) == 1 and not isinstance(exc.args[0], str):
+            # e.g. `assert ok, big_list`: show the start of the object, never build its whole text
+            text = _SHORT.repr(exc.args[0])
+        else:
+            text = str(exc)
+    except Exception as err:  # MemoryError under the limit, ValueError from a huge int's digits, ...
+        text = f"(the message could not be shown: {type(err).__name__} while formatting it)"
+    return _clip(f"{type(exc).__name__}: {text}" if text else type(exc).__name__)
+
+
 def _on_alarm(signum, frame):
     raise _ScoringTimeout
 
@@ -161,10 +212,10 @@ def _lock_down() -> None:
     resource.setrlimit(resource.RLIMIT_NPROC, (0, 0))
 
 
-def _limit_call(timeout_s: float, memory_mb: int) -> None:
-    """Per-call limits: extra address space, CPU seconds (SIGXCPU kills) and a wall-time alarm."""
+def _limit_call(timeout_s: float, ceiling: int) -> None:
+    """Per-call limits: address space up to ``ceiling`` bytes, CPU seconds (SIGXCPU kills), a wall-time alarm."""
     _, as_hard = resource.getrlimit(resource.RLIMIT_AS)
-    resource.setrlimit(resource.RLIMIT_AS, (_vm_bytes() + memory_mb * 2**20, as_hard))
+    resource.setrlimit(resource.RLIMIT_AS, (ceiling, as_hard))
     usage = resource.getrusage(resource.RUSAGE_SELF)
     cpu_now = usage.ru_utime + usage.ru_stime
     _, cpu_hard = resource.getrlimit(resource.RLIMIT_CPU)
@@ -189,6 +240,9 @@ def _check_output(out, batch: int) -> np.ndarray:
                          f"numpy cannot convert ({exc})") from None
     if arr.dtype.kind not in "biuf":
         raise _BadOutput(f"score must return a numeric array; got dtype {arr.dtype} ({type(out).__name__})")
+    if arr.ndim == 0:
+        raise _BadOutput(f"score returned a scalar ({type(out).__name__}), expected an array of shape ({batch},) — "
+                         "one score per rollout")
     if arr.shape != (batch,):
         raise _BadOutput(f"score must return shape ({batch},) — one score per rollout; got shape {arr.shape}")
     arr = arr.astype(np.float64)
@@ -200,6 +254,32 @@ def _check_output(out, batch: int) -> np.ndarray:
     return arr
 
 
+def _timed_out(req: dict) -> dict:
+    return {"ok": False, "kind": "timeout", "message": f"timed out after {req['timeout_s']:g} s (the wall-time limit)"}
+
+
+def _out_of_memory(req: dict, exc: MemoryError) -> dict:
+    return {"ok": False, "kind": "memory", "line": _error_line(exc.__traceback__),
+            "message": f"exceeded the memory limit of {req['memory_mb']} MB ({_describe(exc)})"}
+
+
+def _outcome(score, arrays: dict[str, np.ndarray], req: dict) -> dict:
+    """Run ``score`` and describe what happened; called with the limits held, error texts included."""
+    try:
+        return {"ok": True, "scores": _check_output(score(**arrays), req["batch"])}
+    except _ScoringTimeout:
+        return _timed_out(req)
+    except _BadOutput as exc:
+        return {"ok": False, "kind": "output", "message": _clip(str(exc))}
+    except RecursionError as exc:
+        return {"ok": False, "kind": "recursion", "message": f"recursion too deep ({_describe(exc)})",
+                "line": _error_line(exc.__traceback__)}
+    except MemoryError as exc:
+        return _out_of_memory(req, exc)
+    except Exception as exc:
+        return {"ok": False, "kind": "exception", "message": _describe(exc), "line": _error_line(exc.__traceback__)}
+
+
 class _Worker:
     def __init__(self, request: Connection, reply: Connection, shm_fd: int) -> None:
         self.request = request
@@ -207,6 +287,7 @@ class _Worker:
         self.shm_fd = shm_fd
         self.shm: mmap.mmap | None = None
         self.code: dict[str, types.CodeType] = {}
+        self.resting = _vm_bytes()  # fixed for the worker's life: calls must not ratchet their budget up
 
     def _map(self, size: int) -> memoryview:
         if self.shm is None or len(self.shm) != size:
@@ -223,39 +304,40 @@ class _Worker:
         return code
 
     def _run(self, req: dict) -> dict:
+        """One call, then garbage collection; the result says how far above its resting size the worker ended."""
+        result = self._call(req)
+        gc.collect()  # cycles the code left behind would otherwise eat into the next call's budget
+        if _LIBC is not None:
+            _LIBC.malloc_trim(0)  # freed heap the allocator keeps would count against the worker's resting size
+        result["resting_mb"] = round((_vm_bytes() - self.resting - len(self.shm)) / _MB, 1)
+        return result
+
+    def _call(self, req: dict) -> dict:
         view = self._map(req["shm_size"])
         arrays = {
             name: np.frombuffer(view, dtype=np.dtype(dtype), count=math.prod(shape), offset=offset).reshape(shape)
             for name, dtype, shape, offset in req["arrays"]
         }
         namespace = make_globals()
+        exec(self._code(req["digest"], req["code"]), namespace)
+        ceiling = self.resting + len(self.shm) + (req["memory_mb"] + req["slack_mb"]) * _MB
         try:
-            exec(self._code(req["digest"], req["code"]), namespace)
-            _limit_call(req["timeout_s"], req["memory_mb"])
+            _limit_call(req["timeout_s"], ceiling)
             try:
-                return {"ok": True, "scores": _check_output(namespace["score"](**arrays), req["batch"])}
+                return _outcome(namespace["score"], arrays, req)
             finally:
                 _unlimit_call()
-        except _ScoringTimeout:
-            return {"ok": False, "kind": "timeout", "message": f"exceeded the wall-time limit of {req['timeout_s']} s"}
-        except _BadOutput as exc:
-            return {"ok": False, "kind": "output", "message": _clip(str(exc))}
-        except RecursionError as exc:
-            return {"ok": False, "kind": "recursion", "message": _clip(f"recursion too deep ({exc})"),
-                    "line": _error_line(exc.__traceback__)}
-        except MemoryError as exc:
-            return {"ok": False, "kind": "memory",
-                    "message": _clip(f"exceeded the memory limit of {req['memory_mb']} MB ({type(exc).__name__}: {exc})"),
-                    "line": _error_line(exc.__traceback__)}
-        except Exception as exc:
-            return {"ok": False, "kind": "exception", "message": _clip(f"{type(exc).__name__}: {exc}"),
-                    "line": _error_line(exc.__traceback__)}
+        except _ScoringTimeout:  # the alarm fired while an error was being described or the limits lifted
+            return _timed_out(req)
+        except MemoryError as exc:  # describing an error needed more than the limit
+            return _out_of_memory(req, exc)
         finally:
             # idempotent; also covers an alarm that fired inside the inner finally
             _unlimit_call()
 
     def serve(self) -> None:
-        self.reply.send_bytes(json.dumps({"ready": True, "pid": os.getpid()}).encode())
+        self.reply.send_bytes(json.dumps({"ready": True, "pid": os.getpid(),
+                                          "resting_mb": round(self.resting / _MB, 1)}).encode())
         while True:
             try:
                 req = pickle.loads(self.request.recv_bytes())
@@ -278,6 +360,15 @@ def main(argv: list[str]) -> None:
     signal.signal(signal.SIGALRM, _on_alarm)
     make_globals()  # resolve every allow-listed numpy name now, before the limits
     _lock_down()
+    if _LIBC is not None:
+        # a fixed threshold: blocks above it are mapped and unmapped on their own, so freed arrays never stay
+        # in a heap that a small live block pins (glibc's adaptive threshold would move them into the heap)
+        _LIBC.mallopt(_M_MMAP_THRESHOLD, _MMAP_THRESHOLD)
+    # startup objects live as long as the worker: keep them out of the collection after every call
+    gc.collect()
+    gc.freeze()
+    if _LIBC is not None:
+        _LIBC.malloc_trim(0)  # the resting size is measured next: trimmed, as it will be after each call
     _Worker(Connection(request_fd, writable=False), Connection(reply_fd, readable=False), shm_fd).serve()
 
 
