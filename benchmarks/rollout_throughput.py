@@ -26,8 +26,7 @@ import mujoco.batch
 import numpy as np
 import trimesh
 
-from rail_mj.imagination import ImaginationConfig, imagine, mjx_compile_count
-from rail_mj.imagination.common import build_scene_model, drive_table, initial_state
+from rail_mj.imagination import ImaginationConfig, get_backend, imagine, prepare
 from rail_mj.imagination.mjx import hull_bucket
 from rail_mj.stable_poses import find_stable_poses, pose_from_up
 from rail_mj.types import AgentSetup, RailObject
@@ -55,12 +54,12 @@ def droplets(n: int = 3, spacing: float = 0.016) -> AgentSetup:
     return AgentSetup(fragment=DROPLET, offsets=np.array([[x, y, z] for x in g for y in g for z in g]))
 
 
-def _scene_state(obj: RailObject, agents: AgentSetup, batch: int, cfg: ImaginationConfig):
+def _scene_state(obj: RailObject, agents: AgentSetup, batch: int, cfg: ImaginationConfig, backend: str = "native"):
+    """The backend's scene, the initial states of ``batch`` upright cups with the droplets above, the pose."""
     pose = pose_from_up(obj, np.array([0.0, 0.0, 1.0]), 1.0)
-    scene = build_scene_model(obj, agents, cfg)
-    table = drive_table([np.array([[0, 0, pose.half_extents[2] + 0.04, 1, 0, 0, 0]])], cfg)
-    init = initial_state(scene, [pose] * batch, 1, table, np.asarray(agents.offsets))
-    return scene, init, pose
+    scene = get_backend(backend, cfg).scene(obj, agents)
+    plan = np.array([[0, 0, pose.half_extents[2] + 0.04, 1, 0, 0, 0]])
+    return scene, prepare(obj, [pose] * batch, agents, [plan], cfg).initial_qpos(scene), pose
 
 
 def _inside(agent_world: np.ndarray, pose) -> float:
@@ -68,11 +67,11 @@ def _inside(agent_world: np.ndarray, pose) -> float:
     return float((np.abs(rel) <= pose.half_extents + 1e-3).all(-1).mean())
 
 
-def run_native(scene, init, pose, nsteps: int, nthread: int):
-    batch = mujoco.batch.Batch(scene.model, len(init["qpos"]), nthread=nthread, persistent=True)
+def run_native(scene, qpos0, pose, nsteps: int, nthread: int):
+    batch = mujoco.batch.Batch(scene.model, len(qpos0), nthread=nthread, persistent=True)
     qpos = batch.bind("qpos")
     batch.reset(stage=mujoco.mjtStage.mjSTAGE_NONE)
-    qpos[:] = init["qpos"]
+    qpos[:] = qpos0
     batch.forward()
     t = time.perf_counter()
     batch.step(nstep=nsteps)
@@ -80,11 +79,11 @@ def run_native(scene, init, pose, nsteps: int, nthread: int):
     return wall, _agents_inside(scene, np.array(qpos), pose)
 
 
-def run_serial(scene, init, pose, nsteps: int):
+def run_serial(scene, qpos0, pose, nsteps: int):
     data = mujoco.MjData(scene.model)
     finals = []
     t = time.perf_counter()
-    for q in init["qpos"]:
+    for q in qpos0:
         mujoco.mj_resetData(scene.model, data)
         data.qpos[:] = q
         mujoco.mj_step(scene.model, data, nsteps)
@@ -101,12 +100,8 @@ def run_mjx(obj, agents, batch: int, nsteps: int, cfg: ImaginationConfig):
     """MJX scan of plain steps on the backend's box-bucket scene; returns (compile_s, run_s, inside)."""
     from mujoco import mjx
 
-    from rail_mj.imagination.mjx import bucket_scene
-
-    scene = bucket_scene(obj, agents, cfg)
-    _, init, pose = _scene_state(obj, agents, batch, cfg)
-    m = mjx.put_model(scene.model, impl="jax")
-    m = m.replace(_impl=m._impl.replace(geom_rbound_hfield=np.zeros_like(m._impl.geom_rbound_hfield)))
+    scene, qpos0, pose = _scene_state(obj, agents, batch, cfg, "mjx")
+    m = get_backend("mjx", cfg).put_model(scene)
 
     @jax.jit
     def roll(m, qpos0):
@@ -114,7 +109,7 @@ def run_mjx(obj, agents, batch: int, nsteps: int, cfg: ImaginationConfig):
         step = jax.vmap(mjx.step, in_axes=(None, 0))
         return jax.lax.fori_loop(0, nsteps, lambda _, d: step(m, d), d0).qpos
 
-    qpos0 = jax.numpy.asarray(init["qpos"])
+    qpos0 = jax.numpy.asarray(qpos0)
     t = time.perf_counter()
     compiled = roll.lower(m, qpos0).compile()
     compile_s = time.perf_counter() - t
@@ -193,8 +188,8 @@ def main() -> None:
     print(f"device: {device}")
     results, agreement = [], {}
     for b in batches:
-        scene, init, pose = _scene_state(obj, agents, b, cfg)
-        runs = {"native-serial": run_serial(scene, init, pose, nsteps), "native": run_native(scene, init, pose, nsteps, 0)}
+        scene, qpos0, pose = _scene_state(obj, agents, b, cfg)
+        runs = {"native-serial": run_serial(scene, qpos0, pose, nsteps), "native": run_native(scene, qpos0, pose, nsteps, 0)}
         try:
             runs["pybullet"] = run_pybullet(obj, agents, pose, b, nsteps, cfg.timestep)
         except ImportError:
@@ -222,7 +217,8 @@ def main() -> None:
     bucket = {}
     if not args.no_mjx:
         small = droplets(2)
-        before = mjx_compile_count()
+        mjx_backend = get_backend("mjx", cfg)
+        before = mjx_backend.compiles
         t = time.perf_counter()
         imagination_wall(obj, small, "mjx", cfg)
         first = time.perf_counter() - t
@@ -231,7 +227,7 @@ def main() -> None:
         same = hull_bucket(len(obj.hulls)) == hull_bucket(len(other.hulls))
         imagination_wall(other, small, "mjx", cfg)
         bucket = {"first_object_s": first, "second_object_s": time.perf_counter() - t,
-                  "compiles": mjx_compile_count() - before, "same_bucket": same}
+                  "compiles": mjx_backend.compiles - before, "same_bucket": same}
         print(f"mjx second object (hulls {len(obj.hulls)} vs {len(other.hulls)}): {bucket}")
 
     imagination = {}

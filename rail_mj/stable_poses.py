@@ -24,13 +24,14 @@ import scipy.spatial
 import trimesh
 
 from rail_mj.errors import ConfigError, StablePoseError
-from rail_mj.imagination.common import ImaginationConfig, at_rest, build_scene_model
+from rail_mj.geometry import rotation_to_z, up_in_mesh_frame
+from rail_mj.imagination.config import ImaginationConfig
+from rail_mj.mjcf import compose_scene
 from rail_mj.paths import cache_dir
 from rail_mj.types import RailObject, StablePose, StablePoses
 
-__all__ = ["find_stable_poses", "pose_from_up", "STABLE_POSE_BACKENDS"]
+__all__ = ["find_stable_poses", "pose_from_up"]
 
-STABLE_POSE_BACKENDS = ("auto", "native")
 #: bump when the algorithm changes, so old cache entries are ignored
 _CACHE_VERSION = 3
 #: two resting shapes match when their height signatures differ by less than this fraction of the object size
@@ -43,18 +44,6 @@ _VERIFY_TIME = 1.5
 def _uniform_quats(rng: np.random.Generator, n: int) -> np.ndarray:
     q = rng.normal(size=(n, 4))
     return q / np.linalg.norm(q, axis=1, keepdims=True)
-
-
-def _rotation_to_z(up: np.ndarray) -> np.ndarray:
-    """Quaternion (wxyz) of the shortest rotation taking the unit vector ``up`` to +z."""
-    up = up / np.linalg.norm(up)
-    z = np.array([0.0, 0.0, 1.0])
-    c = float(up @ z)
-    if c < -1 + 1e-12:
-        return np.array([0.0, 1.0, 0.0, 0.0])
-    axis = np.cross(up, z)
-    q = np.array([1.0 + c, *axis])
-    return q / np.linalg.norm(q)
 
 
 def _footprint_yaw(xy: np.ndarray) -> float:
@@ -78,7 +67,7 @@ def pose_from_up(obj: RailObject, up: np.ndarray, probability: float) -> StableP
     Its yaw puts the footprint's smallest bounding rectangle on the world axes, long side along x, so the
     task-frame box is the object's own box: a table set diagonally would have placements off its corners.
     """
-    tilt = _rotation_to_z(np.asarray(up, dtype=np.float64))
+    tilt = rotation_to_z(np.asarray(up, dtype=np.float64))
     rot = np.zeros(9)
     mujoco.mju_quat2Mat(rot, tilt)
     verts = np.asarray(obj.mesh.vertices) @ rot.reshape(3, 3).T
@@ -91,11 +80,6 @@ def pose_from_up(obj: RailObject, up: np.ndarray, probability: float) -> StableP
     centre = (lo + hi) / 2
     pos = np.array([-centre[0], -centre[1], -lo[2]])
     return StablePose(pos=pos, quat=quat, probability=probability, half_extents=(hi - lo) / 2)
-
-
-def _ups(quats: np.ndarray) -> np.ndarray:
-    w, x, y, z = quats.T
-    return np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=1)
 
 
 def _cluster(ups: np.ndarray, tol: float) -> list[np.ndarray]:
@@ -160,19 +144,20 @@ def _drop(
     """Drop the object from each orientation ``quats`` (n, 4) in one batch; return the final orientations (n, 4)
     and whether each settled (n,). Rest before ``min_time`` does not count: an object set down on an unstable
     balance point starts at rest and needs a moment to fall."""
-    cfg = ImaginationConfig(settle_speed=0.005)
+    cfg = ImaginationConfig(settle_speed=0.005)  # the imagination's physics, a stricter rest
     size = float(np.max(obj.extents))
     mass_scale = max(obj.mass, 1e-3)
     n_drops = len(quats)
     # damping and rolling friction let round objects (a cup on its side) come to rest within the settle time
-    scene = build_scene_model(obj, None, cfg, joint_damping=0.05 * mass_scale, rolling_friction=0.01 * size)
+    scene = compose_scene(obj, None, cfg.physics, joint_damping=0.05 * mass_scale, rolling_friction=0.01 * size)
     verts = np.concatenate([np.asarray(h) for h in obj.hulls])
+    o = scene.object_qpos
     qpos0 = np.tile(scene.model.qpos0, (n_drops, 1))
     for i, q in enumerate(quats):
         rot = np.zeros(9)
         mujoco.mju_quat2Mat(rot, q)
-        qpos0[i, 2] = drop_height - (verts @ rot.reshape(3, 3).T)[:, 2].min()
-    qpos0[:, 3:7] = quats
+        qpos0[i, o + 2] = drop_height - (verts @ rot.reshape(3, 3).T)[:, 2].min()
+    qpos0[:, o + 3 : o + 7] = quats
     batch = mujoco.batch.Batch(scene.model, n_drops, nthread=0)
     qpos, qvel = batch.bind("qpos"), batch.bind("qvel")
     batch.reset(stage=mujoco.mjtStage.mjSTAGE_NONE)
@@ -189,10 +174,10 @@ def _drop(
             break
         batch.step(ids=running, nstep=cfg.check_every)
         steps += cfg.check_every
-        rest = at_rest(qvel, scene, cfg) & (steps >= first_check)
+        rest = scene.at_rest(qvel, cfg.settle_speed) & (steps >= first_check)
         settled |= rest & quiet
         quiet = rest
-    final = np.array(qpos[:, 3:7])
+    final = np.array(qpos[:, o + 3 : o + 7])
     return final / np.linalg.norm(final, axis=1, keepdims=True), settled
 
 
@@ -213,11 +198,11 @@ def _verified(
         half = np.deg2rad(_VERIFY_TILT_DEG) / 2
         tilt = np.array([np.cos(half), np.sin(half) * np.cos(angle), np.sin(half) * np.sin(angle), 0.0])
         q = np.zeros(4)
-        mujoco.mju_mulQuat(q, tilt, _rotation_to_z(up))
+        mujoco.mju_mulQuat(q, tilt, rotation_to_z(up))
         quats.append(q)
     # judged by where it ends, not by coming to rest: a legged table rocks on its hulls' corners for a while
     final, _ = _drop(obj, np.array(quats), _VERIFY_TIME, 0.002, min_time=_VERIFY_TIME)
-    kept = np.einsum("ij,ij->i", _ups(final), np.array(seeds)) > np.cos(tol)
+    kept = np.einsum("ij,ij->i", up_in_mesh_frame(final), np.array(seeds)) > np.cos(tol)
     return [(seeds[i], float(probs[clusters[i]].sum())) for i in np.nonzero(kept)[0]]
 
 
@@ -247,7 +232,6 @@ def find_stable_poses(
     *,
     n_drops: int = 128,
     seed: int = 0,
-    backend: str = "auto",
     settle_time: float = 3.0,
     drop_height: float = 0.01,
     tolerance_deg: float = 10.0,
@@ -255,8 +239,6 @@ def find_stable_poses(
     use_cache: bool = True,
 ) -> StablePoses:
     """Stable poses of ``obj``, most probable first; poses rarer than ``min_probability`` are dropped."""
-    if backend not in STABLE_POSE_BACKENDS:
-        raise ConfigError(f"unknown stable-pose backend {backend!r}; valid: {', '.join(STABLE_POSE_BACKENDS)}")
     if n_drops < 1 or settle_time <= 0 or not 0 < tolerance_deg < 90 or drop_height < 0:
         raise ConfigError(
             f"need n_drops >= 1, settle_time > 0, 0 < tolerance_deg < 90, drop_height >= 0; got {n_drops}, "
@@ -273,7 +255,7 @@ def find_stable_poses(
             f"none of {n_drops} drops of {obj.name!r} came to rest within {settle_time} s; raise settle_time"
         )
     tol = np.deg2rad(tolerance_deg)
-    ups = _ups(quats[settled])
+    ups = up_in_mesh_frame(quats[settled])
     exact, exact_p = _quasi_static(obj)
     reps, counts = [], []
     for members in _cluster(ups, tol):

@@ -21,10 +21,12 @@ Quaternions are MuJoCo's ``(w, x, y, z)``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
+from rail_mj.geometry import up_in_mesh_frame
 
 __all__ = [
     "RailObject",
@@ -69,9 +71,7 @@ class StablePose:
     @property
     def up_in_mesh_frame(self) -> np.ndarray:
         """The mesh-frame unit vector that points to world +z in this pose."""
-        w, x, y, z = self.quat
-        # third row of the rotation matrix = R^T e_z
-        return np.array([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)])
+        return up_in_mesh_frame(np.asarray(self.quat, dtype=np.float64))
 
 
 @dataclass(frozen=True)
@@ -158,7 +158,3 @@ class Outcomes:
     def scoring_kwargs(self) -> dict[str, np.ndarray]:
         """The arrays a generated scoring function receives, by name."""
         return {name: getattr(self, name) for name in SCORING_ARGS}
-
-    def take(self, index: np.ndarray) -> "Outcomes":
-        """A sub-batch (e.g. one stable pose's rollouts)."""
-        return Outcomes(**{f.name: getattr(self, f.name)[index] for f in fields(self)})

@@ -5,7 +5,7 @@ import pytest
 import trimesh
 
 from rail_mj.errors import FragmentError, ImaginationError
-from rail_mj.imagination import ImaginationConfig, imagine, mjx_compile_count
+from rail_mj.imagination import ImaginationConfig, get_backend, imagine, prepare
 from rail_mj.stable_poses import pose_from_up
 from rail_mj.types import AgentSetup, RailObject
 
@@ -59,11 +59,14 @@ def cup_poses(cup):
     return [pose_from_up(cup, np.array([0.0, 0.0, 1.0]), 0.5), pose_from_up(cup, np.array([0.0, 0.0, -1.0]), 0.5)]
 
 
+def _pour_plans(cup_poses):
+    above = cup_poses[0].half_extents[2] + 0.04
+    return [np.array([[0, 0, above, 1, 0, 0, 0]]), np.array([[0, 0, above + 0.05, 1, 0, 0, 0], [0, 0, above, 1, 0, 0, 0]])]
+
+
 def _pour(cup, cup_poses, backend, n=3, collide=True):
     drops = AgentSetup(fragment=DROPLET, offsets=_grid(n, 0.015), collide_agents=collide)
-    above = cup_poses[0].half_extents[2] + 0.04
-    plans = [np.array([[0, 0, above, 1, 0, 0, 0]]), np.array([[0, 0, above + 0.05, 1, 0, 0, 0], [0, 0, above, 1, 0, 0, 0]])]
-    return imagine(cup, cup_poses, drops, plans, backend=backend, config=FAST)
+    return imagine(cup, cup_poses, drops, _pour_plans(cup_poses), backend=backend, config=FAST)
 
 
 @pytest.fixture(scope="module")
@@ -145,9 +148,10 @@ def test_bad_inputs_raise_imagination_errors(cup, cup_poses):
 @pytest.mark.slow
 def test_mjx_agrees_with_native_and_compiles_once_per_bucket(cup, cup_poses):
     native = _pour(cup, cup_poses, "native", n=2, collide=False)
-    before = mjx_compile_count()
-    fast = _pour(cup, cup_poses, "mjx", n=2, collide=False)
-    assert mjx_compile_count() == before + 1
+    mjx = get_backend("mjx", FAST)
+    before = mjx.compiles
+    fast = _pour(cup, cup_poses, mjx, n=2, collide=False)
+    assert mjx.compiles == before + 1
     np.testing.assert_array_equal(_inside(fast), _inside(native))
     np.testing.assert_allclose(fast.agent_pos, native.agent_pos, atol=5e-3)
     # upright-vs-inverted check on this backend too
@@ -155,7 +159,7 @@ def test_mjx_agrees_with_native_and_compiles_once_per_bucket(cup, cup_poses):
     other = _cup(r=0.035, h=0.07)  # 13 hulls again: same 16-geom bucket
     other_poses = [pose_from_up(other, np.array([0.0, 0.0, s]), 0.5) for s in (1.0, -1.0)]
     second = _pour(other, other_poses, "mjx", n=2, collide=False)
-    assert mjx_compile_count() == before + 1
+    assert mjx.compiles == before + 1
     assert _inside(second)[second.pose_index == 0].mean() >= 0.9
 
 
@@ -179,3 +183,18 @@ def test_per_pose_trajectories_must_match_the_poses(cup, cup_poses):
         imagine(cup, cup_poses, block, [[one]], backend="native")
     with pytest.raises(ImaginationError, match="same number"):
         imagine(cup, cup_poses, block, [[one], [one, one]], backend="native")
+
+
+def test_backends_share_one_interface_and_keep_their_config(cup, cup_poses):
+    """One prepared batch runs on any backend; a backend is built once per config and keeps it."""
+    drops = AgentSetup(fragment=DROPLET, offsets=_grid(2, 0.015), collide_agents=False)
+    native = get_backend("native", FAST)
+    assert get_backend("native", FAST) is native and native.config == FAST
+    batch = prepare(cup, cup_poses, drops, _pour_plans(cup_poses), native.config)
+    assert batch.placement.pose_index.tolist() == [0, 0, 1, 1] and batch.placement.row.tolist() == [0, 1, 0, 1]
+    np.testing.assert_allclose(batch.placement.origin[:, 2], [p.half_extents[2] for p in cup_poses for _ in (0, 1)])
+    direct = native.run(batch)
+    via_imagine = imagine(cup, cup_poses, drops, _pour_plans(cup_poses), backend=native)
+    np.testing.assert_array_equal(direct.agent_pos, via_imagine.agent_pos)
+    with pytest.raises(ImaginationError, match="its own config"):
+        imagine(cup, cup_poses, drops, _pour_plans(cup_poses), backend=native, config=ImaginationConfig())

@@ -3,41 +3,35 @@
 ``imagine`` places the object in each stable pose, drives the agents through
 each plan's via-poses (task frame), releases each agent at the end of its plan
 or at its first contact, lets everything settle and returns :class:`Outcomes`.
-Backends: ``native`` (MuJoCo C, threaded batch) and ``mjx`` (JAX, vmapped,
-compiled once per shape bucket); ``auto`` picks mjx on GPU/TPU, native on CPU.
+The inputs are prepared once (:func:`~rail_mj.imagination.batch.prepare`) and
+run by a :class:`~rail_mj.imagination.backend.Backend`: ``native`` (MuJoCo C,
+threaded batch) or ``mjx`` (JAX, vmapped, compiled once per shape bucket);
+``auto`` picks mjx on GPU/TPU, native on CPU.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
 from rail_mj.errors import ImaginationError
-from rail_mj.imagination.common import ImaginationConfig, build_scene_model, drive_table, initial_state, plan_rows
+from rail_mj.imagination.backend import BACKENDS, Backend, Progress, get_backend, resolve_backend
+from rail_mj.imagination.batch import Placement, RolloutBatch, prepare
+from rail_mj.imagination.config import ImaginationConfig
 from rail_mj.types import AgentSetup, Outcomes, RailObject, StablePose, StablePoses
 
-__all__ = ["BACKENDS", "ImaginationConfig", "imagine", "resolve_backend", "mjx_compile_count"]
-
-BACKENDS = ("auto", "native", "mjx")
-
-
-def resolve_backend(backend: str) -> str:
-    """``auto`` → ``mjx`` when JAX runs on a GPU/TPU, else ``native``."""
-    if backend not in BACKENDS:
-        raise ImaginationError(f"unknown imagination backend {backend!r}; valid: {', '.join(BACKENDS)}")
-    if backend != "auto":
-        return backend
-    import jax
-
-    return "mjx" if jax.default_backend() in ("gpu", "tpu", "cuda", "rocm") else "native"
-
-
-def mjx_compile_count() -> int:
-    """How many times the MJX rollout has been traced and compiled in this process."""
-    from rail_mj.imagination import mjx
-
-    return mjx.compile_count()
+__all__ = [
+    "BACKENDS",
+    "Backend",
+    "ImaginationConfig",
+    "Placement",
+    "RolloutBatch",
+    "get_backend",
+    "imagine",
+    "prepare",
+    "resolve_backend",
+]
 
 
 def imagine(
@@ -46,30 +40,24 @@ def imagine(
     agents: AgentSetup,
     trajectories: Sequence[np.ndarray] | Sequence[Sequence[np.ndarray]],
     *,
-    backend: str = "auto",
+    backend: str | Backend = "auto",
     config: ImaginationConfig | None = None,
-    progress: Callable[[int, int], None] | None = None,
+    progress: Progress | None = None,
 ) -> Outcomes:
     """Simulate every (stable pose, plan) pair, pose-major, and return their outcomes.
 
     ``trajectories[i]`` is plan i's (K_i, 7) via-poses of the layout centre (pos xyz + quat wxyz) in the task
     frame, shared by all poses; or ``trajectories[p][i]`` per pose (via-poses that scale with each pose's
-    half extents). Agents start at ``via[0] + offsets``. ``progress(done, total)`` is called with simulated steps.
+    half extents). Agents start at ``via[0] + offsets``. ``backend`` is a name (``auto``, ``native``, ``mjx``)
+    or a :class:`Backend`, which brings its own config. ``progress(done, total)`` is called with simulated steps.
     """
-    cfg = config or ImaginationConfig()
-    pose_list = list(poses)
-    if not pose_list:
-        raise ImaginationError("imagine needs at least one stable pose; got none")
-    offsets = np.asarray(agents.offsets, dtype=np.float64)
-    rows, n_plans = plan_rows(trajectories, len(pose_list))
-    chosen = resolve_backend(backend)
-    if chosen == "native":
-        from rail_mj.imagination.native import run_native
-
-        scene = build_scene_model(obj, agents, cfg)
-        table = drive_table(rows, cfg)
-        init = initial_state(scene, pose_list, n_plans, table, offsets)
-        return run_native(scene, init, table, offsets, cfg, progress=progress)
-    from rail_mj.imagination.mjx import run_mjx
-
-    return run_mjx(obj, pose_list, agents, rows, n_plans, cfg, progress=progress)
+    if isinstance(backend, Backend):
+        if config is not None and config != backend.config:
+            raise ImaginationError(
+                f"the {backend.name} backend was built with its own config; pass config=None, or build the "
+                f"backend with this config (get_backend({backend.name!r}, config))"
+            )
+        engine = backend
+    else:
+        engine = get_backend(backend, config)
+    return engine.run(prepare(obj, poses, agents, trajectories, engine.config), progress=progress)

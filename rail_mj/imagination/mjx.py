@@ -4,12 +4,16 @@ Compiled once per shape bucket: the object's hulls become oriented boxes (MJX-JA
 its sphere-vs-general-hull contacts are not, see design.md), padded to 8/16/32/64 geoms with tiny massless
 boxes hidden inside the first hull, and drive tables are padded to a power of two of steps. Every numeric
 model array is a jit argument, so a new object in the same bucket reuses the compiled rollout.
+
+MJX keeps the JAX implementation's contacts and one heightfield size table in ``_impl`` (the MJX Model and
+Data have no public field for them); this backend reads them, so it checks the installed mujoco-mjx against
+the versions those fields were verified on when it is built.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+import importlib.metadata
+from dataclasses import dataclass, replace
 
 import jax
 import jax.numpy as jnp
@@ -18,27 +22,18 @@ import numpy as np
 from mujoco import mjx
 
 from rail_mj.errors import ImaginationError
-from rail_mj.imagination.common import (
-    ImaginationConfig,
-    Scene,
-    assemble_outcomes,
-    build_scene_model,
-    count_contacts,
-    drive_table,
-    initial_state,
-)
-from rail_mj.types import AgentSetup, Outcomes, RailObject, StablePose
+from rail_mj.imagination.backend import Backend, Progress
+from rail_mj.imagination.batch import RolloutBatch, outcomes_from_states
+from rail_mj.imagination.config import ImaginationConfig
+from rail_mj.mjcf import Scene, count_contacts
+from rail_mj.types import AgentSetup, Outcomes, RailObject
 
-__all__ = ["run_mjx", "compile_count", "hull_bucket", "bucket_scene", "HULL_BUCKETS"]
+__all__ = ["MjxBackend", "hull_bucket", "HULL_BUCKETS", "SUPPORTED_MJX"]
 
 HULL_BUCKETS = (8, 16, 32, 64)
+#: mujoco-mjx major.minor versions whose ``_impl`` fields (Data: contact; Model: geom_rbound_hfield) this reads
+SUPPORTED_MJX = ("3.17",)
 _CONTACT_FORCE = 1e-9
-_compiles = 0
-
-
-def compile_count() -> int:
-    """Traces (= compiles) of the rollout so far in this process."""
-    return _compiles
 
 
 @dataclass(frozen=True)
@@ -57,6 +52,16 @@ def hull_bucket(n_hulls: int) -> int:
         if n_hulls <= b:
             return b
     raise ImaginationError(f"the mjx backend takes at most {HULL_BUCKETS[-1]} hulls; the object has {n_hulls}")
+
+
+def _check_mjx_version() -> None:
+    installed = importlib.metadata.version("mujoco-mjx")
+    if ".".join(installed.split(".")[:2]) not in SUPPORTED_MJX:
+        raise ImaginationError(
+            f"the mjx backend reads MJX internals (Data._impl.contact, Model._impl.geom_rbound_hfield) verified on "
+            f"mujoco-mjx {', '.join(v + '.x' for v in SUPPORTED_MJX)}; installed: {installed}. Install a supported "
+            f"version (pip install 'mujoco-mjx=={SUPPORTED_MJX[-1]}.*') or use backend='native'"
+        )
 
 
 def _world_step(m, layout: _Layout, d, k, driven, n_drive, row_pose, row_vel):
@@ -80,8 +85,6 @@ def _at_rest(qvel, layout: _Layout, radius, settle_speed):
 
 def _rollout(m, layout: _Layout, qpos0, pose_table, vel_table, n_drive, limit, radius, settle_speed):
     """Batched rollout; pose_table (B, S, N, 7) and vel_table (B, S, 6) are per-world drive rows."""
-    global _compiles
-    _compiles += 1  # runs only while tracing, i.e. once per compile
     n_worlds, n_agents = qpos0.shape[0], len(layout.agent_qpos)
     data0 = jax.vmap(lambda q: mjx.make_data(m).replace(qpos=q))(qpos0)
     last = pose_table.shape[1] - 1
@@ -120,69 +123,78 @@ def _rollout(m, layout: _Layout, qpos0, pose_table, vel_table, n_drive, limit, r
     return d.qpos, d.qvel, contact.geom, contact.dist, early, settled
 
 
-_rollout_jit = jax.jit(_rollout, static_argnames=("layout",))
-
-
-def bucket_scene(obj: RailObject, agents: AgentSetup, cfg: ImaginationConfig) -> Scene:
-    """The box scene of obj's bucket, weighing what the hull-mesh scene weighs."""
-    mesh_scene = build_scene_model(obj, None, cfg)
-    m = mesh_scene.model
-    body = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "object")
-    inertial = (float(m.body_mass[body]), m.body_ipos[body].copy(), m.body_inertia[body].copy(), m.body_iquat[body].copy())
-    scene = build_scene_model(obj, agents, cfg, hull_boxes=hull_bucket(len(obj.hulls)), inertial=inertial)
-    scene.model.opt.jacobian = mujoco.mjtJacobian.mjJAC_SPARSE  # dense deadlocked on large scenes (design.md)
-    return scene
-
-
 def _pad_steps(n: int) -> int:
     return max(64, 1 << int(np.ceil(np.log2(max(n, 1)))))
 
 
-def run_mjx(
-    obj: RailObject,
-    poses: Sequence[StablePose],
-    agents: AgentSetup,
-    trajectories: Sequence[np.ndarray],
-    n_plans: int,
-    cfg: ImaginationConfig,
-    *,
-    progress: Callable[[int, int], None] | None = None,
-) -> Outcomes:
-    """Same contract as the native backend, run as one jit-compiled JAX computation."""
-    scene = bucket_scene(obj, agents, cfg)
-    offsets = np.asarray(agents.offsets, dtype=np.float64)
-    raw = drive_table(trajectories, cfg)
-    table = drive_table(trajectories, cfg, pad_to=_pad_steps(int(raw.n_drive.max())))
-    init = initial_state(scene, poses, n_plans, table, offsets)
-    plan = init["row"]
-    pose_table = np.concatenate(
-        [
-            (init["origin"][:, None, None, :] + table.pos[plan][:, :, None, :] + offsets[None, None]),
-            np.broadcast_to(table.quat[plan][:, :, None, :], (len(plan), table.pos.shape[1], len(offsets), 4)),
-        ],
-        axis=-1,
-    )
-    vel_table = np.concatenate([table.linvel[plan], table.angvel[plan]], axis=-1)
-    n_drive = table.n_drive[plan]
-    limit = n_drive + int(np.ceil(cfg.settle_time / cfg.timestep))
-    layout = _Layout(
-        agent_qpos=tuple(int(a) for a in scene.agent_qpos),
-        agent_dof=tuple(int(a) for a in scene.agent_dof),
-        free_dofs=tuple(int(a) for a in scene.free_dofs),
-        check_every=cfg.check_every,
-    )
-    m = mjx.put_model(scene.model, impl="jax")
-    # a static copy of geom_rbound that MJX reads only to size heightfield contacts; the scene has no
-    # heightfield, and left as is it would make every new object a new jit key
-    m = m.replace(_impl=m._impl.replace(geom_rbound_hfield=np.zeros_like(m._impl.geom_rbound_hfield)))
-    qpos, qvel, geom, dist, early, settled = _rollout_jit(
-        m, layout, jnp.asarray(init["qpos"]), jnp.asarray(pose_table), jnp.asarray(vel_table),
-        jnp.asarray(n_drive, dtype=jnp.int32), jnp.asarray(limit, dtype=jnp.int32),
-        jnp.asarray(scene.free_radius), jnp.float32(cfg.settle_speed),
-    )
-    geom, dist = np.asarray(geom), np.asarray(dist)
-    contacts = np.stack([count_contacts(scene.geom_owner, geom[b][dist[b] < 0], scene.n_agents) for b in range(len(plan))])
-    if progress is not None:
-        progress(int(limit.max()), int(limit.max()))
-    return assemble_outcomes(scene, init, np.asarray(qpos, dtype=np.float64), np.asarray(qvel, dtype=np.float64),
-                             contacts, np.asarray(early), np.asarray(settled))
+class MjxBackend(Backend):
+    """The hull-box bucket scene, vmapped and jit-compiled; ``compiles`` counts this backend's compiles."""
+
+    name = "mjx"
+
+    def __init__(self, config: ImaginationConfig | None = None):
+        _check_mjx_version()
+        super().__init__(config)
+        self._compiles = 0
+        self._rollout = jax.jit(self._traced_rollout, static_argnames=("layout",))
+
+    @property
+    def compiles(self) -> int:
+        """Traces (= compiles) of the rollout by this backend so far."""
+        return self._compiles
+
+    def _traced_rollout(self, m, layout: _Layout, qpos0, pose_table, vel_table, n_drive, limit, radius, settle_speed):
+        self._compiles += 1  # runs only while tracing, i.e. once per compile
+        return _rollout(m, layout, qpos0, pose_table, vel_table, n_drive, limit, radius, settle_speed)
+
+    def scene(self, obj: RailObject, agents: AgentSetup) -> Scene:
+        """The box scene of obj's bucket, weighing what the hull-mesh scene weighs."""
+        # MJX does not implement speculative contacts
+        scene = self._compose(obj, agents, replace(self.config.physics, speculative=False), hull_bucket(len(obj.hulls)))
+        scene.model.opt.jacobian = mujoco.mjtJacobian.mjJAC_SPARSE  # dense deadlocked on large scenes (design.md)
+        return scene
+
+    @staticmethod
+    def put_model(scene: Scene) -> mjx.Model:
+        """The scene on the device, with nothing object-specific left in its static fields."""
+        m = mjx.put_model(scene.model, impl="jax")
+        # a static copy of geom_rbound that MJX reads only to size heightfield contacts; the scene has no
+        # heightfield, and left as is it would make every new object a new jit key
+        return m.replace(_impl=m._impl.replace(geom_rbound_hfield=np.zeros_like(m._impl.geom_rbound_hfield)))
+
+    def run(self, batch: RolloutBatch, *, progress: Progress | None = None) -> Outcomes:
+        """Same contract as the native backend, run as one jit-compiled JAX computation."""
+        cfg = self.config
+        scene = self.scene(batch.obj, batch.agents)
+        placement, offsets = batch.placement, batch.offsets
+        table = batch.table.padded(_pad_steps(int(batch.table.n_drive.max())))
+        plan = placement.row
+        pose_table = np.concatenate(
+            [
+                (placement.origin[:, None, None, :] + table.pos[plan][:, :, None, :] + offsets[None, None]),
+                np.broadcast_to(table.quat[plan][:, :, None, :], (len(plan), table.steps, len(offsets), 4)),
+            ],
+            axis=-1,
+        )
+        vel_table = np.concatenate([table.linvel[plan], table.angvel[plan]], axis=-1)
+        n_drive = table.n_drive[plan]
+        limit = n_drive + int(np.ceil(cfg.settle_time / cfg.timestep))
+        layout = _Layout(
+            agent_qpos=tuple(int(a) for a in scene.agent_qpos),
+            agent_dof=tuple(int(a) for a in scene.agent_dof),
+            free_dofs=tuple(int(a) for a in scene.free_dofs),
+            check_every=cfg.check_every,
+        )
+        qpos, qvel, geom, dist, early, settled = self._rollout(
+            self.put_model(scene), layout, jnp.asarray(batch.initial_qpos(scene)), jnp.asarray(pose_table),
+            jnp.asarray(vel_table), jnp.asarray(n_drive, dtype=jnp.int32), jnp.asarray(limit, dtype=jnp.int32),
+            jnp.asarray(scene.free_radius), jnp.float32(cfg.settle_speed),
+        )
+        geom, dist = np.asarray(geom), np.asarray(dist)
+        contacts = np.stack([count_contacts(scene.geom_owner, geom[b][dist[b] < 0], scene.n_agents)
+                             for b in range(len(plan))])
+        if progress is not None:
+            progress(int(limit.max()), int(limit.max()))
+        return outcomes_from_states(scene, placement, np.asarray(qpos, dtype=np.float64),
+                                    np.asarray(qvel, dtype=np.float64), contacts, np.asarray(early),
+                                    np.asarray(settled))

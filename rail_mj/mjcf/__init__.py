@@ -19,9 +19,20 @@ from rail_mj.mjcf.scene import (
     VALID_FRAGMENT_EXAMPLE,
     agent_body_name,
     agent_prefix,
-    build_scene,
     check_fragment,
     hull_geom_name,
+)
+from rail_mj.mjcf.compose import (
+    OWNER_GROUND,
+    OWNER_OBJECT,
+    OWNER_OTHER,
+    Scene,
+    ScenePhysics,
+    add_agent,
+    add_object,
+    build_scene,
+    compose_scene,
+    count_contacts,
 )
 
 __all__ = [
@@ -44,4 +55,13 @@ __all__ = [
     "build_scene",
     "check_fragment",
     "hull_geom_name",
+    "OWNER_GROUND",
+    "OWNER_OBJECT",
+    "OWNER_OTHER",
+    "Scene",
+    "ScenePhysics",
+    "add_agent",
+    "add_object",
+    "compose_scene",
+    "count_contacts",
 ]

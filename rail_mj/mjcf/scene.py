@@ -1,33 +1,16 @@
-"""Scene composition with ``mujoco.MjSpec``: ground + object hulls + N agent fragments.
+"""Agent-fragment rules and the names and constants every composed scene shares.
 
-Collision filtering uses contype/conaffinity bits (a pair collides when
-``(contype1 & conaffinity2) or (contype2 & conaffinity1)``):
-
-=========  =============  ==========================================
-geom       contype        conaffinity
-=========  =============  ==========================================
-ground     GROUND_BIT     0
-object     OBJECT_BIT     GROUND_BIT | AGENT_BIT
-agent      AGENT_BIT      GROUND_BIT | OBJECT_BIT (| AGENT_BIT when agents collide)
-=========  =============  ==========================================
-
-Filtering agent pairs this way removes them before compile at no accuracy cost
-(design.md); agent geoms the fragment marks visual-only (contype = conaffinity
-= 0) stay visual.
+``check_fragment`` validates untrusted agent MJCF; :mod:`rail_mj.mjcf.compose` builds scenes from it.
 """
 
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
-from collections.abc import Sequence
 
 import mujoco
 import numpy as np
-import trimesh
-from scipy.spatial import ConvexHull
 
-from rail_mj.errors import FragmentError, SceneError
-from rail_mj.types import AgentSetup, RailObject
+from rail_mj.errors import FragmentError
 
 __all__ = [
     "GROUND_GEOM",
@@ -48,7 +31,6 @@ __all__ = [
     "agent_prefix",
     "agent_body_name",
     "hull_geom_name",
-    "build_scene",
 ]
 
 GROUND_GEOM = "ground"
@@ -242,146 +224,3 @@ def hull_geom_name(i: int) -> str:
     """Name of the object's i-th hull geom (and its mesh asset)."""
     return f"{OBJECT_BODY}/hull{i}"
 
-
-def _contact(geom: mujoco.MjsGeom, solref: list[float], contype: int, conaffinity: int) -> None:
-    geom.contype = contype
-    geom.conaffinity = conaffinity
-    geom.solref = solref
-
-
-def _add_object(
-    spec: mujoco.MjSpec,
-    obj: RailObject,
-    pos: Sequence[float],
-    quat: Sequence[float],
-    free: bool,
-    solref: list[float],
-    hull_boxes: int,
-    max_hull_vertices: int | None,
-) -> None:
-    body = spec.worldbody.add_body(
-        name=OBJECT_BODY,
-        pos=np.asarray(pos, dtype=np.float64).tolist(),
-        quat=np.asarray(quat, dtype=np.float64).tolist(),
-    )
-    if free:
-        body.add_freejoint(name=OBJECT_JOINT)
-    volumes = np.array([ConvexHull(h).volume for h in obj.hulls])
-    shares = volumes / volumes.sum()
-    for i, (hull, share) in enumerate(zip(obj.hulls, shares, strict=True)):
-        if hull_boxes:
-            # MJX-JAX collides spheres with general hulls wrongly (design.md): one oriented box per hull
-            to_origin, extents = trimesh.bounds.oriented_bounds(np.asarray(hull))
-            frame = np.linalg.inv(to_origin)
-            box_quat = np.zeros(4)
-            mujoco.mju_mat2Quat(box_quat, np.ascontiguousarray(frame[:3, :3]).ravel())
-            geom = body.add_geom(name=hull_geom_name(i), type=mujoco.mjtGeom.mjGEOM_BOX,
-                                 size=np.maximum(extents / 2, 1e-4), pos=frame[:3, 3], quat=box_quat)
-        else:
-            mesh = spec.add_mesh(name=hull_geom_name(i))
-            mesh.uservert = np.asarray(hull, dtype=np.float64).ravel().tolist()
-            if max_hull_vertices is not None:
-                mesh.maxhullvert = max_hull_vertices
-            # MuJoCo recentres mesh assets on their inertial frame and moves the geom frame to
-            # compensate, so a geom at the body origin shows the vertices exactly where they are.
-            geom = body.add_geom(name=hull_geom_name(i), type=mujoco.mjtGeom.mjGEOM_MESH, meshname=hull_geom_name(i))
-        geom.mass = float(obj.mass * share)  # hulls may overlap: split the object's mass by hull volume
-        geom.rgba = [0.8, 0.6, 0.4, 1.0]
-        geom.friction = list(FRICTION)
-        _contact(geom, solref, OBJECT_BIT, GROUND_BIT | AGENT_BIT)
-    # pad to the bucket's geom count with tiny massless boxes hidden inside the first hull, so a new
-    # object of the same bucket has the same shapes (MJX compiles once per bucket)
-    inner = np.asarray(obj.hulls[0]).mean(axis=0)
-    for i in range(len(obj.hulls), hull_boxes):
-        geom = body.add_geom(name=f"{OBJECT_BODY}/pad{i}", type=mujoco.mjtGeom.mjGEOM_BOX, size=[1e-5] * 3, pos=inner)
-        geom.mass = 0.0
-        _contact(geom, solref, OBJECT_BIT, GROUND_BIT | AGENT_BIT)
-
-
-def _add_agents(
-    spec: mujoco.MjSpec,
-    agents: AgentSetup,
-    pos: Sequence[float],
-    quat: Sequence[float],
-    solref: list[float],
-) -> None:
-    offsets = np.asarray(agents.offsets, dtype=np.float64)
-    if offsets.ndim != 2 or offsets.shape[1] != 3 or len(offsets) == 0 or not np.isfinite(offsets).all():
-        raise SceneError(f"agents.offsets must be a finite (N, 3) array with N >= 1, got shape {offsets.shape}")
-    rot = np.empty(9)
-    mujoco.mju_quat2Mat(rot, np.asarray(quat, dtype=np.float64))
-    centres = np.asarray(pos, dtype=np.float64) + offsets @ rot.reshape(3, 3).T
-    conaffinity = GROUND_BIT | OBJECT_BIT | (AGENT_BIT if agents.collide_agents else 0)
-    check_fragment(agents.fragment)
-    for i, centre in enumerate(centres):
-        child = mujoco.MjSpec.from_string(agents.fragment)  # a fresh spec per agent: attach moves its elements
-        frame = spec.worldbody.add_frame()
-        name = agent_body_name(child, i)
-        body = frame.attach_body(child.worldbody.first_body(), agent_prefix(i), "")
-        body.name = name
-        body.pos = centre.tolist()
-        body.quat = np.asarray(quat, dtype=np.float64).tolist()
-        body.add_freejoint(name=agent_prefix(i) + "free")
-        for geom in body.find_all(mujoco.mjtObj.mjOBJ_GEOM):
-            if geom.contype or geom.conaffinity:
-                _contact(geom, solref, AGENT_BIT, conaffinity)  # friction stays the fragment's own
-
-
-def build_scene(
-    obj: RailObject,
-    *,
-    object_pos: Sequence[float] = (0.0, 0.0, 0.0),
-    object_quat: Sequence[float] = (1.0, 0.0, 0.0, 0.0),
-    object_free: bool = True,
-    agents: AgentSetup | None = None,
-    agents_pos: Sequence[float] = (0.0, 0.0, 0.0),
-    agents_quat: Sequence[float] = (1.0, 0.0, 0.0, 0.0),
-    timestep: float = 0.005,
-    ground: bool = True,
-    hull_boxes: int = 0,
-    max_hull_vertices: int | None = None,
-) -> mujoco.MjSpec:
-    """Compose ground, object and agents into one spec (compiled once here to check it).
-
-    The object body ``object`` holds one mesh geom per hull; with ``object_free``
-    it has a free joint ``object``, else it is fixed at ``object_pos/quat``.
-    Agent ``i`` is the fragment's body, prefixed ``agent{i}/``, with a free joint
-    ``agent{i}/free``, at ``agents_pos + R(agents_quat) @ offsets[i]`` with
-    orientation ``agents_quat`` (the fragment body's own pos/quat are replaced).
-    ``hull_boxes`` > 0 replaces each hull by its oriented box and pads the object to
-    that many geoms (the MJX-JAX shape buckets). ``max_hull_vertices`` lets MuJoCo
-    simplify each hull mesh further (collision cost grows with hull vertices).
-    """
-    if not (np.isfinite(timestep) and timestep > 0):
-        raise SceneError(f"timestep must be a positive number of seconds, got {timestep}")
-    for label, value, n in (
-        ("object_pos", object_pos, 3),
-        ("object_quat", object_quat, 4),
-        ("agents_pos", agents_pos, 3),
-        ("agents_quat", agents_quat, 4),
-    ):
-        arr = np.asarray(value, dtype=np.float64)
-        if arr.shape != (n,) or not np.isfinite(arr).all() or (n == 4 and np.linalg.norm(arr) < 1e-9):
-            raise SceneError(f"{label} must be {n} finite numbers (a quaternion non-zero, wxyz), got {value!r}")
-    object_quat = np.asarray(object_quat, dtype=np.float64) / np.linalg.norm(object_quat)
-    agents_quat = np.asarray(agents_quat, dtype=np.float64) / np.linalg.norm(agents_quat)
-    if not obj.hulls:
-        raise SceneError(f"object {obj.name!r} has no hulls; build it with rail_mj.objects")
-    if hull_boxes and len(obj.hulls) > hull_boxes:
-        raise SceneError(f"object {obj.name!r} has {len(obj.hulls)} hulls, more than the bucket of {hull_boxes}")
-    solref = [SOLREF_TIMECONST_FACTOR * timestep, 1.0]
-    spec = mujoco.MjSpec()
-    spec.modelname = f"rail_{obj.name}"
-    spec.option.timestep = timestep
-    if ground:
-        plane = spec.worldbody.add_geom(name=GROUND_GEOM, type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0.0, 0.0, 0.05])
-        plane.friction = list(FRICTION)
-        _contact(plane, solref, GROUND_BIT, 0)
-    _add_object(spec, obj, object_pos, object_quat, object_free, solref, hull_boxes, max_hull_vertices)
-    if agents is not None:
-        _add_agents(spec, agents, agents_pos, agents_quat, solref)
-    try:
-        spec.compile()
-    except Exception as exc:  # compile errors come as ValueError with MuJoCo's message
-        raise SceneError(f"scene for {obj.name!r} does not compile: {exc}") from exc
-    return spec

@@ -1,0 +1,82 @@
+"""The one backend interface: a physics engine, its config locked at construction, runs a prepared batch.
+
+Every backend takes the same :class:`~rail_mj.imagination.batch.RolloutBatch` and returns the same
+:class:`~rail_mj.types.Outcomes`; it composes its own scene of the object (native: hull meshes; mjx: the
+hull-box bucket) with :mod:`rail_mj.mjcf`. ``get_backend`` keeps one instance per (name, config), so what a
+backend caches (MJX's compiled rollouts) lives as long as the process.
+"""
+
+from __future__ import annotations
+
+import abc
+import functools
+from collections.abc import Callable
+from typing import ClassVar
+
+from rail_mj.errors import ImaginationError, SceneError
+from rail_mj.imagination.batch import RolloutBatch
+from rail_mj.imagination.config import ImaginationConfig
+from rail_mj.mjcf import Scene, ScenePhysics, compose_scene
+from rail_mj.types import AgentSetup, Outcomes, RailObject
+
+__all__ = ["BACKENDS", "Backend", "Progress", "resolve_backend", "get_backend"]
+
+BACKENDS = ("auto", "native", "mjx")
+
+#: progress(done, total) with simulated steps
+Progress = Callable[[int, int], None]
+
+
+class Backend(abc.ABC):
+    """Simulates every rollout of a batch: drive the agents, release them, settle, report in the task frame."""
+
+    name: ClassVar[str]
+
+    def __init__(self, config: ImaginationConfig | None = None):
+        self._config = config or ImaginationConfig()
+
+    @property
+    def config(self) -> ImaginationConfig:
+        """The settings this backend was built with (frozen)."""
+        return self._config
+
+    @abc.abstractmethod
+    def scene(self, obj: RailObject, agents: AgentSetup) -> Scene:
+        """The compiled one-world scene this backend steps for ``obj`` and ``agents``."""
+
+    @abc.abstractmethod
+    def run(self, batch: RolloutBatch, *, progress: Progress | None = None) -> Outcomes:
+        """Simulate every rollout of ``batch``."""
+
+    def _compose(self, obj: RailObject, agents: AgentSetup, physics: ScenePhysics, hull_boxes: int = 0) -> Scene:
+        try:
+            return compose_scene(obj, agents, physics, hull_boxes=hull_boxes)
+        except SceneError as exc:
+            raise ImaginationError(f"the imagination scene for {obj.name!r} cannot be built: {exc}") from exc
+
+
+def resolve_backend(backend: str) -> str:
+    """``auto`` → ``mjx`` when JAX runs on a GPU/TPU, else ``native``."""
+    if backend not in BACKENDS:
+        raise ImaginationError(f"unknown imagination backend {backend!r}; valid: {', '.join(BACKENDS)}")
+    if backend != "auto":
+        return backend
+    import jax
+
+    return "mjx" if jax.default_backend() in ("gpu", "tpu", "cuda", "rocm") else "native"
+
+
+@functools.lru_cache(maxsize=16)
+def _shared(name: str, config: ImaginationConfig) -> Backend:
+    if name == "native":
+        from rail_mj.imagination.native import NativeBackend
+
+        return NativeBackend(config)
+    from rail_mj.imagination.mjx import MjxBackend
+
+    return MjxBackend(config)
+
+
+def get_backend(name: str = "auto", config: ImaginationConfig | None = None) -> Backend:
+    """The process-wide backend ``name`` (``auto``, ``native``, ``mjx``) with ``config`` (default settings if None)."""
+    return _shared(resolve_backend(name), config or ImaginationConfig())

@@ -1,0 +1,264 @@
+"""The prepared inputs every backend takes, and the task-frame outcomes every backend returns.
+
+``prepare`` turns (object, stable poses, agents, via-poses) into a :class:`RolloutBatch`: the typed
+:class:`Placement` of every rollout (pose-major) and the :class:`DriveTable` of the agents' kinematic
+targets. Every per-rollout difference lives in the initial state and the table, so one compiled scene
+serves the whole batch. ``assemble_outcomes`` turns final world poses into :class:`Outcomes`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from rail_mj.errors import ImaginationError
+from rail_mj.geometry import follow_task_frame, quat_angle, quat_to_angvel, slerp, task_origin, tilt, to_task_frame
+from rail_mj.imagination.config import ImaginationConfig
+from rail_mj.mjcf import Scene
+from rail_mj.types import AgentSetup, Outcomes, RailObject, StablePose
+
+__all__ = [
+    "DriveTable",
+    "Placement",
+    "RolloutBatch",
+    "prepare",
+    "plan_rows",
+    "drive_table",
+    "assemble_outcomes",
+    "outcomes_from_states",
+]
+
+
+@dataclass(frozen=True)
+class DriveTable:
+    """Per-row kinematic targets of the layout centre, one entry per step, task frame at placement."""
+
+    pos: np.ndarray  # (R, S, 3)
+    quat: np.ndarray  # (R, S, 4)
+    linvel: np.ndarray  # (R, S, 3) world
+    angvel: np.ndarray  # (R, S, 3) body-local, as free-joint qvel
+    n_drive: np.ndarray  # (R,) steps during which the agents are driven (entries used)
+
+    @property
+    def steps(self) -> int:
+        return int(self.pos.shape[1])
+
+    def padded(self, steps: int) -> DriveTable:
+        """The same table with at least ``steps`` entries; added entries hold each row's last pose at rest."""
+        extra = steps - self.steps
+        if extra <= 0:
+            return self
+
+        def hold(a: np.ndarray) -> np.ndarray:
+            return np.concatenate([a, np.repeat(a[:, -1:], extra, axis=1)], axis=1)
+
+        def rest(a: np.ndarray) -> np.ndarray:
+            return np.concatenate([a, np.zeros((a.shape[0], extra, a.shape[2]))], axis=1)
+
+        return DriveTable(pos=hold(self.pos), quat=hold(self.quat), linvel=rest(self.linvel),
+                          angvel=rest(self.angvel), n_drive=self.n_drive)
+
+
+@dataclass(frozen=True)
+class Placement:
+    """Where each rollout of a batch starts (B = poses × plans, pose-major): object pose, task frame, plan row."""
+
+    pose_index: np.ndarray  # (B,) int
+    plan_index: np.ndarray  # (B,) int
+    row: np.ndarray  # (B,) int, the rollout's row of the drive table
+    object_pos: np.ndarray  # (B, 3) world position of the mesh-frame origin
+    object_quat: np.ndarray  # (B, 4) wxyz
+    origin: np.ndarray  # (B, 3) world position of the task-frame origin
+    half_extents: np.ndarray  # (B, 3)
+
+    @property
+    def batch(self) -> int:
+        return int(self.pose_index.shape[0])
+
+    @staticmethod
+    def of(poses: Sequence[StablePose], n_plans: int, n_rows: int) -> Placement:
+        """Pose-major placements; ``n_rows`` = ``n_plans`` (plans shared by all poses) or one row per rollout."""
+        n_poses = len(poses)
+        pose_index = np.repeat(np.arange(n_poses), n_plans)
+        plan_index = np.tile(np.arange(n_plans), n_poses)
+        half = np.stack([np.asarray(p.half_extents, dtype=np.float64) for p in poses])[pose_index]
+        return Placement(
+            pose_index=pose_index,
+            plan_index=plan_index,
+            row=plan_index if n_rows == n_plans else np.arange(len(pose_index)),
+            object_pos=np.stack([np.asarray(p.pos, dtype=np.float64) for p in poses])[pose_index],
+            object_quat=np.stack([np.asarray(p.quat, dtype=np.float64) for p in poses])[pose_index],
+            origin=task_origin(half),
+            half_extents=half,
+        )
+
+
+@dataclass(frozen=True)
+class RolloutBatch:
+    """One object's rollouts, ready for any backend."""
+
+    obj: RailObject
+    agents: AgentSetup
+    placement: Placement
+    table: DriveTable
+
+    @property
+    def offsets(self) -> np.ndarray:
+        """(N, 3) agent positions relative to the layout centre."""
+        return np.asarray(self.agents.offsets, dtype=np.float64)
+
+    def initial_qpos(self, scene: Scene) -> np.ndarray:
+        """(B, nq): the object in its stable pose, the agents at their plan's first via-pose."""
+        p, row = self.placement, self.placement.row
+        qpos = np.tile(scene.model.qpos0, (p.batch, 1))
+        qpos[:, scene.object_qpos : scene.object_qpos + 3] = p.object_pos
+        qpos[:, scene.object_qpos + 3 : scene.object_qpos + 7] = p.object_quat
+        start_pos = p.origin[:, None, :] + self.table.pos[row, 0][:, None, :] + self.offsets[None]
+        for i, adr in enumerate(scene.agent_qpos):
+            qpos[:, adr : adr + 3] = start_pos[:, i]
+            qpos[:, adr + 3 : adr + 7] = self.table.quat[row, 0]
+        return qpos
+
+
+def _plan_samples(via: np.ndarray, cfg: ImaginationConfig) -> tuple[np.ndarray, np.ndarray]:
+    """Sample one plan's via-poses at every step: positions (S, 3) and quaternions (S, 4)."""
+    via = np.asarray(via, dtype=np.float64)
+    if via.ndim != 2 or via.shape[1] != 7 or via.shape[0] < 1 or not np.all(np.isfinite(via)):
+        raise ImaginationError(
+            f"a trajectory must be a finite (K, 7) array of via-poses (pos xyz + quat wxyz), K >= 1; got shape {via.shape}"
+        )
+    quats = via[:, 3:] / np.linalg.norm(via[:, 3:], axis=1, keepdims=True)
+    pos_list, quat_list = [via[:1, :3]], [quats[:1]]
+    for j in range(len(via) - 1):
+        dist = float(np.linalg.norm(via[j + 1, :3] - via[j, :3]))
+        angle = quat_angle(quats[j], quats[j + 1])
+        n = int(np.ceil(max(dist / cfg.agent_speed, angle / cfg.agent_angular_speed) / cfg.timestep))
+        if n == 0:
+            continue
+        f = np.arange(1, n + 1) / n
+        pos_list.append(via[j, :3] + f[:, None] * (via[j + 1, :3] - via[j, :3]))
+        quat_list.append(slerp(quats[j], quats[j + 1], f))
+    return np.concatenate(pos_list), np.concatenate(quat_list)
+
+
+def plan_rows(trajectories: Sequence, n_poses: int) -> tuple[list[np.ndarray], int]:
+    """Drive-table rows and the plan count from trajectories shared by all poses or given per pose.
+
+    ``trajectories`` is either ``[plan] -> (K, 7)`` (one row per plan) or ``[pose][plan] -> (K, 7)``
+    (one row per rollout, pose-major), e.g. when via-poses scale with each pose's half extents.
+    """
+    if not trajectories:
+        raise ImaginationError("imagine needs at least one trajectory (plan); got none")
+    first = trajectories[0]
+    if isinstance(first, np.ndarray) and first.ndim == 2:
+        return list(trajectories), len(trajectories)
+    if len(trajectories) != n_poses:
+        raise ImaginationError(
+            f"per-pose trajectories need one list of plans per stable pose: got {len(trajectories)} lists "
+            f"for {n_poses} poses (or pass one list of (K, 7) arrays shared by all poses)"
+        )
+    n_plans = {len(plans) for plans in trajectories}
+    if len(n_plans) != 1 or 0 in n_plans:
+        raise ImaginationError(f"every stable pose needs the same number (>= 1) of plans; got {sorted(n_plans)}")
+    return [np.asarray(t) for plans in trajectories for t in plans], n_plans.pop()
+
+
+def drive_table(rows: Sequence[np.ndarray], cfg: ImaginationConfig) -> DriveTable:
+    """Step-by-step targets for every row (plan); rows past a plan's end repeat its last pose at rest."""
+    samples = [_plan_samples(t, cfg) for t in rows]
+    if not samples:
+        raise ImaginationError("imagine needs at least one trajectory (plan); got none")
+    n_drive = np.array([len(p) for p, _ in samples])
+    s = int(n_drive.max())
+    pos = np.zeros((len(samples), s, 3))
+    quat = np.zeros((len(samples), s, 4))
+    linvel = np.zeros((len(samples), s, 3))
+    angvel = np.zeros((len(samples), s, 3))
+    for i, (p, q) in enumerate(samples):
+        n = len(p)
+        pos[i, :n], pos[i, n:] = p, p[-1]
+        quat[i, :n], quat[i, n:] = q, q[-1]
+        # the agent is at sample k when step k starts and reaches sample k+1 after it; at the end it is put down at rest
+        linvel[i, : n - 1] = (p[1:] - p[:-1]) / cfg.timestep
+        angvel[i, : n - 1] = quat_to_angvel(q[:-1], q[1:], cfg.timestep)
+    return DriveTable(pos=pos, quat=quat, linvel=linvel, angvel=angvel, n_drive=n_drive)
+
+
+def prepare(
+    obj: RailObject,
+    poses: Sequence[StablePose],
+    agents: AgentSetup,
+    trajectories: Sequence[np.ndarray] | Sequence[Sequence[np.ndarray]],
+    cfg: ImaginationConfig,
+) -> RolloutBatch:
+    """Every (stable pose, plan) rollout of ``obj``, pose-major; see :func:`rail_mj.imagination.imagine`."""
+    poses = list(poses)
+    if not poses:
+        raise ImaginationError("imagine needs at least one stable pose; got none")
+    rows, n_plans = plan_rows(trajectories, len(poses))
+    table = drive_table(rows, cfg)
+    return RolloutBatch(obj=obj, agents=agents, placement=Placement.of(poses, n_plans, len(rows)), table=table)
+
+
+def assemble_outcomes(
+    placement: Placement,
+    *,
+    object_pos: np.ndarray,
+    object_quat: np.ndarray,
+    agent_pos: np.ndarray,
+    agent_quat: np.ndarray,
+    agent_vel: np.ndarray,
+    contacts: np.ndarray,
+    released_early: np.ndarray,
+    settled: np.ndarray,
+) -> Outcomes:
+    """Final world poses → task-frame Outcomes.
+
+    ``object_pos/quat`` (B, 3)/(B, 4) are the object's final world pose, ``agent_pos/quat/vel`` (B, N, ·) the
+    agents' (world), ``contacts`` (B, N, 3) per agent with (object, other agents, ground).
+    """
+    origin, quat = follow_task_frame(placement.origin, placement.object_pos, placement.object_quat,
+                                     object_pos, object_quat)
+    pos, orientation = to_task_frame(origin, quat, agent_pos, agent_quat)
+    return Outcomes(
+        pose_index=placement.pose_index.astype(np.int64),
+        plan_index=placement.plan_index.astype(np.int64),
+        agent_pos=pos,
+        agent_quat=orientation,
+        agent_vel=agent_vel,
+        contacts_object=contacts[..., 0].astype(np.int64),
+        contacts_agents=contacts[..., 1].astype(np.int64),
+        contacts_ground=contacts[..., 2].astype(np.int64),
+        released_early=released_early.astype(bool),
+        object_pos=origin - placement.origin,
+        object_quat=quat,
+        object_tilt=tilt(quat),
+        object_half_extents=placement.half_extents.copy(),
+        settled=settled.astype(bool),
+    )
+
+
+def outcomes_from_states(
+    scene: Scene,
+    placement: Placement,
+    qpos: np.ndarray,
+    qvel: np.ndarray,
+    contacts: np.ndarray,
+    released_early: np.ndarray,
+    settled: np.ndarray,
+) -> Outcomes:
+    """Final world states (B, nq)/(B, nv) of ``scene`` → task-frame Outcomes."""
+    o = scene.object_qpos
+    return assemble_outcomes(
+        placement,
+        object_pos=qpos[:, o : o + 3],
+        object_quat=qpos[:, o + 3 : o + 7],
+        agent_pos=np.stack([qpos[:, a : a + 3] for a in scene.agent_qpos], axis=1),
+        agent_quat=np.stack([qpos[:, a + 3 : a + 7] for a in scene.agent_qpos], axis=1),
+        agent_vel=np.stack([qvel[:, d : d + 3] for d in scene.agent_dof], axis=1),
+        contacts=contacts,
+        released_early=released_early,
+        settled=settled,
+    )

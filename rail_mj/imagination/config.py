@@ -1,0 +1,46 @@
+"""Physics and driving settings of the imagination rollouts, locked when a backend is built."""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from rail_mj.mjcf import FRICTION, SOLREF_TIMECONST_FACTOR, ScenePhysics
+
+__all__ = ["ImaginationConfig"]
+
+
+class ImaginationConfig(BaseModel):
+    """Physics and driving settings of the imagination rollouts."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    timestep: float = Field(0.005, gt=0, le=0.02, description="simulation step, s")
+    solref_factor: float = Field(
+        SOLREF_TIMECONST_FACTOR, ge=2.0, description="contact time constant as a multiple of the timestep"
+    )
+    friction: float = Field(FRICTION[0], gt=0, description="sliding friction of the ground and the object")
+    agent_speed: float = Field(0.5, gt=0, description="linear speed of the driven layout centre, m/s")
+    agent_angular_speed: float = Field(3.0, gt=0, description="angular speed of the driven layout centre, rad/s")
+    settle_time: float = Field(3.0, gt=0, description="longest simulated time after the drive, s")
+    settle_speed: float = Field(0.02, gt=0, description="a body is at rest when no point of it moves faster, m/s")
+    check_every: int = Field(20, ge=1, description="steps between settle checks")
+    iterations: int = Field(20, ge=1, description="constraint solver iterations")
+    ls_iterations: int = Field(10, ge=1, description="solver line-search iterations")
+    nthread: int = Field(0, ge=0, description="native threads; 0 = all CPUs")
+    max_hull_vertices: int = Field(32, ge=4, description="MuJoCo simplifies each hull to at most this many vertices")
+    speculative: bool = Field(
+        True, description="speculative contacts (native): fast small droplets do not tunnel through thin bottoms"
+    )
+
+    @property
+    def physics(self) -> ScenePhysics:
+        """The scene composer's settings for these rollouts."""
+        return ScenePhysics(
+            timestep=self.timestep,
+            solref_factor=self.solref_factor,
+            friction=self.friction,
+            iterations=self.iterations,
+            ls_iterations=self.ls_iterations,
+            speculative=self.speculative,
+            max_hull_vertices=self.max_hull_vertices,
+        )
