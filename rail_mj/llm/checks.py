@@ -22,6 +22,7 @@ from rail_mj.llm.schemas import (
     FunctionalPoseVerdict,
     MotionPlans,
     ScoringCode,
+    ScoringRequest,
     TaskDescription,
     Trajectories,
 )
@@ -186,11 +187,29 @@ def check_trajectories(
                 )
 
 
-def check_scoring(scoring: ScoringCode) -> None:
-    """The scoring sandbox's static check: ``def score`` with exactly ``SCORING_ARGS``, allow-listed constructs."""
-    from rail_mj.scoring import compile_scoring  # written concurrently; imported when first needed
+def check_scoring(scoring: ScoringCode, request: ScoringRequest) -> None:
+    """The scoring sandbox's static check, then a run on a synthetic batch of the real shapes.
 
-    compile_scoring(scoring.source)
+    The batch (:func:`rail_mj.scoring.probe_outcomes`) has the request's number of agents and plans over
+    every axis-aligned orientation of its object's box; the code must return one finite score per rollout.
+    """
+    from rail_mj.errors import ScoringRuntimeError
+    from rail_mj.scoring import WorkerStartError, compile_scoring, probe_outcomes
+
+    score = compile_scoring(scoring.source)
+    outcomes = probe_outcomes(request.layout.n_agents, len(request.plans.plans),
+                              candidate_half_extents(request.task.obb_dims))
+    try:
+        score(outcomes)
+    except WorkerStartError:
+        raise  # the machine's problem: no repair round can fix it
+    except ScoringRuntimeError as exc:
+        shapes = ", ".join(f"{name} {a.dtype} {a.shape}" for name, a in outcomes.scoring_kwargs().items())
+        raise InvalidAnswerError(
+            f"score fails when run on a synthetic batch of B={outcomes.batch} rollouts x N={outcomes.n_agents} "
+            f"agents shaped like the real input ({shapes}): {exc}. Fix the code so that it runs on any such batch "
+            f"and returns a float array of shape (B,)"
+        ) from exc
 
 
 def check_verdict(verdict: FunctionalPoseVerdict, request: FunctionalPoseRequest) -> None:

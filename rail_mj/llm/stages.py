@@ -129,8 +129,9 @@ def generate_trajectories(request: TrajectoryRequest, provider: ProviderLike = "
 
 def generate_scoring(request: ScoringRequest, provider: ProviderLike = "offline", *, max_retries: int = 2,
                      cache: bool = True) -> ScoringCode:
-    """Stage 6: numpy scoring source accepted by the scoring sandbox."""
-    return _provider(provider).answer(STAGES["scoring"], request, check_scoring, max_retries=max_retries, cache=cache)
+    """Stage 6: numpy scoring source accepted by the scoring sandbox and run there on a synthetic batch."""
+    return _provider(provider).answer(STAGES["scoring"], request, lambda s: check_scoring(s, request),
+                                      max_retries=max_retries, cache=cache)
 
 
 def analyze_functional_poses(request: FunctionalPoseRequest, provider: ProviderLike = "offline", *,
