@@ -9,10 +9,13 @@ import numpy as np
 import pytest
 
 from rail_mj.errors import FragmentError, RobotError
+from rail_mj.imagination import ImaginationConfig
+from rail_mj.mjcf import OBJECT_BODY, compose_scene
 from rail_mj.robot import RobotConfig, build_scene, drive, execute
 from rail_mj.robot.control import ARM_JOINTS, make_torque_controlled
 from rail_mj.robot.demo import make_object, plan_offline, upright_pose
 from rail_mj.robot.model import MENAGERIE_ENV, PANDA_FILES, fetch_panda, load_panda_spec, panda_dir, verify_panda
+from rail_mj.types import RailObject
 
 
 @pytest.fixture(scope="module")
@@ -114,9 +117,29 @@ def test_bad_inputs_raise_clear_errors(panda_folder, cup_case):
     obj, case = cup_case
     with pytest.raises(RobotError, match=r"\(K, 7\)"):
         execute(obj, case.pose, case.agent_fragment, np.zeros((3, 3)), case.scoring)
-    with pytest.raises(FragmentError, match="compile"):
+    with pytest.raises(FragmentError, match="invalid agent fragment"):
         execute(obj, case.pose, "<mujoco><worldbody><body>", case.via_poses, case.scoring)
     assert upright_pose(obj).half_extents[2] == pytest.approx(obj.extents[2] / 2)
+
+
+def test_robot_object_weighs_what_the_imagined_object_weighs(panda_folder, cup_case):
+    """One scene composer: the object's mass is split over its hulls by volume, not set by density."""
+    obj, case = cup_case
+    # overlapping hulls: density × hull volumes would count the overlap twice
+    heavy = RailObject(name="overlap", mesh=obj.mesh, hulls=obj.hulls + obj.hulls[:1], mesh_hash="overlap",
+                       obb_dims=obj.obb_dims, com=obj.com, mass=0.3, density=obj.density)
+    robot = build_scene(RobotConfig(), obj=heavy, pose=case.pose).model
+    imagined = compose_scene(heavy, None, ImaginationConfig().physics).model
+    assert robot.body(OBJECT_BODY).mass[0] == pytest.approx(0.3)
+    assert robot.body(OBJECT_BODY).mass[0] == pytest.approx(imagined.body(OBJECT_BODY).mass[0])
+
+
+def test_robot_refuses_unsafe_fragments(panda_folder, cup_case):
+    """The robot runs untrusted agent MJCF through the same fragment check as the imagination."""
+    obj, case = cup_case
+    unsafe = '<mujoco><include file="/etc/passwd"/><worldbody><body><geom size="0.01"/></body></worldbody></mujoco>'
+    with pytest.raises(FragmentError, match="invalid agent fragment: <include>"):
+        execute(obj, case.pose, unsafe, case.via_poses, case.scoring)
 
 
 @pytest.mark.slow

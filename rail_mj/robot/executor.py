@@ -22,7 +22,21 @@ import mujoco
 import numpy as np
 
 from rail_mj.errors import FragmentError, RobotError
-from rail_mj.mjcf import check_fragment
+from rail_mj.geometry import quat_angle, slerp
+from rail_mj.imagination.batch import Placement, assemble_outcomes
+from rail_mj.mjcf import (
+    OBJECT_BODY,
+    OBJECT_JOINT,
+    OWNER_GROUND,
+    OWNER_OBJECT,
+    OWNER_OTHER,
+    ScenePhysics,
+    add_agent,
+    add_object,
+    agent_prefix,
+    check_fragment,
+    count_contacts,
+)
 from rail_mj.robot.control import (
     HOME_QPOS,
     MONITORED_BODIES,
@@ -54,7 +68,6 @@ ScoringFunction = Callable[[Outcomes], np.ndarray]
 _FINGERTIP_Z = 0.1125
 #: Agent frame -> hand frame: the hand points down (its z = the agent's -z).
 _GRASP_QUAT = np.array([0.0, 1.0, 0.0, 0.0])
-_AGENT_GROUP = 1
 _PRIMITIVES = (mujoco.mjtGeom.mjGEOM_SPHERE, mujoco.mjtGeom.mjGEOM_BOX, mujoco.mjtGeom.mjGEOM_CAPSULE,
                mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_ELLIPSOID)
 
@@ -122,71 +135,50 @@ class RobotScene:
     object_dof: int
     monitored: np.ndarray  # (ngeom,) bool: hand geoms
     agent_geoms: np.ndarray  # (ngeom,) bool
-    object_geoms: np.ndarray  # (ngeom,) bool
-    ground_geoms: np.ndarray  # (ngeom,) bool: table and floor
+    geom_owner: np.ndarray  # (ngeom,) rail_mj.mjcf owner codes: agent 0, object, ground (table, floor), other
     task_origin: np.ndarray  # (3,) world position of the task frame at placement
     half_extents: np.ndarray  # (3,)
     agent_scale: float
-    agent_solref: np.ndarray  # (n_agent_geoms, 2) the fragment's own solref, restored at release
+    agent_solref: np.ndarray  # (n_agent_geoms, 2) the composer's (the imagination's) solref, restored at release
 
 
-def _fragment(fragment: str) -> tuple[mujoco.MjsBody, mujoco.MjModel]:
-    """The fragment's single body and its compiled model; FragmentError otherwise."""
-    check_fragment(fragment)  # untrusted MJCF: the allow-list and caps of rail_mj.mjcf before MuJoCo reads it
-    try:
-        spec = mujoco.MjSpec.from_string(fragment)
-        model = spec.compile()
-    except Exception as exc:  # MuJoCo's parse/compile errors
-        raise FragmentError(f"agent fragment does not compile: {exc}") from exc
-    bodies = list(spec.worldbody.bodies)
-    if len(bodies) != 1:
-        raise FragmentError(f"agent fragment must hold exactly one body in <worldbody>, found {len(bodies)}")
-    return bodies[0], model
+def _agent_spec(fragment: str, scale: float) -> mujoco.MjSpec:
+    """The checked fragment (``rail_mj.mjcf.check_fragment``: untrusted MJCF) scaled by ``scale``."""
+    spec = check_fragment(fragment)
+    for i, g in enumerate(spec.geoms):
+        if g.type not in _PRIMITIVES:
+            raise FragmentError(f"agent geom {i} has type {g.type.name}; the robot carries primitive agents only "
+                                f"({', '.join(t.name for t in _PRIMITIVES)})")
+        g.pos = np.asarray(g.pos) * scale
+        g.size = np.asarray(g.size) * scale
+        if not np.isnan(g.fromto[0]):
+            g.fromto = np.asarray(g.fromto) * scale
+        if not np.isnan(g.mass):
+            g.mass = g.mass * scale**3
+    top = spec.worldbody.first_body()
+    nested = top.find_all(mujoco.mjtObj.mjOBJ_BODY)
+    for body in nested:
+        body.pos = np.asarray(body.pos) * scale
+    for body in [top, *nested]:
+        if body.explicitinertial:
+            body.mass, body.ipos = body.mass * scale**3, np.asarray(body.ipos) * scale
+            body.inertia = np.asarray(body.inertia) * scale**5
+    return spec
 
 
 def _agent_extent(fragment: str) -> np.ndarray:
     """Full size of the agent body's axis-aligned box in its own frame, (3,)."""
-    src, model = _fragment(fragment)
+    model = check_fragment(fragment).compile()
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
-    body = 1  # the fragment's only body (0 is the world)
+    body = 1  # the fragment's top body (0 is the world)
     lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
-    for g in np.flatnonzero(model.geom_bodyid == body):
+    for g in range(model.ngeom):
         rot = data.geom_xmat[g].reshape(3, 3)
         centre = data.geom_xpos[g] + rot @ model.geom_aabb[g, :3] - data.xpos[body]
         half = np.abs(rot) @ model.geom_aabb[g, 3:]
         lo, hi = np.minimum(lo, centre - half), np.maximum(hi, centre + half)
-    if not np.all(np.isfinite(lo)):
-        raise FragmentError("agent fragment's body has no geoms")
     return hi - lo
-
-
-def _add_agent(spec: mujoco.MjSpec, fragment: str, scale: float) -> None:
-    src, _ = _fragment(fragment)
-    body = spec.worldbody.add_body(name="agent")
-    body.add_freejoint(name="agent_free")
-    for i, g in enumerate(src.geoms):
-        if g.type not in _PRIMITIVES:
-            raise FragmentError(f"agent geom {i} has type {g.type.name}; the robot carries primitive agents only "
-                                f"({', '.join(t.name for t in _PRIMITIVES)})")
-        geom = body.add_geom(name=f"agent_geom{i}", type=g.type, pos=np.asarray(g.pos) * scale, quat=g.quat,
-                             size=np.asarray(g.size) * scale, rgba=g.rgba, friction=g.friction,
-                             group=_AGENT_GROUP, condim=g.condim)
-        if not np.isnan(g.fromto[0]):
-            geom.fromto = np.asarray(g.fromto) * scale
-        if not np.isnan(g.mass):
-            geom.mass = g.mass * scale**3
-        else:
-            geom.density = g.density
-
-
-def _add_object(spec: mujoco.MjSpec, obj: RailObject, pos: np.ndarray, quat: np.ndarray) -> None:
-    body = spec.worldbody.add_body(name="object", pos=pos, quat=quat)
-    body.add_freejoint(name="object_free")
-    for i, hull in enumerate(obj.hulls):
-        spec.add_mesh(name=f"object_hull{i}", uservert=np.asarray(hull, dtype=float).ravel())
-        body.add_geom(name=f"object_geom{i}", type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"object_hull{i}",
-                      density=obj.density, rgba=[0.8, 0.5, 0.3, 1.0])
 
 
 def build_scene(cfg: RobotConfig, *, obj: RailObject | None = None, pose: StablePose | None = None,
@@ -194,18 +186,23 @@ def build_scene(cfg: RobotConfig, *, obj: RailObject | None = None, pose: Stable
                 boxes: tuple[tuple[np.ndarray, np.ndarray], ...] = (), visual: bool | None = None) -> RobotScene:
     """Compile the torque-controlled Panda on a floor, a table, the placed object and the welded agent.
 
-    ``boxes`` adds fixed boxes ``(centre, half_size)`` in the world (used for scripted collisions).
+    The object and the agent come from the imagination's scene composer (``rail_mj.mjcf``), with its contact
+    constants at the robot's timestep; the table and floor are the ground. ``boxes`` adds fixed boxes
+    ``(centre, half_size)`` in the world (used for scripted collisions).
     """
     spec = load_panda_spec(visual=cfg.visual if visual is None else visual)
     make_torque_controlled(spec)
     spec.option.timestep = cfg.dt
-    spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[2, 2, 0.05],
-                            rgba=[0.3, 0.35, 0.4, 1])
+    physics = ScenePhysics(timestep=cfg.dt)
+    floor = spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[2, 2, 0.05],
+                                    rgba=[0.3, 0.35, 0.4, 1])
     tx, ty = cfg.object_xy
     th = cfg.table_height
     sx, sy = cfg.table_half_size
-    spec.worldbody.add_geom(name="table", type=mujoco.mjtGeom.mjGEOM_BOX, size=[sx, sy, th / 2],
-                            pos=[tx, ty, th / 2], rgba=[0.6, 0.6, 0.55, 1])
+    table = spec.worldbody.add_geom(name="table", type=mujoco.mjtGeom.mjGEOM_BOX, size=[sx, sy, th / 2],
+                                    pos=[tx, ty, th / 2], rgba=[0.6, 0.6, 0.55, 1])
+    for ground in (floor, table):
+        ground.solref, ground.friction = physics.solref, physics.friction3
     for i, (centre, half) in enumerate(boxes):
         spec.worldbody.add_geom(name=f"box{i}", type=mujoco.mjtGeom.mjGEOM_BOX, size=half, pos=centre,
                                 rgba=[0.7, 0.2, 0.2, 1])
@@ -215,69 +212,60 @@ def build_scene(cfg: RobotConfig, *, obj: RailObject | None = None, pose: Stable
         if pose is None:
             raise RobotError("build_scene: an object needs its stable pose")
         half_extents = np.asarray(pose.half_extents, dtype=float)
-        _add_object(spec, obj, np.asarray(pose.pos, dtype=float) + shift, np.asarray(pose.quat, dtype=float))
+        add_object(spec, obj, pos=np.asarray(pose.pos, dtype=float) + shift, quat=np.asarray(pose.quat, dtype=float),
+                   physics=physics)
     grip_z = _FINGERTIP_Z
+    agent_name = ""
+    agent_geoms: list[mujoco.MjsGeom] = []
     if agent_fragment is not None:
-        _add_agent(spec, agent_fragment, agent_scale)
+        agent = add_agent(spec, _agent_spec(agent_fragment, agent_scale), 0, pos=(0.0, 0.0, 0.0),
+                          quat=(1.0, 0.0, 0.0, 0.0), physics=physics)
+        agent_name = agent.name
+        agent_geoms = agent.find_all(mujoco.mjtObj.mjOBJ_GEOM)
         grip_z += _agent_extent(agent_fragment)[2] * agent_scale / 2 + 0.002
         for name in ("hand", "left_finger", "right_finger"):
-            spec.add_exclude(bodyname1=name, bodyname2="agent")
+            spec.add_exclude(bodyname1=name, bodyname2=agent_name)
         spec.add_equality(type=mujoco.mjtEq.mjEQ_WELD, objtype=mujoco.mjtObj.mjOBJ_BODY, name="hold",
-                          name1="hand", name2="agent",
+                          name1="hand", name2=agent_name,
                           data=[0, 0, 0, 0, 0, grip_z, *_GRASP_QUAT, 1, 0])
     spec.body("hand").add_site(name="grip", pos=[0, 0, grip_z], quat=_GRASP_QUAT)
-    compliant = set(MONITORED_BODIES) | ({"agent"} if agent_fragment is not None else set())
-    agent_solref = np.array([g.solref for g in spec.geoms if g.parent.name == "agent"], float).reshape(-1, 2)
-    for geom in spec.geoms:
-        if geom.parent.name in compliant:
-            geom.solref = [cfg.compliance, 1.0]
+    for geom in [g for g in spec.geoms if g.parent.name in MONITORED_BODIES] + agent_geoms:
+        geom.solref = [cfg.compliance, 1.0]
     try:
         model = spec.compile()
     except Exception as exc:  # MuJoCo compile errors
         raise RobotError(f"robot scene does not compile: {exc}") from exc
 
-    def geoms_of(bodies: list[int]) -> np.ndarray:
-        return np.isin(model.geom_bodyid, bodies)
-
     has_agent = agent_fragment is not None
-    agent = model.body("agent").id if has_agent else -1
-    objb = model.body("object").id if obj is not None else -1
-    ground = np.zeros(model.ngeom, bool)
-    ground[[model.geom("floor").id, model.geom("table").id]] = True
+    agent_body = model.body(agent_name).id if has_agent else -1
+    agent_joint = model.joint(agent_prefix(0) + "free").id if has_agent else -1
+    objb = model.body(OBJECT_BODY).id if obj is not None else -1
+    object_joint = model.joint(OBJECT_JOINT).id if obj is not None else -1
+    owner = np.full(model.ngeom, OWNER_OTHER, dtype=np.int64)
+    owner[[model.geom("floor").id, model.geom("table").id]] = OWNER_GROUND
+    root = model.body_rootid[model.geom_bodyid]
+    if obj is not None:
+        owner[root == objb] = OWNER_OBJECT
+    if has_agent:
+        owner[root == agent_body] = 0
     return RobotScene(
         model=model,
         arm=ArmIndex.of(model, "grip"),
-        agent_body=agent,
+        agent_body=agent_body,
         weld=model.equality("hold").id if has_agent else -1,
-        agent_qpos=int(model.jnt_qposadr[model.joint("agent_free").id]) if has_agent else -1,
-        agent_dof=int(model.jnt_dofadr[model.joint("agent_free").id]) if has_agent else -1,
+        agent_qpos=int(model.jnt_qposadr[agent_joint]) if has_agent else -1,
+        agent_dof=int(model.jnt_dofadr[agent_joint]) if has_agent else -1,
         object_body=objb,
-        object_qpos=int(model.jnt_qposadr[model.joint("object_free").id]) if obj is not None else -1,
-        object_dof=int(model.jnt_dofadr[model.joint("object_free").id]) if obj is not None else -1,
-        monitored=geoms_of([model.body(n).id for n in MONITORED_BODIES]),
-        agent_geoms=geoms_of([agent]) if has_agent else np.zeros(model.ngeom, bool),
-        object_geoms=geoms_of([objb]) if obj is not None else np.zeros(model.ngeom, bool),
-        ground_geoms=ground,
+        object_qpos=int(model.jnt_qposadr[object_joint]) if obj is not None else -1,
+        object_dof=int(model.jnt_dofadr[object_joint]) if obj is not None else -1,
+        monitored=np.isin(model.geom_bodyid, [model.body(n).id for n in MONITORED_BODIES]),
+        agent_geoms=owner == 0,
+        geom_owner=owner,
         task_origin=shift + np.array([0.0, 0.0, half_extents[2]]),
         half_extents=half_extents,
         agent_scale=agent_scale,
-        agent_solref=agent_solref,
+        agent_solref=np.tile(physics.solref, (int((owner == 0).sum()), 1)),
     )
-
-
-def _slerp(q0: np.ndarray, q1: np.ndarray, t: float) -> np.ndarray:
-    d = float(np.dot(q0, q1))
-    if d < 0:
-        q1, d = -q1, -d
-    if d > 0.9995:
-        q = q0 + t * (q1 - q0)
-        return q / np.linalg.norm(q)
-    th = np.arccos(d)
-    return (np.sin((1 - t) * th) * q0 + np.sin(t * th) * q1) / np.sin(th)
-
-
-def _quat_angle(q0: np.ndarray, q1: np.ndarray) -> float:
-    return float(2 * np.arccos(min(1.0, abs(float(np.dot(q0, q1))))))
 
 
 class _Sim:
@@ -346,12 +334,12 @@ def _follow(sim: _Sim, waypoints: list[tuple[np.ndarray, np.ndarray]], postures:
     for k, ((p1, q1), posture) in enumerate(zip(waypoints, postures)):
         sim.posture = posture
         dist = float(np.linalg.norm(p1 - p0))
-        duration = max(dist / speed, _quat_angle(q0, q1) / cfg.angular_speed, cfg.dt)
+        duration = max(dist / speed, quat_angle(q0, q1) / cfg.angular_speed, cfg.dt)
         n = int(np.ceil(duration / cfg.dt))
         vel = (p1 - p0) / duration
         for i in range(1, n + 1):
             t = i / n
-            force = sim.step(p0 + t * (p1 - p0), _slerp(q0, q1, t), vel)
+            force = sim.step(p0 + t * (p1 - p0), slerp(q0, q1, t), vel)
             index = first_index + k if first_index >= 0 else -1
             if sim.crossed(force, phase, index, cfg.on_force_limit):
                 _stop(sim, vel)
@@ -437,46 +425,23 @@ def _agent_scale(fragment: str, half_extents: np.ndarray, cfg: RobotConfig) -> f
 
 
 def _outcomes(sim: _Sim, obj_pos0: np.ndarray, obj_quat0: np.ndarray) -> Outcomes:
+    """The end state as a one-rollout Outcomes (N = 1, the table plays the ground), as the imagination reports it."""
     scene, data = sim.scene, sim.data
-    obj_pos = data.xpos[scene.object_body].copy()
-    obj_quat = data.xquat[scene.object_body].copy()
-    inv0 = np.empty(4)
-    mujoco.mju_negQuat(inv0, obj_quat0)
-    q_rel = np.empty(4)
-    mujoco.mju_mulQuat(q_rel, obj_quat, inv0)
-    r_rel = np.empty(9)
-    mujoco.mju_quat2Mat(r_rel, q_rel)
-    r_rel = r_rel.reshape(3, 3)
-    origin = obj_pos + r_rel @ (scene.task_origin - obj_pos0)
-    a_pos = r_rel.T @ (data.xpos[scene.agent_body] - origin)
-    inv_rel = np.empty(4)
-    mujoco.mju_negQuat(inv_rel, q_rel)
-    a_quat = np.empty(4)
-    mujoco.mju_mulQuat(a_quat, inv_rel, data.xquat[scene.agent_body])
-    n_obj = n_ground = 0
-    for i in range(data.ncon):
-        g1, g2 = data.contact[i].geom1, data.contact[i].geom2
-        if scene.agent_geoms[g1] == scene.agent_geoms[g2]:
-            continue
-        other = g2 if scene.agent_geoms[g1] else g1
-        n_obj += int(scene.object_geoms[other])
-        n_ground += int(scene.ground_geoms[other])
-    speed = max(np.linalg.norm(data.qvel[scene.agent_dof:scene.agent_dof + 3]),
-                np.linalg.norm(data.qvel[scene.object_dof:scene.object_dof + 3]))
-    return Outcomes(
-        pose_index=np.zeros(1, int),
-        plan_index=np.zeros(1, int),
-        agent_pos=a_pos[None, None],
-        agent_quat=a_quat[None, None],
-        agent_vel=data.qvel[scene.agent_dof:scene.agent_dof + 3].copy()[None, None],
-        contacts_object=np.array([[n_obj]]),
-        contacts_agents=np.zeros((1, 1), int),
-        contacts_ground=np.array([[n_ground]]),
+    zero = np.zeros(1, dtype=np.int64)
+    placement = Placement(pose_index=zero, plan_index=zero, row=zero, object_pos=obj_pos0[None],
+                          object_quat=obj_quat0[None], origin=scene.task_origin[None],
+                          half_extents=scene.half_extents[None])
+    agent_vel = data.qvel[scene.agent_dof:scene.agent_dof + 3].copy()
+    speed = max(np.linalg.norm(agent_vel), np.linalg.norm(data.qvel[scene.object_dof:scene.object_dof + 3]))
+    return assemble_outcomes(
+        placement,
+        object_pos=data.xpos[scene.object_body][None].copy(),
+        object_quat=data.xquat[scene.object_body][None].copy(),
+        agent_pos=data.xpos[scene.agent_body][None, None].copy(),
+        agent_quat=data.xquat[scene.agent_body][None, None].copy(),
+        agent_vel=agent_vel[None, None],
+        contacts=count_contacts(scene.geom_owner, data.contact.geom[: data.ncon], 1)[None],
         released_early=np.array([[bool(sim.events)]]),
-        object_pos=(origin - scene.task_origin)[None],
-        object_quat=q_rel[None],
-        object_tilt=np.array([float(np.arccos(np.clip(r_rel[2, 2], -1.0, 1.0)))]),
-        object_half_extents=scene.half_extents[None],
         settled=np.array([speed < sim.cfg.settle_speed]),
     )
 
@@ -586,7 +551,7 @@ def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: 
     # release: the weld lets go, the fingers open, the hand lifts straight up
     data.eq_active[scene.weld] = 0
     sim.held = False
-    # the free agent gets back its fragment's contact softness (the imagination's); soft pads were for the grasp
+    # the free agent gets back the imagination's contact softness; soft pads were for the grasp
     scene.model.geom_solref[scene.agent_geoms] = scene.agent_solref
     sim.gripper = 255.0
     pos, quat = sim.site_pose()
