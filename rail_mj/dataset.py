@@ -41,6 +41,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from scipy.spatial import ConvexHull
 
 from rail_mj.errors import DatasetError
+from rail_mj.runfiles import publish, staging_dir, write_synced
 from rail_mj.shapes import BASKET_AGENT_MIN, BASKET_GAP, GENERATORS
 
 __all__ = [
@@ -370,7 +371,9 @@ def generate(
 
     Object ``<class>_<i>`` depends only on (seed, class, i), so subsets of classes reproduce the same
     meshes. ``affordances`` defaults to the paper's eight; ``progress(done, total, record)`` is
-    called after each object, and labels are written as they are made.
+    called after each object. The files are built in a hidden staging folder inside ``out_dir`` and
+    moved into place when all are written, ``labels.jsonl`` last: a run killed part way leaves no
+    ``labels.jsonl`` (the old one is removed first), never one listing part of the objects.
     """
     class_names = _resolve_names(classes, CLASSES, "classes", str.strip)
     aff_names = _resolve_names(affordances if affordances is not None else PAPER_AFFORDANCES, list(AFFORDANCES), "affordances", normalize_affordance)
@@ -379,10 +382,10 @@ def generate(
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise DatasetError(f"seed must be a non-negative integer, got {seed!r}")
     out = Path(out_dir)
-    (out / "meshes").mkdir(parents=True, exist_ok=True)
     total = len(class_names) * per_class
     records: list[LabelRecord] = []
-    with open(out / LABELS_FILE, "w", encoding="utf-8", newline="\n") as labels:
+    with staging_dir(out) as stage:
+        (stage / "meshes").mkdir()
         for name in class_names:
             for i in range(per_class):
                 rng = np.random.default_rng([seed, zlib.crc32(name.encode()), i])
@@ -394,7 +397,7 @@ def generate(
                 mesh = _snap_to_grid(posed)
                 _check(name, built.mesh, mesh)
                 rel = f"meshes/{name}_{i:03d}.obj"
-                (out / rel).write_text(trimesh.exchange.obj.export_obj(mesh, include_normals=False, include_texture=False), encoding="utf-8")
+                write_synced(stage / rel, trimesh.exchange.obj.export_obj(mesh, include_normals=False, include_texture=False))
                 up = tuple(round(float(x), 9) + 0.0 for x in rot[:3, 2])
                 truth = {a: a in CLASS_SPECS[name].affords for a in aff_names}
                 record = LabelRecord(
@@ -405,11 +408,11 @@ def generate(
                     nominal_up=up,
                     notes=f"{built.notes}; written in a random orientation",
                 )
-                labels.write(record.to_json() + "\n")
-                labels.flush()
                 records.append(record)
                 if progress is not None:
                     progress(len(records), total, record)
+        write_synced(stage / LABELS_FILE, "".join(r.to_json() + "\n" for r in records))
+        publish(stage, out, LABELS_FILE)
     return records
 
 
