@@ -198,3 +198,22 @@ def test_backends_share_one_interface_and_keep_their_config(cup, cup_poses):
     np.testing.assert_array_equal(direct.agent_pos, via_imagine.agent_pos)
     with pytest.raises(ImaginationError, match="its own config"):
         imagine(cup, cup_poses, drops, _pour_plans(cup_poses), backend=native, config=ImaginationConfig())
+
+
+def test_mjx_box_scene_weighs_what_the_hull_scene_weighs(cup):
+    """The bucket scene's hull boxes carry the inertia MuJoCo computes for the hull meshes."""
+    drops = AgentSetup(fragment=DROPLET, offsets=_grid(2, 0.015))
+    boxes = get_backend("mjx", FAST).scene(cup, drops).model
+    meshes = get_backend("native", FAST).scene(cup, drops).model
+    body = boxes.body("object").id
+    assert boxes.body_geomnum[body] == 16 and meshes.body_geomnum[body] == len(cup.hulls)
+    for field in ("body_mass", "body_ipos", "body_inertia", "body_iquat"):
+        np.testing.assert_array_equal(getattr(boxes, field)[body], getattr(meshes, field)[body])
+
+
+def test_mjx_refuses_an_unverified_mujoco_mjx_version(monkeypatch):
+    from rail_mj.imagination import mjx
+
+    monkeypatch.setattr(mjx.importlib.metadata, "version", lambda name: "9.1.0")
+    with pytest.raises(ImaginationError, match=r"mujoco-mjx 3\.17\.x; installed: 9\.1\.0.*backend='native'"):
+        mjx.MjxBackend(FAST)
