@@ -3,12 +3,19 @@
 Every mesh entering rail_mj goes through :func:`load_mesh` (files) or
 :func:`object_from_mesh` (in-memory meshes); both repair and validate it the
 same way, so the mesh frame is always metres, z up.
+
+Meshes over :data:`FACE_BUDGET` faces are decimated (quadric decimation, trimesh's
+``simplify_quadric_decimation`` backed by fast-simplification) before any step whose cost
+grows faster than the face count; :func:`mesh_notes` says what was done. Meshes over
+:data:`MAX_FACES` faces or files over :data:`MAX_FILE_BYTES` are refused at once.
 """
 
 from __future__ import annotations
 
 import hashlib
+import io
 import json
+import re
 import zipfile
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -28,9 +35,13 @@ __all__ = [
     "MAX_EXTENT",
     "MIN_EXTENT",
     "MJX_MAX_HULL_VERTICES",
+    "FACE_BUDGET",
+    "MAX_FACES",
+    "MAX_FILE_BYTES",
     "DecompositionConfig",
     "load_mesh",
     "repair_mesh",
+    "mesh_notes",
     "mesh_hash",
     "decompose",
     "reduce_hull",
@@ -47,10 +58,27 @@ MAX_EXTENT = 10.0
 MIN_EXTENT = 0.005
 #: MJX's convex collision caps hull vertices at 64.
 MJX_MAX_HULL_VERTICES = 64
+#: Meshes with more faces are decimated to this many before repair and decomposition. CoACD's time
+#: grows faster than the face count (default config, a torus, CPU s on 2 cores: 5k faces 3.2, 10k 5.1,
+#: 20k 8.5, 50k 24), oriented bounds and winding repair too, and 32 hulls of <= 64 vertices keep none
+#: of the extra detail. Household models and the procedural dataset (< 3k faces) stay below it.
+FACE_BUDGET = 20_000
+#: Meshes with more faces are refused: merging and decimating cost ~3 s and ~0.4 GB per million faces
+#: here, so this many take ~15 s before the pipeline proper starts.
+MAX_FACES = 4_000_000
+#: Larger files are refused before parsing: MAX_FACES faces as binary STL (50 bytes a face) fit under it.
+MAX_FILE_BYTES = 256 * 2**20
 # A mesh is flat when its smallest extent is below this fraction of its largest.
 _FLAT_RATIO = 1e-6
 # Hulls with less volume than this (m^3) are slivers MuJoCo cannot give inertia.
 _MIN_HULL_VOLUME = 1e-12
+
+# trimesh.Trimesh.metadata key under which repair_mesh records what it did to the mesh.
+_NOTES_KEY = "rail_mj_notes"
+_FORMATS = "OBJ, STL (binary or ASCII), PLY, OFF, GLB, GLTF"
+# Formats trimesh reads as text: it decodes non-UTF-8 text with charset_normalizer, an optional
+# module rail_mj does not install, so such files are transcoded here first.
+_TEXT_FORMATS = ("obj", "off", "gltf")
 
 _Y_UP_TO_Z_UP = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, -1.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
 
@@ -100,6 +128,73 @@ def _fail(label: str, problem: str) -> MeshError:
     return MeshError(f"{label}: {problem}")
 
 
+def _not_valid(label: str, fmt: str, why: str) -> MeshError:
+    return _fail(label, f"is not a valid {fmt.upper()} file: {why}; accepted formats: {_FORMATS}")
+
+
+def _too_many_faces(label: str, n_faces: int) -> MeshError:
+    return _fail(
+        label,
+        f"has {n_faces:,} faces, over the limit of {MAX_FACES:,} (meshes over {FACE_BUDGET:,} faces are "
+        f"decimated to {FACE_BUDGET:,}, up to that limit); decimate it first, e.g. with Blender's Decimate "
+        "modifier or MeshLab's quadric edge collapse",
+    )
+
+
+def _binary_stl_faces(head: bytes, size: int) -> int | None:
+    """The triangle count of a binary STL (80-byte header, uint32 count, 50 bytes a triangle), else None."""
+    if size < 84:
+        return None
+    n = int.from_bytes(head[80:84], "little")
+    return n if size == 84 + 50 * n else None
+
+
+def _declared_faces(path: Path, fmt: str, size: int) -> int | None:
+    """The face count a file's header declares (binary STL, PLY, OFF), read without parsing the body."""
+    with path.open("rb") as f:
+        head = f.read(65536)
+    if fmt == "stl":
+        return _binary_stl_faces(head, size)
+    if fmt == "ply":
+        match = re.search(rb"^element\s+face\s+(\d+)", head.split(b"end_header")[0], re.MULTILINE)
+        return int(match.group(1)) if match else None
+    if fmt == "off":
+        lines = (line.split(b"#")[0].split() for line in head.splitlines())
+        tokens = [t for line in lines for t in line][:4]
+        if len(tokens) == 4 and tokens[0].endswith(b"OFF") and tokens[2].isdigit():
+            return int(tokens[2])
+    return None
+
+
+def _stl_source(path: Path, label: str, size: int) -> io.BytesIO | None:
+    """Check the file is binary or ASCII STL; UTF-8 bytes for trimesh where ASCII STL is in another encoding."""
+    with path.open("rb") as f:
+        head = f.read(84)
+    if _binary_stl_faces(head, size) is not None:
+        return None
+    if head.lstrip()[:5].lower() == b"solid":
+        return _text_source(path, label, "stl", kind="ASCII STL")
+    raise _not_valid(
+        label,
+        "stl",
+        "it is neither binary STL (an 80-byte header and a triangle count n, 84 + 50 n bytes in all; "
+        f"this file has {size:,} bytes) nor ASCII STL (text starting with 'solid')",
+    )
+
+
+def _text_source(path: Path, label: str, fmt: str, *, kind: str | None = None) -> io.BytesIO | None:
+    """Refuse binary data in a text format; UTF-8 bytes for trimesh where the file is in another encoding."""
+    data = path.read_bytes()
+    if b"\x00" in data[:65536]:
+        raise _not_valid(label, fmt, f"it holds binary data (NUL bytes), and {kind or fmt.upper()} is a text format")
+    try:
+        data.decode("utf-8")
+    except UnicodeDecodeError:
+        # Latin-1 maps every byte to a character; the geometry itself is ASCII in any encoding.
+        return io.BytesIO(data.decode("latin-1").encode("utf-8"))
+    return None
+
+
 def _read(path: Path) -> trimesh.Trimesh:
     """Read a supported file into one unprocessed mesh, scene graphs flattened."""
     label = str(path)
@@ -110,18 +205,43 @@ def _read(path: Path) -> trimesh.Trimesh:
     ext = path.suffix.lower()
     if ext not in SUPPORTED_EXTENSIONS:
         raise _fail(label, f"unknown extension {ext or '(none)'!r}; supported: {', '.join(SUPPORTED_EXTENSIONS)}")
+    fmt = ext[1:]
     try:
         size = path.stat().st_size
         with path.open("rb"):
             pass
+        if size == 0:
+            raise _fail(label, "empty file (0 bytes); a mesh file needs vertices and faces")
+        if size > MAX_FILE_BYTES:
+            raise _fail(
+                label,
+                f"is {size / 2**20:,.1f} MiB, over the {MAX_FILE_BYTES / 2**20:,.0f} MiB limit for mesh files "
+                f"(meshes may have up to {MAX_FACES:,} faces); decimate it first, e.g. with Blender's Decimate "
+                "modifier or MeshLab's quadric edge collapse",
+            )
+        declared = _declared_faces(path, fmt, size)
+        if declared is not None and declared > MAX_FACES:
+            raise _too_many_faces(label, declared)
+        if fmt == "stl":
+            source = _stl_source(path, label, size)
+        elif fmt in _TEXT_FORMATS:
+            source = _text_source(path, label, fmt)
+        else:
+            source = None
     except OSError as exc:
         raise _fail(label, f"cannot be read ({exc.strerror})") from exc
-    if size == 0:
-        raise _fail(label, "empty file (0 bytes); a mesh file needs vertices and faces")
     try:
-        loaded = trimesh.load(str(path), file_type=ext[1:], process=False)
+        if source is None:
+            loaded = trimesh.load(str(path), file_type=fmt, process=False)
+        else:
+            resolver = trimesh.resolvers.FilePathResolver(str(path))
+            loaded = trimesh.load(source, file_type=fmt, resolver=resolver, process=False)
+    except ImportError as exc:
+        raise _fail(
+            label, f"needs the Python module {exc.name!r} to read this {fmt.upper()} file; install it with pip"
+        ) from exc
     except Exception as exc:  # trimesh's loaders raise many unrelated types on garbage input
-        raise _fail(label, f"could not be parsed as {ext[1:].upper()} ({type(exc).__name__}: {exc})") from exc
+        raise _not_valid(label, fmt, f"{type(exc).__name__}: {exc}") from exc
     if isinstance(loaded, trimesh.Scene):
         meshes = [g for g in loaded.dump() if isinstance(g, trimesh.Trimesh)] if loaded.geometry else []
         if not meshes:
@@ -132,27 +252,59 @@ def _read(path: Path) -> trimesh.Trimesh:
     return loaded
 
 
+def _clean(mesh: trimesh.Trimesh) -> None:
+    """Merge duplicate vertices, drop degenerate and duplicate faces and unreferenced vertices (in place)."""
+    mesh.merge_vertices()
+    mesh.update_faces(mesh.nondegenerate_faces() & mesh.unique_faces())
+    mesh.remove_unreferenced_vertices()
+
+
+def _decimate(mesh: trimesh.Trimesh, label: str) -> trimesh.Trimesh:
+    """``mesh`` decimated to :data:`FACE_BUDGET` faces (quadric error, fast-simplification) and cleaned."""
+    try:
+        small = mesh.simplify_quadric_decimation(face_count=FACE_BUDGET)
+    except Exception as exc:  # fast-simplification reports failures as assorted types
+        raise _fail(
+            label,
+            f"has {len(mesh.faces):,} faces, over the face budget of {FACE_BUDGET:,}, and decimating it failed "
+            f"({type(exc).__name__}: {exc}); decimate it first, e.g. with Blender's Decimate modifier",
+        ) from exc
+    out = trimesh.Trimesh(
+        vertices=np.asarray(small.vertices, dtype=np.float64), faces=np.asarray(small.faces, dtype=np.int64),
+        process=False,
+    )
+    _clean(out)
+    if len(out.faces) == 0:
+        raise _fail(label, f"has no faces left after decimating its {len(mesh.faces):,} faces to {FACE_BUDGET:,}")
+    return out
+
+
 def repair_mesh(mesh: trimesh.Trimesh, *, label: str = "mesh") -> trimesh.Trimesh:
     """Validate and repair a mesh (returns a new one); raise MeshError naming ``label``.
 
     Repairs: merge duplicate vertices, drop degenerate and duplicate faces and
-    unreferenced vertices, make winding consistent and normals outward.
-    Rejects: no faces, non-finite vertices, flat meshes, absurd sizes.
+    unreferenced vertices, decimate to :data:`FACE_BUDGET` faces when over it,
+    make winding consistent and normals outward.
+    Rejects: no faces, more than :data:`MAX_FACES` faces, non-finite vertices,
+    flat meshes, absurd sizes. What was changed beyond cleaning is listed by
+    :func:`mesh_notes` on the result.
     """
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
     faces = np.asarray(mesh.faces, dtype=np.int64)
+    notes = list(mesh.metadata.get(_NOTES_KEY, ()))
     if faces.size == 0 or vertices.size == 0:
         raise _fail(label, "has no faces; a mesh needs triangles, not only points or lines")
+    if len(faces) > MAX_FACES:
+        raise _too_many_faces(label, len(faces))
     if not np.isfinite(vertices).all():
         bad = int((~np.isfinite(vertices).all(axis=1)).sum())
         raise _fail(label, f"has {bad} vertices with NaN or inf coordinates; all coordinates must be finite")
     out = trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
-    out.merge_vertices()
-    out.update_faces(out.nondegenerate_faces() & out.unique_faces())
-    out.remove_unreferenced_vertices()
+    _clean(out)
     if len(out.faces) == 0:
         raise _fail(label, "has no faces left after removing degenerate ones; every face is zero-area")
-    trimesh.repair.fix_normals(out)
+    # The size checks need only the vertices: they come before the costly steps, so a huge mesh in the
+    # wrong units is refused at once.
     extents = out.extents
     largest, smallest = float(extents.max()), float(extents.min())
     if smallest <= _FLAT_RATIO * largest:
@@ -172,7 +324,19 @@ def repair_mesh(mesh: trimesh.Trimesh, *, label: str = "mesh") -> trimesh.Trimes
             f"is too small: largest extent {largest:.4g} m < {MIN_EXTENT * 1000:g} mm; pass units= the number "
             "of metres per mesh unit (1.0 if the file is already in metres; check it was not scaled twice)",
         )
+    if len(out.faces) > FACE_BUDGET:
+        n_faces = len(out.faces)
+        out = _decimate(out, label)
+        notes.append(f"decimated from {n_faces:,} to {len(out.faces):,} faces (face budget {FACE_BUDGET:,})")
+    trimesh.repair.fix_normals(out)
+    if notes:
+        out.metadata[_NOTES_KEY] = notes
     return out
+
+
+def mesh_notes(mesh: trimesh.Trimesh) -> list[str]:
+    """What :func:`repair_mesh` changed in ``mesh`` beyond cleaning it (e.g. decimation); empty if nothing."""
+    return list(mesh.metadata.get(_NOTES_KEY, ()))
 
 
 def load_mesh(path: str | Path, *, units: float = 1.0, up: Literal["z", "y"] = "z") -> trimesh.Trimesh:

@@ -143,7 +143,7 @@ def _write(path: Path, text: str | bytes) -> Path:
             "NaN or inf",
         ),
         ("flat.obj", "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0.1 0.1 0\nf 1 2 3\nf 2 4 3\n", 1.0, "flat"),
-        ("garbage.stl", b"\x00\x01garbage\xff" * 3, 1.0, "could not be parsed|no faces"),
+        ("garbage.stl", b"\x00\x01garbage\xff" * 3, 1.0, "not a valid STL file.*binary.*ASCII"),
         ("model.fbx", "whatever", 1.0, r"unknown extension '\.fbx'.*\.obj"),
     ],
 )
@@ -290,3 +290,117 @@ def test_open_mesh_mass_from_hulls(monkeypatch: pytest.MonkeyPatch) -> None:
 def test_bad_density() -> None:
     with pytest.raises(ConfigError, match="density"):
         object_from_mesh(box(), name="b", density=-1.0)
+
+
+# ---- garbage bytes, other encodings ------------------------------------------------------
+
+
+@pytest.mark.parametrize("ext", ["stl", "obj", "ply", "off", "glb", "gltf"])
+@pytest.mark.parametrize("seed", [0, 1])
+def test_random_bytes_are_not_a_valid_file(tmp_path: Path, ext: str, seed: int) -> None:
+    path = _write(tmp_path / f"noise.{ext}", np.random.default_rng(seed).bytes(4096))
+    with pytest.raises(MeshError) as info:
+        load_mesh(path)
+    message = str(info.value)
+    assert f"is not a valid {ext.upper()} file" in message and "accepted formats: OBJ, STL" in message
+    assert "charset" not in message and "module" not in message  # never blame an optional module
+    if ext == "stl":
+        assert "binary STL" in message and "ASCII STL" in message and "4,096 bytes" in message
+
+
+def test_binary_stl_with_a_non_utf8_header_loads(tmp_path: Path) -> None:
+    data = bytearray(trimesh.exchange.stl.export_stl(box()))
+    data[:80] = bytes(range(128, 208))  # exporters write arbitrary bytes there
+    mesh = load_mesh(_write(tmp_path / "header.stl", bytes(data)))
+    assert len(mesh.faces) == 12 and mesh.is_volume
+
+
+def test_latin1_obj_loads(tmp_path: Path) -> None:
+    text = "# mod\xe8le export\xe9\n" + trimesh.exchange.obj.export_obj(box())
+    mesh = load_mesh(_write(tmp_path / "latin1.obj", text.encode("latin-1")))
+    assert len(mesh.faces) == 12 and mesh.is_volume
+
+
+# ---- face budget: decimation and refusal -------------------------------------------------
+
+
+def fine_cup(rows: int = 16, sections: int = 64) -> trimesh.Trimesh:
+    """The 6 cm x 8 cm cup of :func:`small_cup` with subdivided walls, 4096 faces."""
+    outer = np.column_stack([np.full(rows, 0.03), np.linspace(0, 0.08, rows)])
+    inner = np.column_stack([np.full(rows, 0.026), np.linspace(0.08, 0.005, rows)])
+    return trimesh.creation.revolve(np.vstack([[0, 0], outer, inner, [0, 0.005]]), sections=sections)
+
+
+def test_mesh_below_the_face_budget_is_untouched() -> None:
+    mesh = objects.repair_mesh(small_cup())
+    assert objects.mesh_notes(mesh) == [] and len(mesh.faces) == 96
+    # the digest the hull and stable-pose caches were keyed by before the face budget existed
+    assert objects.mesh_hash(mesh) == "380e4a20063137c899d4c8527f799f1e6a2f5d3b0c968a47e9647966a5752a2a"
+
+
+def test_mesh_over_the_face_budget_is_decimated_and_keeps_a_cups_cavity(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(objects, "FACE_BUDGET", 1000)
+    cup = fine_cup()
+    mesh = objects.repair_mesh(cup)
+    assert len(mesh.faces) <= 1000
+    assert objects.mesh_notes(mesh) == ["decimated from 4,096 to 1,000 faces (face budget 1,000)"]
+    assert mesh.is_volume and mesh.volume == pytest.approx(cup.volume, rel=0.05)
+    np.testing.assert_allclose(mesh.bounds, cup.bounds, atol=5e-4)
+    cavity = [[0, 0, 0.04], [0.015, 0.0, 0.07], [0, 0, 0.0075]]
+    wall = [[0.028, 0, 0.04], [0, 0.028, 0.06], [0, 0, 0.0025]]
+    assert not mesh.contains(cavity).any() and mesh.contains(wall).all()
+    again = objects.repair_mesh(mesh)  # object_from_mesh repairs a loaded mesh again: the note stays
+    assert objects.mesh_notes(again) == objects.mesh_notes(mesh) and len(again.faces) == len(mesh.faces)
+
+
+def test_costly_steps_see_only_the_decimated_mesh(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(objects, "FACE_BUDGET", 1000)
+    seen: dict[str, int] = {}
+    oriented_bounds = trimesh.bounds.oriented_bounds
+
+    def spy_bounds(obj, *args, **kwargs):
+        seen["oriented_bounds"] = len(obj.faces)
+        return oriented_bounds(obj, *args, **kwargs)
+
+    def spy_coacd(mesh, config):
+        seen["coacd"] = len(mesh.faces)
+        return [np.asarray(mesh.vertices)]
+
+    monkeypatch.setattr(trimesh.bounds, "oriented_bounds", spy_bounds)
+    monkeypatch.setattr(objects, "_run_coacd", spy_coacd)
+    fine_cup().export(tmp_path / "fine.ply")
+    obj = load_object(tmp_path / "fine.ply")
+    assert seen == {"oriented_bounds": len(obj.mesh.faces), "coacd": len(obj.mesh.faces)}
+    assert len(obj.mesh.faces) <= 1000 and objects.mesh_notes(obj.mesh)
+    assert obj.mesh_hash == objects.mesh_hash(obj.mesh)
+
+
+@pytest.mark.parametrize("ext", ["ply", "stl", "off"])
+def test_mesh_over_the_face_limit_is_refused_before_parsing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, ext: str
+) -> None:
+    monkeypatch.setattr(objects, "MAX_FACES", 1000)
+    path = tmp_path / f"fine.{ext}"
+    fine_cup().export(path)
+    monkeypatch.setattr(objects.trimesh, "load", lambda *a, **k: pytest.fail("refused meshes are not parsed"))
+    with pytest.raises(MeshError, match=r"has 4,096 faces, over the limit of 1,000.*decimate it first"):
+        load_mesh(path)
+
+
+def test_mesh_over_the_face_limit_is_refused(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(objects, "MAX_FACES", 1000)
+    fine_cup().export(tmp_path / "fine.glb")  # no face count in a header: counted after parsing
+    with pytest.raises(MeshError, match=r"has 4,096 faces, over the limit of 1,000"):
+        load_mesh(tmp_path / "fine.glb")
+    monkeypatch.setattr(objects, "decompose", lambda *a, **k: pytest.fail("refused meshes are not decomposed"))
+    with pytest.raises(MeshError, match=r"over the limit of 1,000"):
+        object_from_mesh(fine_cup(), name="fine")
+
+
+def test_file_over_the_size_limit_is_refused(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(objects, "MAX_FILE_BYTES", 2**20)
+    path = tmp_path / "big.obj"
+    path.write_bytes(b"# padding\n" * 2**17)
+    monkeypatch.setattr(objects.trimesh, "load", lambda *a, **k: pytest.fail("refused files are not parsed"))
+    with pytest.raises(MeshError, match=r"big.obj: is 1.2 MiB, over the 1 MiB limit"):
+        load_mesh(path)
