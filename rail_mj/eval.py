@@ -1,9 +1,20 @@
 """``python -m rail_mj.eval``: the paper's Table 1 and Table 2 on a labelled dataset.
 
-Writes ``OUT/results.jsonl`` (one line per object × affordance, as it goes),
+Writes ``OUT/results.jsonl`` (one line per object × affordance, keyed
+``mesh::affordance``, appended and fsynced as each case finishes),
 ``OUT/summary.json`` and ``OUT/report.md`` (tables + a picture per
-misclassified case). ``--resume`` skips finished lines; Ctrl-C leaves a valid
-results file.
+misclassified case). A kill at any moment, SIGKILL included, loses at most the
+case in progress:
+
+* one run per ``OUT``: a second one fails at once, naming the holder
+  (:func:`rail_mj.runfiles.folder_lock`; the kernel frees the lock of a killed run);
+* the procedural dataset appears in ``OUT/dataset`` only when whole, and one that
+  does not match the command (an older run killed while writing it) is rebuilt;
+* ``--resume`` drops torn and repeated lines by writing a new file and
+  ``os.replace``-ing the old one, then appends; lines of cases this run does not
+  ask for (another ``--affordances``) stay in the file and out of the summary;
+* ``summary.json`` is computed over one line per expected case, and ``complete``
+  is true when the file holds every expected case exactly once.
 
 Rules (also printed in the report):
 
@@ -22,31 +33,35 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 import time
-from collections import defaultdict
+from collections import Counter, defaultdict
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+from pydantic import Field, ValidationError
 
-from rail_mj.dataset import DEFECTS, LabelRecord, generate, read_labels
-from rail_mj.errors import ConfigError, RailError
+from rail_mj.affordances import PAPER_AFFORDANCES
+from rail_mj.cli import EXIT_FAILED, EXIT_OK, report_error
+from rail_mj.dataset import AFFORDANCES, CLASSES, DEFECTS, LabelRecord, generate, normalize_affordance, read_labels
+from rail_mj.errors import ConfigError, DatasetError, RailError
 from rail_mj.pipeline import ObjectInput, Pipeline, RunConfig
 from rail_mj.results import AffordanceResult, PoseInfo
+from rail_mj.runfiles import atomic_write_text, folder_lock
 
 __all__ = ["POSE_TOLERANCE_DEG", "EvalConfig", "run_eval", "summarize", "main"]
 
 POSE_TOLERANCE_DEG = 20.0
 PER_OBJECT_STAGES = ("load", "stable_poses")
-PAPER_AFFORDANCES = ("basket", "bathtub", "chair", "cup", "plate", "table", "vase", "bowl")
 
 
 class EvalConfig(RunConfig):
     """A run of the evaluation: the pipeline settings plus what to evaluate."""
 
     dataset: str = "procedural"
-    per_class: int = 3
+    per_class: int = Field(3, ge=1)
     dataset_seed: int = 0
     affordances: list[str] | None = None
     classes: list[str] | None = None
@@ -89,7 +104,7 @@ def _line(record: LabelRecord, affordance: str, result: AffordanceResult) -> dic
         "baseline_dims": {
             "predicted": None if failed else result.dims_fit,
             "correct": (not failed) and result.dims_fit == label,
-            "pose_correct": label and result.dims_fit and _pose_correct(base_pose, up),
+            "pose_correct": label and result.dims_fit is True and _pose_correct(base_pose, up),
         },
         "error": result.error,
         "result": result.model_dump(mode="json"),
@@ -127,6 +142,7 @@ def summarize(lines: Sequence[dict], config: dict | None = None) -> dict:
     return {
         "n_cases": len(lines),
         "n_errors": sum(ln["error"] is not None for ln in lines),
+        "errors": {ln["key"]: ln["error"] for ln in lines if ln["error"] is not None},
         "classification": {
             "overall": _rate(all_correct),
             "per_affordance": {a: _rate(v) for a, v in sorted(per_aff.items())},
@@ -190,30 +206,73 @@ def _timing_table(summary: dict) -> str:
     return "| stage | total s | mean s (per object for load and stable poses, else per case) |\n|---|---|---|\n" + rows
 
 
-def _load_lines(path: Path) -> list[dict]:
-    """Finished lines of a results file; a torn last line (killed mid-write) is dropped."""
+def _parse_line(raw: str) -> dict | None:
+    """A finished results line, or None for a torn one (killed mid-write) or anything else."""
+    try:
+        line = json.loads(raw)
+    except json.JSONDecodeError:
+        return None
+    return line if isinstance(line, dict) and isinstance(line.get("key"), str) else None
+
+
+def _read_lines(path: Path) -> list[dict]:
+    """Every finished line of a results file, in file order, repeats included."""
     if not path.exists():
         return []
-    lines = []
-    for raw in path.read_text().splitlines():
-        try:
-            lines.append(json.loads(raw))
-        except json.JSONDecodeError:
-            continue
-    return lines
+    text = path.read_text(encoding="utf-8", errors="replace")
+    return [ln for ln in map(_parse_line, text.split("\n")) if ln is not None]
 
 
-def _dataset(cfg: EvalConfig, out: Path) -> tuple[Path, list[LabelRecord]]:
+def _tidy_results(path: Path) -> set[str]:
+    """The keys of the finished lines; torn and repeated lines (the first of a key is kept) are
+    dropped by writing a new file that replaces the old one in one step, so a kill during the
+    rewrite leaves the old file whole. Appending then starts on a fresh line."""
+    if not path.exists():
+        return set()
+    text = path.read_text(encoding="utf-8", errors="replace")
+    kept: dict[str, str] = {}
+    for raw in text.split("\n"):
+        line = _parse_line(raw)
+        if line is not None and line["key"] not in kept:
+            kept[line["key"]] = raw
+    clean = "".join(raw + "\n" for raw in kept.values())
+    if clean != text:
+        atomic_write_text(path, clean)
+    return set(kept)
+
+
+def _check_names(given: Sequence[str], valid: Sequence[str], option: str) -> None:
+    unknown = [n for n in given if n not in valid]
+    if unknown:
+        raise ConfigError(f"{option}: unknown {', '.join(map(repr, unknown))}; valid: {', '.join(valid)}")
+
+
+def _stale_reason(root: Path, classes: Sequence[str], per_class: int, affordances: Sequence[str]) -> str | None:
+    """Why ``root`` does not hold the procedural dataset the command asks for; None when it does."""
+    try:
+        records = read_labels(root)
+    except DatasetError as exc:
+        return str(exc)
+    want = Counter({c: per_class for c in classes})
+    if Counter(r.class_name for r in records) != want:
+        return f"it holds {len(records)} objects, the command asks for {sum(want.values())} ({per_class} per class)"
+    if any(set(r.affordances) != set(affordances) for r in records):
+        return f"its labels are not for exactly {', '.join(affordances)}"
+    return None
+
+
+def _dataset(cfg: EvalConfig, out: Path, affordances: list[str] | None) -> tuple[Path, list[LabelRecord]]:
     if cfg.dataset == "procedural":
+        classes = list(dict.fromkeys(cfg.classes or CLASSES))
+        names = affordances or list(PAPER_AFFORDANCES)
+        _check_names(classes, CLASSES, "--classes")
+        _check_names(names, list(AFFORDANCES), "--affordances")
         root = out / "dataset"
-        if not (root / "labels.jsonl").exists():
-            generate(
-                root,
-                classes=cfg.classes,
-                per_class=cfg.per_class,
-                seed=cfg.dataset_seed,
-                affordances=cfg.affordances or list(PAPER_AFFORDANCES),
-            )
+        why = _stale_reason(root, classes, cfg.per_class, names)
+        if why is not None:
+            if root.exists():  # e.g. left by an older run killed while writing it
+                print(f"rebuilding {root}: {why}", file=sys.stderr)
+            generate(root, classes=classes, per_class=cfg.per_class, seed=cfg.dataset_seed, affordances=names)
         return root, read_labels(root)
     root = Path(cfg.dataset)
     if not (root / "labels.jsonl").is_file():
@@ -225,21 +284,32 @@ def _dataset(cfg: EvalConfig, out: Path) -> tuple[Path, list[LabelRecord]]:
 
 
 def run_eval(cfg: EvalConfig, out: Path, *, resume: bool = False, progress: bool = True) -> dict:
-    """Run (or resume) an evaluation into ``out``; returns the summary."""
-    out.mkdir(parents=True, exist_ok=True)
+    """Run (or resume) an evaluation into ``out``; returns the summary.
+
+    Raises :class:`~rail_mj.errors.FolderInUseError` when another live run holds ``out``.
+    """
+    with folder_lock(out, advice="wait for it to end, or choose another --out"):
+        return _run_locked(cfg, out, resume=resume, progress=progress)
+
+
+def _run_locked(cfg: EvalConfig, out: Path, *, resume: bool, progress: bool) -> dict:
+    for stale in out.glob(".*.tmp"):  # a killed run's unfinished atomic writes; no other run is here
+        stale.unlink()
     results_path = out / "results.jsonl"
     if results_path.exists() and not resume:
         raise ConfigError(f"{results_path} exists: pass --resume to continue it, or choose another --out")
-    root, records = _dataset(cfg, out)
-    affordances = cfg.affordances or sorted({a for r in records for a in r.affordances})
+    requested = list(dict.fromkeys(normalize_affordance(a) for a in cfg.affordances)) if cfg.affordances else None
+    root, records = _dataset(cfg, out, requested)
+    repeated = sorted(m for m, n in Counter(r.mesh for r in records).items() if n > 1)
+    if repeated:  # one key per case: a mesh listed twice would be evaluated twice and never "complete"
+        raise DatasetError(f"{root / 'labels.jsonl'} lists {', '.join(repeated)} more than once; give each mesh one line")
+    affordances = requested or sorted({a for r in records for a in r.affordances})
     for r in records:
         missing = [a for a in affordances if a not in r.affordances]
         if missing:
             raise ConfigError(f"{r.mesh} has no label for {missing}; labelled: {sorted(r.affordances)}")
-    finished = _load_lines(results_path)
-    if finished:  # rewrite without a torn last line, so appending starts on a fresh line
-        results_path.write_text("".join(json.dumps(ln) + "\n" for ln in finished))
-    done = {ln["key"] for ln in finished}
+    expected = [f"{r.mesh}::{a}" for r in records for a in affordances]
+    done = _tidy_results(results_path)
     pending = [(r, [a for a in affordances if f"{r.mesh}::{a}" not in done]) for r in records]
     pending = [(r, affs) for r, affs in pending if affs]
     total = sum(len(affs) for _, affs in pending)
@@ -253,12 +323,13 @@ def run_eval(cfg: EvalConfig, out: Path, *, resume: bool = False, progress: bool
     t0 = time.perf_counter()
     interrupted = False
     try:
-        with results_path.open("a") as fh:
+        with results_path.open("a", encoding="utf-8") as fh:
             for record, affs in pending:
                 item = ObjectInput(path=root / record.mesh, units=record.units, up=record.up, name=record.mesh)
                 for a, result in zip(affs, pipe.classify_object(item, affs)):
                     fh.write(json.dumps(_line(record, a, result)) + "\n")
                     fh.flush()
+                    os.fsync(fh.fileno())  # a finished case survives a kill or a power cut
                     if bar is not None:
                         bar.update(1)
     except KeyboardInterrupt:
@@ -266,11 +337,17 @@ def run_eval(cfg: EvalConfig, out: Path, *, resume: bool = False, progress: bool
     finally:
         if bar is not None:
             bar.close()
-    lines = _load_lines(results_path)
+    found = _read_lines(results_path)
+    counts = Counter(ln["key"] for ln in found)
+    first: dict[str, dict] = {}
+    for ln in found:
+        first.setdefault(ln["key"], ln)
+    lines = [first[k] for k in expected if k in first]
     summary = summarize(lines, config={**cfg.model_dump(mode="json"), "backend_used": pipe.backend})
+    summary["n_expected"] = len(expected)
     summary["wall_s_this_run"] = time.perf_counter() - t0  # a wall time, not a stage: kept out of "timing"
-    summary["complete"] = not interrupted and len(lines) >= len(records) * len(affordances)
-    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    summary["complete"] = not interrupted and all(counts[k] == 1 for k in expected)
+    atomic_write_text(out / "summary.json", json.dumps(summary, indent=2))
     write_report(out, summary, lines, root, render=cfg.render and not interrupted)
     if interrupted:
         raise KeyboardInterrupt
@@ -306,7 +383,7 @@ def write_report(out: Path, summary: dict, lines: Sequence[dict], root: Path, *,
                 parts.append(f"\n![{ln['key']}](renders/{png.name})\n")
             except RailError as exc:
                 parts.append(f"\n(render failed: {exc})\n")
-    (out / "report.md").write_text("".join(parts))
+    atomic_write_text(out / "report.md", "".join(parts))
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -316,21 +393,24 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, help="dataset seed (procedural)")
     p.add_argument("--classes", help="comma-separated classes (procedural), default all")
     p.add_argument("--affordances", help="comma-separated requested affordances, default all labelled")
-    p.add_argument("--out", type=Path, required=True, help="output folder")
+    p.add_argument("--out", type=Path, required=True, help="output folder (one run at a time)")
     p.add_argument("--resume", action="store_true", help="continue an interrupted run in --out")
-    p.add_argument("--provider", default="auto", help="auto | offline | anthropic")
-    p.add_argument("--backend", default="auto", help="auto | native | mjx")
+    p.add_argument("--provider", default="auto", choices=("auto", "offline", "anthropic"))
+    p.add_argument("--backend", default="auto", choices=("auto", "native", "mjx"))
     p.add_argument("--drops", type=int, default=64, help="drops for stable-pose imagination")
     p.add_argument("--no-render", action="store_true", help="skip the pictures in report.md")
     p.add_argument("--no-progress", action="store_true")
     return p
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    args = _parser().parse_args(argv)
+#: The command-line option of each EvalConfig field, for error messages.
+_OPTIONS = {"per_class": "--per-class", "dataset_seed": "--seed", "n_drops": "--drops"}
+
+
+def _config(args: argparse.Namespace) -> EvalConfig:
     split = lambda s: [x.strip() for x in s.split(",") if x.strip()] if s else None  # noqa: E731
     try:
-        cfg = EvalConfig(
+        return EvalConfig(
             dataset=args.dataset,
             per_class=args.per_class,
             dataset_seed=args.seed,
@@ -341,17 +421,36 @@ def main(argv: Sequence[str] | None = None) -> int:
             n_drops=args.drops,
             render=not args.no_render,
         )
-        summary = run_eval(cfg, args.out, resume=args.resume, progress=not args.no_progress)
-    except KeyboardInterrupt:
-        print(f"\ninterrupted: finished lines are in {args.out / 'results.jsonl'}; rerun with --resume", file=sys.stderr)
-        return 130
+    except ValidationError as exc:
+        problems = "; ".join(
+            f"{_OPTIONS.get(str(e['loc'][0]), e['loc'][0])} {e['input']!r}: {e['msg']}" for e in exc.errors()
+        )
+        raise ConfigError(f"bad option value: {problems}") from None
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """CLI entry point; exit status by the rule in :mod:`rail_mj.cli`."""
+    args = _parser().parse_args(argv)
+    try:
+        summary = run_eval(_config(args), args.out, resume=args.resume, progress=not args.no_progress)
+    except KeyboardInterrupt as exc:
+        code = report_error(exc)
+        print(f"finished lines are in {args.out / 'results.jsonl'}; rerun with --resume", file=sys.stderr)
+        return code
     except RailError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+        return report_error(exc)
     print(_tables(summary))
     print("\n" + _timing_table(summary))
     print(f"\nwrote {args.out / 'results.jsonl'}, {args.out / 'summary.json'}, {args.out / 'report.md'}")
-    return 0
+    for key, message in summary["errors"].items():
+        print(f"error: {key}: {message}", file=sys.stderr)
+    if not summary["complete"]:
+        print(
+            f"error: {args.out / 'results.jsonl'} does not hold each of the {summary['n_expected']} expected "
+            "cases exactly once; rerun with --resume",
+            file=sys.stderr,
+        )
+    return EXIT_OK if summary["complete"] and not summary["errors"] else EXIT_FAILED
 
 
 if __name__ == "__main__":

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import shutil
 from pathlib import Path
 
@@ -12,6 +13,7 @@ from rail_mj import eval as rail_eval
 from rail_mj.dataset import generate, read_labels
 from rail_mj.errors import UnknownAffordanceError
 from rail_mj.pipeline import ObjectInput, classify
+from rail_mj.runfiles import folder_lock
 
 SUMMARY_KEYS = {"classification", "functional_pose", "baseline_dims", "timing", "config"}
 
@@ -80,18 +82,79 @@ def test_resume_skips_finished_lines(eval_run, tiny_dataset, tmp_path):
     assert summary["n_cases"] == 2 and summary["complete"]
 
 
-def test_broken_mesh_becomes_an_error_line(tiny_dataset, tmp_path):
+def test_resume_keeps_one_line_per_case(eval_run, tiny_dataset, tmp_path):
+    out = tmp_path / "resumed"
+    shutil.copytree(eval_run, out)
+    lines = (out / "results.jsonl").read_text().splitlines()
+    # two runs that appended the same cases (before the output lock)
+    (out / "results.jsonl").write_text("\n".join(lines + lines[:1]) + "\n")
+    cfg = rail_eval.EvalConfig(dataset=str(tiny_dataset), affordances=["cup"], provider="offline", render=False)
+    summary = rail_eval.run_eval(cfg, out, resume=True, progress=False)
+    assert (out / "results.jsonl").read_text().splitlines() == lines
+    assert summary["n_cases"] == summary["n_expected"] == 2 and summary["complete"]
+
+
+def test_resume_rebuilds_a_dataset_an_older_run_left_partial(eval_run, tmp_path):
+    out = tmp_path / "out"
+    cfg = rail_eval.EvalConfig(classes=["cup", "solid_cylinder"], per_class=1, dataset_seed=3, affordances=["cup"],
+                               provider="offline", render=False)
+    generate(out / "dataset", classes=cfg.classes, per_class=1, seed=3, affordances=["cup"])
+    labels = (out / "dataset" / "labels.jsonl").read_text().splitlines()
+    # killed while writing labels one by one, then killed after evaluating the one object listed
+    (out / "dataset" / "labels.jsonl").write_text(labels[0] + "\n")
+    cup = next(s for s in (eval_run / "results.jsonl").read_text().splitlines() if "cup_000" in s)
+    (out / "results.jsonl").write_text(cup + "\n")
+    summary = rail_eval.run_eval(cfg, out, resume=True, progress=False)
+    assert (out / "dataset" / "labels.jsonl").read_text().splitlines() == labels
+    assert summary["n_cases"] == summary["n_expected"] == 2 and summary["complete"]
+
+
+def test_cli_second_run_on_one_out_names_the_holder(tmp_path, capsys):
+    out = tmp_path / "out"
+    with folder_lock(out, advice="wait"):
+        assert rail_eval.main(["--out", str(out), "--classes", "cup", "--per-class", "1", "--no-progress"]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {out} is in use by another run (pid {os.getpid()} on ")
+    assert not (out / "dataset").exists()
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--per-class", "0"], "--per-class 0: Input should be greater than or equal to 1"),
+        (["--drops", "3"], "--drops 3: Input should be greater than or equal to 8"),
+        (["--classes", "cup,mug"], "--classes: unknown 'mug'; valid: cup, bowl, vase"),
+        (["--affordances", "cup,sofa"], "--affordances: unknown 'sofa'; valid: cup, bowl"),
+    ],
+)
+def test_cli_bad_option_values(tmp_path, capsys, argv, message):
+    assert rail_eval.main(["--out", str(tmp_path / "o"), "--no-progress", *argv]) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_broken_mesh_becomes_an_error_line(tiny_dataset, tmp_path, capsys):
     ds = tmp_path / "ds"
     shutil.copytree(tiny_dataset, ds)
     records = read_labels(ds)
     (ds / records[0].mesh).write_text("this is not a mesh\n")
     out = tmp_path / "out"
-    cfg = rail_eval.EvalConfig(dataset=str(ds), affordances=["cup"], provider="offline", render=False)
-    summary = rail_eval.run_eval(cfg, out, progress=False)
+    argv = ["--dataset", str(ds), "--affordances", "cup", "--provider", "offline", "--no-render", "--no-progress"]
+    assert rail_eval.main([*argv, "--out", str(out)]) == 1  # the CLI rule: some input failed
     lines = [json.loads(s) for s in (out / "results.jsonl").read_text().splitlines()]
     broken = next(ln for ln in lines if ln["mesh"] == records[0].mesh)
     assert broken["error"] and "MeshError" in broken["error"] and broken["correct"] is False
-    assert summary["n_errors"] == 1 and summary["n_cases"] == 2
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["n_errors"] == 1 and summary["n_cases"] == 2 and summary["complete"]
+    assert f"error: {broken['key']}: MeshError" in capsys.readouterr().err
+
+
+def test_cli_mesh_labelled_twice(tiny_dataset, tmp_path, capsys):
+    ds = tmp_path / "ds"
+    shutil.copytree(tiny_dataset, ds)
+    first = (ds / "labels.jsonl").read_text().splitlines()[0]
+    (ds / "labels.jsonl").write_text((ds / "labels.jsonl").read_text() + first + "\n")
+    assert rail_eval.main(["--dataset", str(ds), "--out", str(tmp_path / "o"), "--no-progress"]) == 1
+    assert f"lists {json.loads(first)['mesh']} more than once" in capsys.readouterr().err
 
 
 def test_cli_bad_dataset_folder(tmp_path, capsys):
