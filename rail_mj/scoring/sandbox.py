@@ -16,11 +16,12 @@ Protocol (one request at a time):
   scores.
 
 Memory: the worker's resting address-space size is measured once, when it
-starts; every call may use ``memory_mb`` (plus the parent's ``slack_mb``)
-above that and the mapped inputs, never above what the previous call left
-behind. Garbage (cycles included) is collected after each call, and the
-header reports how far above its resting size the worker ended
-(``resting_mb``) so that the parent can retire a worker that stays bloated.
+starts. Every call's cap is that size plus the mapped inputs, ``memory_mb``
+and the parent's ``slack_mb``, so what earlier calls left behind never raises
+it. Garbage (cycles included) is collected after each call, the heap trimmed
+if the worker still rests more than ``slack_mb`` above its size, and the
+header reports the excess (``resting_mb``) so that the parent can retire a
+worker that stays bloated.
 """
 
 from __future__ import annotations
@@ -52,6 +53,9 @@ __all__ = [
     "OBJECT_ATTRIBUTES",
     "SOURCE_FILENAME",
     "make_globals",
+    "settle_startup",
+    "collect_garbage",
+    "trim_heap",
     "main",
 ]
 
@@ -141,21 +145,37 @@ def make_globals() -> dict:
     }
 
 
-_M_MMAP_THRESHOLD = -3  # glibc <malloc.h>
-_MMAP_THRESHOLD = 128 * 1024
-
-
 def _glibc():
-    """The C library if it is glibc (``mallopt`` and ``malloc_trim``), else None."""
+    """The C library if it is glibc (it has ``malloc_trim``), else None."""
     try:
         libc = ctypes.CDLL(None)
-        libc.mallopt, libc.malloc_trim  # noqa: B018 (probe)
+        libc.malloc_trim  # noqa: B018 (probe)
     except (OSError, AttributeError):
         return None
     return libc
 
 
 _LIBC = _glibc()
+
+
+def settle_startup() -> None:
+    """Once, after the imports: startup objects frozen (they live as long as the worker and are left out of
+    the collection after every call), then the heap trimmed, as :func:`trim_heap` may do after a call."""
+    gc.collect()
+    gc.freeze()
+    trim_heap()
+
+
+def collect_garbage() -> None:
+    """After every call: collect what it left behind, cycles included (cheap: startup objects are frozen)."""
+    gc.collect()
+
+
+def trim_heap() -> None:
+    """Hand freed heap back to the system (glibc only). Done only when the worker rests above its budget:
+    the next call would fault those pages in again."""
+    if _LIBC is not None:
+        _LIBC.malloc_trim(0)
 
 
 def _vm_bytes() -> int:
@@ -306,10 +326,12 @@ class _Worker:
     def _run(self, req: dict) -> dict:
         """One call, then garbage collection; the result says how far above its resting size the worker ended."""
         result = self._call(req)
-        gc.collect()  # cycles the code left behind would otherwise eat into the next call's budget
-        if _LIBC is not None:
-            _LIBC.malloc_trim(0)  # freed heap the allocator keeps would count against the worker's resting size
-        result["resting_mb"] = round((_vm_bytes() - self.resting - len(self.shm)) / _MB, 1)
+        collect_garbage()  # what the call left behind would otherwise eat into the next call's budget
+        excess = _vm_bytes() - self.resting - len(self.shm)
+        if excess > req["slack_mb"] * _MB:
+            trim_heap()
+            excess = _vm_bytes() - self.resting - len(self.shm)
+        result["resting_mb"] = round(excess / _MB, 1)
         return result
 
     def _call(self, req: dict) -> dict:
@@ -360,15 +382,7 @@ def main(argv: list[str]) -> None:
     signal.signal(signal.SIGALRM, _on_alarm)
     make_globals()  # resolve every allow-listed numpy name now, before the limits
     _lock_down()
-    if _LIBC is not None:
-        # a fixed threshold: blocks above it are mapped and unmapped on their own, so freed arrays never stay
-        # in a heap that a small live block pins (glibc's adaptive threshold would move them into the heap)
-        _LIBC.mallopt(_M_MMAP_THRESHOLD, _MMAP_THRESHOLD)
-    # startup objects live as long as the worker: keep them out of the collection after every call
-    gc.collect()
-    gc.freeze()
-    if _LIBC is not None:
-        _LIBC.malloc_trim(0)  # the resting size is measured next: trimmed, as it will be after each call
+    settle_startup()  # before the worker measures its resting size
     _Worker(Connection(request_fd, writable=False), Connection(reply_fd, readable=False), shm_fd).serve()
 
 
