@@ -40,6 +40,8 @@ import trimesh
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 from scipy.spatial import ConvexHull
 
+from rail_mj.affordances import PAPER_AFFORDANCES, get
+from rail_mj.affordances import label_key as normalize_affordance
 from rail_mj.errors import DatasetError
 from rail_mj.runfiles import publish, staging_dir, write_synced
 from rail_mj.shapes import BASKET_AGENT_MIN, BASKET_GAP, GENERATORS
@@ -69,8 +71,9 @@ LABELS_FILE = "labels.jsonl"
 MAX_FACES = 5000  # keeps CoACD fast
 GRID = 1e-6  # written vertices lie on a 1 µm grid, so a reader that merges coincident vertices sees the same mesh
 
-#: Physical definition and size envelope of every affordance name the matrix answers.
-AFFORDANCES: dict[str, str] = {
+#: Physical definition and size envelope of every affordance name the matrix answers, by registry key. These
+#: are the dataset's own words, apart from the registry's rules: the ground truth those rules are measured by.
+AFFORDANCES: dict[str, str] = {get(name).key: text for name, text in {
     "cup": "open-top vessel that holds liquid poured from above (droplets stay inside) and is held in one hand: "
     "rim Ø <= 12.5 cm, 6-16 cm tall, height >= 0.6 x rim Ø.",
     "bowl": "open-top vessel that holds liquid or food: rim Ø 12.5-35 cm, inner depth >= 4 cm, "
@@ -93,10 +96,7 @@ AFFORDANCES: dict[str, str] = {
     "pot": "water-tight open-top cooking vessel: rim Ø 15-45 cm, 10-30 cm tall, height >= 0.55 x rim Ø.",
     "trash_bin": "open-top container for waste standing on the floor: opening >= 18 cm, 30-90 cm tall.",
     "pen_holder": "open-top container with a closed bottom that holds pens upright: opening 4-12.5 cm, 7-16 cm tall.",
-}
-
-#: The paper's eight affordances (the default request).
-PAPER_AFFORDANCES: tuple[str, ...] = ("cup", "bowl", "vase", "basket", "bathtub", "plate", "table", "chair")
+}.items()}
 
 
 @dataclass(frozen=True)
@@ -203,11 +203,6 @@ CROSS_REASONS: dict[tuple[str, str], str] = {
 }
 
 
-def normalize_affordance(name: str) -> str:
-    """Canonical affordance name: lower case, spaces and hyphens as underscores ("Trash bin" -> "trash_bin")."""
-    return name.strip().lower().replace("-", "_").replace(" ", "_")
-
-
 def ground_truth(class_name: str, affordance: str) -> bool:
     """Whether an object of ``class_name`` affords ``affordance`` (see the module doc)."""
     spec = CLASS_SPECS.get(class_name)
@@ -270,7 +265,14 @@ class LabelRecord(BaseModel):
     @field_validator("affordances")
     @classmethod
     def _canonical_names(cls, v: dict[str, bool]) -> dict[str, bool]:
-        return {normalize_affordance(k): b for k, b in v.items()}
+        out: dict[str, bool] = {}
+        given: dict[str, str] = {}
+        for name, label in v.items():
+            key = normalize_affordance(name)
+            if key in out:  # one would silently overwrite the other
+                raise ValueError(f"{given[key]!r} and {name!r} both name the affordance {key!r}; label it once")
+            out[key], given[key] = label, name
+        return out
 
     @field_validator("functional_up", "nominal_up")
     @classmethod

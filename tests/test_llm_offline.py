@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+from rail_mj.affordances import LIQUID_RADIUS, PAPER_AFFORDANCES, REGISTRY
 from rail_mj.errors import ConfigError, UnknownAffordanceError
 from rail_mj.llm import (
     AgentLayout,
@@ -31,14 +32,13 @@ from rail_mj.llm.checks import (
     check_trajectories,
     layout_offsets,
 )
-from rail_mj.llm.offline import CATALOGUE, LIQUID_RADIUS, PAPER_AFFORDANCES, _envelope_ok, dims_fit
 from rail_mj.scoring import compile_scoring
 from rail_mj.types import Outcomes
 
 
 def _dims(name: str, where: float) -> list[float]:
     """Plausible sorted dims for an affordance: ``where`` in [0, 1] across its size ranges (log scale)."""
-    spec = CATALOGUE[name]
+    spec = REGISTRY[name]
     big = spec.largest[0] * (spec.largest[1] / spec.largest[0]) ** where
     small = spec.smallest[0] * (spec.smallest[1] / spec.smallest[0]) ** where
     small = min(small, big)
@@ -47,11 +47,11 @@ def _dims(name: str, where: float) -> list[float]:
 
 def test_catalogue_covers_the_paper_and_more():
     names = known_affordances()
-    assert PAPER_AFFORDANCES <= set(names)
-    assert len(set(names) - PAPER_AFFORDANCES) >= 8
+    assert set(PAPER_AFFORDANCES) <= set(names)
+    assert len(set(names) - set(PAPER_AFFORDANCES)) >= 8
 
 
-@pytest.mark.parametrize("name", sorted(CATALOGUE))
+@pytest.mark.parametrize("name", sorted(REGISTRY))
 def test_every_affordance_makes_a_valid_profile_that_scales(name):
     small = generate_profile(name, _dims(name, 0.2))
     large = generate_profile(name, _dims(name, 0.8))
@@ -62,8 +62,8 @@ def test_every_affordance_makes_a_valid_profile_that_scales(name):
         assert ImaginationProfile.model_validate_json(p.model_dump_json()) == p
         setup = agent_setup(p)
         assert setup.offsets.shape == (p.layout.n_agents, 3)
-    kind = CATALOGUE[name].kind
-    liquid = CATALOGUE[name].max_droplet_radius <= LIQUID_RADIUS  # a drop of water has the same size in any vessel
+    kind = REGISTRY[name].kind
+    liquid = REGISTRY[name].droplets.max_radius <= LIQUID_RADIUS  # a drop of water has the same size in any vessel
     if kind in ("container", "dish", "surface", "storage") and not liquid:  # seat and bed agents stay human-sized
         assert small.agent.mjcf != large.agent.mjcf
     h_small = np.asarray(small.obb_dims) / 2
@@ -112,8 +112,8 @@ def test_dimension_check_and_alternative(name, dims, alternative):
 @pytest.mark.parametrize("name", ["bowl", "basket"])
 def test_a_small_bowl_fits_the_bowl_and_basket_sizes(name):
     # a bowl with a 13 cm rim, 5 cm deep, upright: the smallest the dataset makes, and it is both
-    assert dims_fit(CATALOGUE[name], [0.13, 0.13, 0.05])
-    assert _envelope_ok(CATALOGUE[name], [0.065, 0.065, 0.025])[0]
+    assert REGISTRY[name].dims_fit([0.13, 0.13, 0.05])
+    assert REGISTRY[name].pose_fits([0.065, 0.065, 0.025])[0]
 
 
 def test_provider_selection(monkeypatch):

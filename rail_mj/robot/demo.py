@@ -20,6 +20,7 @@ from typing import Any, Callable
 import numpy as np
 import trimesh
 
+from rail_mj.affordances import get
 from rail_mj.errors import ConfigError
 from rail_mj.objects import mesh_hash
 from rail_mj.robot.control import RobotConfig
@@ -142,19 +143,19 @@ def _on_object(o: Outcomes) -> np.ndarray:
     return on.mean(axis=1) * (o.object_tilt < 0.3) - 0.5
 
 
-#: affordance -> (object kind, agent kind, scoring)
+def _demo(name: str) -> tuple[str, str, ScoringFunction]:
+    """(object kind, agent kind, scoring) of a registered affordance: the registry's kind says whether a ball is
+    dropped in (containers) or a block set down on it."""
+    aff = get(name)
+    if aff.kind == "container":
+        return aff.key, "ball", _inside(0.0)
+    return aff.key, "block", _on_object
+
+
+#: registry key -> (object kind, agent kind, scoring), for the affordances :func:`make_object` builds at table-top size
 DEMO_AFFORDANCES: dict[str, tuple[str, str, ScoringFunction]] = {
-    "cup": ("cup", "ball", _inside(0.0)),
-    "bowl": ("bowl", "ball", _inside(0.0)),
-    "vase": ("vase", "ball", _inside(0.0)),
-    "pen_holder": ("pen_holder", "ball", _inside(0.0)),
-    "pot": ("pot", "ball", _inside(0.0)),
-    "basket": ("basket", "ball", _inside(0.0)),
-    "tray": ("tray", "block", _on_object),
-    "plate": ("plate", "block", _on_object),
-    "table": ("table", "block", _on_object),
-    "stool": ("stool", "block", _on_object),
-    "chair": ("chair", "block", _on_object),
+    get(name).key: _demo(name)
+    for name in ("cup", "bowl", "vase", "pen holder", "pot", "basket", "tray", "plate", "table", "stool", "chair")
 }
 
 

@@ -1,0 +1,220 @@
+"""The Kind protocol: the physics one kind of affordance is imagined with, for every row of that kind.
+
+A kind answers the offline provider's stages for an affordance of its kind:
+the agent (stage 2) and its layout (3), the plans (4) and their via-poses (5),
+the scoring source (6), and the Functional Pose Analyzer's rules (7) for one
+candidate and for a pose's candidates together. Everything scales with the
+object's OBB dims. Directions (task frame): front = +x, back = −x, left = +y,
+right = −y. Via-poses are ``rel * h + offset_m`` (see :mod:`rail_mj.llm.schemas`).
+"""
+
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import ClassVar
+
+from rail_mj.affordances.registry import Affordance, KindName
+from rail_mj.llm.schemas import AgentLayout, CandidateInteraction, MotionPlan, ScoringCode, ViaPose
+
+__all__ = [
+    "SIDES",
+    "SCORING_HEADER",
+    "MAX_OBJECT_TILT_DEG",
+    "AgentShape",
+    "Kind",
+    "box_agent",
+    "via",
+    "side_offset",
+    "clearance",
+    "tipping",
+    "judge_unregistered",
+    "rest_words",
+    "rest_bounds",
+    "rest_window",
+    "rest_scoring",
+    "rest_accept",
+]
+
+IDENTITY = [1.0, 0.0, 0.0, 0.0]
+#: Directions of the side plans, (name, unit x, unit y).
+SIDES = (("front", 1.0, 0.0), ("back", -1.0, 0.0), ("left", 0.0, 1.0), ("right", 0.0, -1.0))
+#: A success with the object tilted this much (deg) or more relied on it tipping over.
+MAX_OBJECT_TILT_DEG = 15
+
+SCORING_HEADER = ("def score(agent_pos, agent_quat, agent_vel, contacts_object, contacts_agents, contacts_ground, "
+                  "object_pos, object_tilt, object_half_extents):\n")
+
+
+@dataclass(frozen=True)
+class AgentShape:
+    """A kind's agent scaled to one object."""
+
+    geom: str  # MJCF geom attributes without mass
+    radius: float  # bounding radius, m
+    half_z: float  # half height, m
+    mass: float  # kg
+    label: str
+
+
+class Kind(ABC):
+    """One kind of imagined physics. Instances hold no state; :data:`rail_mj.affordances.kinds.KINDS` has one each."""
+
+    name: ClassVar[KindName]
+    #: Stage 1's outline of the imagination; ``expected_outcome`` takes ``{name}``, the affordance's name.
+    agent_description: ClassVar[str]
+    interaction_description: ClassVar[str]
+    expected_outcome: ClassVar[str]
+
+    @abstractmethod
+    def agent(self, aff: Affordance, dims: Sequence[float]) -> AgentShape:
+        """The agent scaled to the object (OBB dims sorted descending)."""
+
+    def layout(self, shape: AgentShape) -> AgentLayout:
+        """One agent; kinds whose agents come in a grid override this."""
+        s = round(2.0 * shape.radius + 0.01, 5)
+        return AgentLayout(nx=1, ny=1, nz=1, sx=s, sy=s, sz=s, collide_agents=False)
+
+    @abstractmethod
+    def plans(self, shape: AgentShape) -> list[MotionPlan]:
+        """Five or more plans in language, with distinct names."""
+
+    @abstractmethod
+    def via_poses(self, plan: str, shape: AgentShape, layout: AgentLayout) -> list[ViaPose]:
+        """The via-poses of the layout centre for one of :meth:`plans`."""
+
+    @abstractmethod
+    def scoring(self, aff: Affordance, shape: AgentShape) -> ScoringCode:
+        """Vectorised numpy scoring source, constants and the pose envelope baked in."""
+
+    def judge(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float]) -> tuple[bool, str]:
+        """Whether one candidate of a pose with half extents ``h`` is consistent with common sense, and why."""
+        fits, why = aff.pose_fits(h)
+        if not fits:
+            return False, why
+        why = tipping(c)
+        if why:
+            return False, why
+        return self.accept(aff, c, h)
+
+    @abstractmethod
+    def accept(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float]) -> tuple[bool, str]:
+        """The kind's own rules for a candidate whose pose fits the envelope and whose object did not tip."""
+
+    def accept_pose(
+        self, aff: Affordance, accepted: list[CandidateInteraction], tried: list[CandidateInteraction]
+    ) -> tuple[list[CandidateInteraction], str]:
+        """Rules over a pose's accepted candidates (never empty) together, with every plan ``tried`` in it as
+        evidence: (candidates still accepted, why the pose is rejected or "")."""
+        return accepted, ""
+
+    def rank(self, accepted: list[CandidateInteraction]) -> int:
+        """First key in choosing the best pose, before the number of accepted plans; 0 unless a kind cares."""
+        return 0
+
+
+def box_agent(label: str, half: tuple[float, float, float]) -> AgentShape:
+    """A box agent of the density of water."""
+    mass = 1000.0 * 8.0 * half[0] * half[1] * half[2]
+    size = " ".join(f"{v:.4f}" for v in half)
+    return AgentShape(f'type="box" size="{size}"', math.sqrt(sum(v * v for v in half)), half[2], mass, label)
+
+
+def via(rel: tuple[float, float, float], off: tuple[float, float, float]) -> ViaPose:
+    return ViaPose(rel=[float(v) for v in rel], offset_m=[round(float(v), 5) for v in off], quat=IDENTITY)
+
+
+def side_offset(plan: str, amount: float) -> tuple[float, float]:
+    """Horizontal offset ``amount`` towards the side a plan name says (``front``, ``above_left``, ``front_high``)."""
+    for side, ux, uy in SIDES:
+        if plan == side or plan == f"above_{side}" or plan.startswith(f"{side}_"):
+            return amount * ux, amount * uy
+    return 0.0, 0.0
+
+
+def clearance(shape: AgentShape) -> float:
+    """Gap (m) between the agent and the object's box at the start of a plan."""
+    return max(0.01, 2.0 * shape.radius)
+
+
+def tipping(c: CandidateInteraction) -> str:
+    """Why a candidate's success relied on the object tipping over; "" when it did not."""
+    tilt = c.summary.object_tilt_deg
+    return f"success relies on the object tipping ({tilt:.0f} deg)" if tilt >= MAX_OBJECT_TILT_DEG else ""
+
+
+def judge_unregistered(c: CandidateInteraction) -> tuple[bool, str]:
+    """Stage 7's rules for an affordance outside the registry: the object did not tip, most agents stayed off
+    the ground."""
+    why = tipping(c)
+    if why:
+        return False, why
+    if c.summary.frac_on_ground >= 0.5:
+        return False, "most agents ended on the ground"
+    return True, "the object stayed upright and the agents did not end on the ground"
+
+
+def rest_words(aff: Affordance) -> str:
+    """The rest-height window of a seat, lie or surface affordance in words."""
+    return f"at {aff.envelope.rest[0]:g}-{aff.envelope.rest[1]:g} m above the ground"
+
+
+def rest_bounds(aff: Affordance) -> tuple[str, str]:
+    """The rest-height window of the agent's bottom as task-frame z expressions (``h`` broadcast over agents)."""
+    lo, hi = aff.envelope.rest
+    return f"-h[:, :, 2] + {lo:g}", f"-h[:, :, 2] + {hi:g}"
+
+
+def rest_window(aff: Affordance, agent_half_z: float) -> tuple[float, float]:
+    """The rest-height window of the agent's centre above the ground (m), for an agent of half height
+    ``agent_half_z``: what the analyzer checks, as :func:`rest_bounds` is what the scoring checks."""
+    lo, hi = aff.envelope.rest
+    return lo + agent_half_z, hi + agent_half_z
+
+
+_REST_BODY = '''    """Fraction of agents resting as intended ({what}), minus 0.5; -1 if the object tipped
+    or the pose is outside the {name} size envelope ({envelope})."""
+    e = object_half_extents
+    h = e[:, None, :]
+    footprint = (np.abs(agent_pos[:, :, 0]) < h[:, :, 0]) & (np.abs(agent_pos[:, :, 1]) < h[:, :, 1])
+    bottom = agent_pos[:, :, 2] - {half_z:.4f}
+    height = (bottom > {lo}) & (bottom < {hi})
+    cos_tilt = 1.0 - 2.0 * (agent_quat[:, :, 1] ** 2 + agent_quat[:, :, 2] ** 2)
+    upright = cos_tilt > {cos_agent:.4f}
+    resting = footprint & height & upright & (contacts_object > 0) & (contacts_ground == 0)
+    frac = np.mean(resting, axis=1)
+    ok = (object_tilt < {max_tilt:.4f}){object_cond}
+    return np.where(ok, frac - 0.5, -1.0)
+'''
+
+
+def rest_scoring(aff: Affordance, shape: AgentShape, lo: str, hi: str, agent_deg: float, object_deg: float,
+                 what: str) -> ScoringCode:
+    """Scoring of one agent that must come to rest on the object: its bottom between the task-frame z
+    expressions ``lo`` and ``hi`` (``h`` broadcast over agents), tilted less than ``agent_deg``, the object less
+    than ``object_deg``; ``what`` says where in words."""
+    envelope = aff.envelope.doc()
+    body = _REST_BODY.format(what=what, name=aff.name, envelope=envelope, half_z=shape.half_z, lo=lo, hi=hi,
+                             cos_agent=math.cos(math.radians(agent_deg)), max_tilt=math.radians(object_deg),
+                             object_cond=aff.envelope.source())
+    return ScoringCode(description=f"Success when the {shape.label} rests {what}, touching the object and not "
+                                   f"the ground, the object does not tip and its pose has the size of a "
+                                   f"{aff.name} ({envelope}).",
+                       source=SCORING_HEADER + body)
+
+
+def rest_accept(c: CandidateInteraction, h: Sequence[float], window: tuple[float, float],
+                max_agent_tilt: float) -> tuple[bool, str]:
+    """One agent resting level on the object alone, its centre ``window`` (m) above the ground."""
+    s = c.summary
+    ground_height = (s.mean_height + 1.0) * h[2]  # of the agent centres
+    lo, hi = window
+    if s.agent_tilt_deg >= max_agent_tilt:
+        return False, f"the agent is tilted {s.agent_tilt_deg:.0f} deg"
+    if not lo <= ground_height <= hi:
+        return False, f"the agent's centre rests {ground_height:.2f} m above the ground; plausible: {lo:g}-{hi:g} m"
+    if s.frac_touching_object < 1.0 or s.frac_on_ground > 0.0:
+        return False, "the agent does not rest on the object alone"
+    return True, f"the agent rests level on the object {ground_height:.2f} m above the ground"

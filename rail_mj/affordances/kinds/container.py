@@ -1,0 +1,110 @@
+"""``container``: a 3×3×3 grid of droplet spheres dropped from above the opening.
+
+Success: most droplets rest inside the box, below the rim and off the ground,
+none came through the object, and the object stays upright.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+from rail_mj.affordances.kinds.base import (
+    SCORING_HEADER,
+    SIDES,
+    AgentShape,
+    Kind,
+    clearance,
+    side_offset,
+    via,
+)
+from rail_mj.affordances.registry import Affordance
+from rail_mj.llm.schemas import AgentLayout, CandidateInteraction, MotionPlan, ScoringCode, ViaPose
+
+__all__ = ["Container"]
+
+#: Horizontal offset (units of h) of the above_<side> plans: a handle shifts the box centre off the cavity's
+#: axis by a fraction of the half size, so the grid must move by about that much, not onto the rim.
+_OFFSET = 0.3
+
+_BODY = '''    """Fraction of droplets inside the box below the rim and off the ground, minus {min_frac}; -1 if tipped,
+    if a droplet leaked through to the ground under the object, or if the pose is outside the {name} size
+    envelope ({envelope})."""
+    e = object_half_extents
+    h = e[:, None, :]
+    inside = (np.abs(agent_pos[:, :, 0]) < h[:, :, 0]) & (np.abs(agent_pos[:, :, 1]) < h[:, :, 1])
+    inside = inside & (agent_pos[:, :, 2] < h[:, :, 2]) & (contacts_ground == 0)
+    frac = np.mean(inside, axis=1)
+    # a droplet on the ground under the middle of the object came through it: the container leaks
+    rel = agent_pos - object_pos[:, None, :]  # the object may have slid under the droplets' impacts
+    under = (rel[:, :, 0] / h[:, :, 0]) ** 2 + (rel[:, :, 1] / h[:, :, 1]) ** 2 < 0.25
+    leaked = np.any(under & (contacts_ground > 0), axis=1)
+    ok = (object_tilt < {max_tilt:.4f}) & ~leaked{object_cond}
+    return np.where(ok, frac - {min_frac}, -1.0)
+'''
+
+
+class Container(Kind):
+    name = "container"
+    agent_description = ("Small spheres standing for droplets of liquid (or items bigger than the holes of a "
+                         "basket), sized to the object's opening, in a 3x3x3 grid.")
+    interaction_description = ("The grid of droplets is brought above the object's opening and released so the "
+                               "droplets fall in; alternatives release it above the rim offset to the front, back, "
+                               "left and right.")
+    expected_outcome = ("Most droplets end inside the {name}'s bounding box, below its rim, not touching the ground, "
+                        "and the {name} stays upright.")
+
+    def agent(self, aff: Affordance, dims: Sequence[float]) -> AgentShape:
+        d = aff.droplets
+        r = max(d.min_radius, min(d.max_radius, d.scale * dims[1]))
+        mass = 1000.0 * 4.0 / 3.0 * math.pi * r**3  # water
+        # rolling friction lets droplets that miss come to rest instead of rolling on the ground forever
+        return AgentShape(f'type="sphere" size="{r:.4f}" condim="6" friction="1 0.005 0.0005"', r, r, mass,
+                          "droplet")
+
+    def layout(self, shape: AgentShape) -> AgentLayout:
+        """A 3×3×3 grid with a gap of 0.4 diameters; droplets pile up."""
+        s = round(2.4 * shape.radius, 5)
+        return AgentLayout(nx=3, ny=3, nz=3, sx=s, sy=s, sz=s, collide_agents=True)
+
+    def plans(self, shape: AgentShape) -> list[MotionPlan]:
+        plans = [MotionPlan(name="above", description="Hold the droplet grid centred above the opening, just over "
+                                                     "the rim; release it so the droplets fall in.")]
+        plans += [MotionPlan(name=f"above_{side}", description=f"Hold the droplet grid above the rim, offset to the "
+                                                               f"{side} by {_OFFSET:g} of the half size (the opening "
+                                                               "may be off the box centre); release it.")
+                  for side, _, _ in SIDES]
+        return plans
+
+    def via_poses(self, plan: str, shape: AgentShape, layout: AgentLayout) -> list[ViaPose]:
+        spread_z = (layout.nz - 1) / 2.0 * layout.sz + shape.radius  # grid half height
+        ox, oy = side_offset(plan, _OFFSET)
+        return [via((ox, oy, 1), (0, 0, spread_z + clearance(shape))), via((ox, oy, 1), (0, 0, spread_z + 0.002))]
+
+    def scoring(self, aff: Affordance, shape: AgentShape) -> ScoringCode:
+        envelope = aff.envelope.doc()
+        body = _BODY.format(min_frac=0.5, max_tilt=math.radians(15), name=aff.name, envelope=envelope,
+                            object_cond=aff.envelope.source())
+        return ScoringCode(description="Success when more than half the droplets rest inside the object's box "
+                                       "below the rim and off the ground, none leaks through to the ground under "
+                                       f"the object, the object is upright and its pose has "
+                                       f"the size of a {aff.name} ({envelope}).",
+                           source=SCORING_HEADER + body)
+
+    def accept(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float]) -> tuple[bool, str]:
+        s = c.summary
+        if c.via_poses[0][2] < h[2]:
+            return False, "the droplets did not come from above the opening"
+        if s.frac_inside_bbox < 0.5 or s.mean_height >= 1.0 or s.frac_on_ground > 0.2:
+            return False, (f"only {s.frac_inside_bbox:.0%} of droplets rest inside below the rim "
+                           f"({s.frac_on_ground:.0%} on the ground)")
+        return True, f"{s.frac_inside_bbox:.0%} of droplets from above rest inside below the rim"
+
+    def accept_pose(
+        self, aff: Affordance, accepted: list[CandidateInteraction], tried: list[CandidateInteraction]
+    ) -> tuple[list[CandidateInteraction], str]:
+        # only the centre pour is evidence: droplets spilt past a cup's handle also end on the ground beneath its box
+        if any(c.plan == "above" and c.summary.frac_through_object > 0 for c in tried):
+            return [], (f"droplets poured at the centre came through the object to the ground beneath it; "
+                        f"a {aff.name} that leaks does not hold")
+        return accepted, ""

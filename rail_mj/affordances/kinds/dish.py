@@ -1,0 +1,50 @@
+"""``dish``: a flat disc of "food" lowered onto the object. Success: it rests level on the object, which is low
+(the size envelope), and stays when placed at the centre."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+from rail_mj.affordances.kinds.base import AgentShape, rest_scoring
+from rail_mj.affordances.kinds.lowering import Lowering
+from rail_mj.affordances.registry import Affordance
+from rail_mj.llm.schemas import CandidateInteraction, ScoringCode
+
+__all__ = ["Dish"]
+
+
+class Dish(Lowering):
+    name = "dish"
+    agent_description = "One flat disc standing for a portion of food, sized to the object."
+    interaction_description = ("The disc is lowered onto the object from above at its centre and at offsets; "
+                               "released at contact.")
+    expected_outcome = ("The disc rests level on the {name}, touching it and not the ground, the {name} is low and "
+                        "does not tip over.")
+    offset = 0.4
+    target = "the dish"
+
+    def agent(self, aff: Affordance, dims: Sequence[float]) -> AgentShape:
+        a = min(0.12, max(0.02, 0.25 * dims[1]))
+        c = min(0.015, max(0.005, 0.1 * a))
+        mass = 800.0 * math.pi * a * a * 2 * c
+        return AgentShape(f'type="cylinder" size="{a:.4f} {c:.4f}"', math.hypot(a, c), c, mass, "food")
+
+    def scoring(self, aff: Affordance, shape: AgentShape) -> ScoringCode:
+        return rest_scoring(aff, shape, "-h[:, :, 2] - 0.005", "h[:, :, 2] + 0.01", 15, 15, "level on the dish")
+
+    def window(self, aff: Affordance) -> tuple[float, float]:
+        # food resting low inside a plate's rim is the point: any height on the object will do
+        return -math.inf, math.inf
+
+    def accept_pose(
+        self, aff: Affordance, accepted: list[CandidateInteraction], tried: list[CandidateInteraction]
+    ) -> tuple[list[CandidateInteraction], str]:
+        if all(c.plan != "above" for c in accepted):
+            return [], f"the food placed at the centre does not stay; a {aff.name} has a solid centre"
+        return accepted, ""
+
+    def rank(self, accepted: list[CandidateInteraction]) -> int:
+        """Plans whose food stayed below the top of the box: held by a rim. An upturned plate's flat bottom also
+        holds a disc, but nothing keeps it there."""
+        return sum(c.summary.mean_height < 1.0 for c in accepted)

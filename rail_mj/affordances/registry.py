@@ -1,0 +1,210 @@
+"""The affordance registry: one row per named use, read by everything that asks "what is a cup?".
+
+A row holds the canonical name, its aliases, the kind of physics that imagines
+it (:mod:`rail_mj.affordances.kinds`), the interaction-based definition, the
+real-world size ranges of the stage-1 dimension check, the pose envelope, and
+whether the paper evaluates it. :func:`normalize` is the one place a requested
+name becomes a row. A new affordance is a new row here, plus a kind file only
+when its physics is new.
+
+The dataset's ground truth (:mod:`rail_mj.dataset`) reads the names from here
+but keeps its own per-class truth: it is what these rules are measured against.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+from rail_mj.affordances.envelope import Envelope, Range
+from rail_mj.errors import UnknownAffordanceError
+
+__all__ = [
+    "KindName",
+    "LIQUID_RADIUS",
+    "Droplets",
+    "Affordance",
+    "REGISTRY",
+    "PAPER_AFFORDANCES",
+    "known_affordances",
+    "get",
+    "normalize",
+    "label_key",
+]
+
+KindName = Literal["container", "seat", "lie", "surface", "dish", "storage"]
+
+#: Largest droplet radius standing for a liquid, m: drops 9 mm across leak through 1 cm slots and holes.
+LIQUID_RADIUS = 0.0045
+
+
+@dataclass(frozen=True)
+class Droplets:
+    """Sizing of a container's droplet agents: radius = ``scale`` × the middle OBB dim, clipped to
+    [``min_radius``, ``max_radius``] m; at the default scale the 3x3x3 grid spans ~30% of that dim."""
+
+    scale: float = 0.045
+    min_radius: float = 0.004
+    max_radius: float = 0.05
+
+
+#: Droplets of a liquid: small enough to leak through a basket's slots, the same size in any vessel.
+_LIQUID = Droplets(max_radius=LIQUID_RADIUS)
+
+
+@dataclass(frozen=True)
+class Affordance:
+    """One registry row."""
+
+    name: str  # canonical: lower case, words separated by one space
+    kind: KindName
+    ibd: str  # interaction-based definition
+    largest: Range  # plausible range of the largest OBB dim, m
+    smallest: Range  # plausible range of the smallest OBB dim, m
+    envelope: Envelope = Envelope()
+    aliases: tuple[str, ...] = ()
+    paper: bool = False  # one of the paper's eight
+    droplets: Droplets = Droplets()  # container kind only
+
+    @property
+    def key(self) -> str:
+        """The name as an identifier: label files, the ground-truth matrix, CLI lists (``trash_bin``)."""
+        return self.name.replace(" ", "_")
+
+    def dims_fit(self, dims: Sequence[float]) -> bool:
+        """Whether OBB dims lie in the plausible size ranges (the stage-1 dimension check)."""
+        return self.largest[0] <= max(dims) <= self.largest[1] and self.smallest[0] <= min(dims) <= self.smallest[1]
+
+    def pose_fits(self, half: Sequence[float]) -> tuple[bool, str]:
+        """Whether a pose's box (half extents) is inside the envelope; the reason when it is not."""
+        bad = self.envelope.violation(half)
+        if bad is None:
+            return True, ""
+        name, value, (lo, hi) = bad
+        return False, f"in this pose its {name} is {value:.3f}; a {self.name} has {lo:g}-{hi:g}"
+
+
+def _rows() -> tuple[Affordance, ...]:
+    inf = math.inf
+    return (
+        Affordance("cup", "container", "A cup holds a small amount of liquid in an upward-facing cavity that can be "
+                   "filled from above and keeps the liquid while resting on a table; it is held in one hand (rim at "
+                   "most 12.5 cm across, 6-16 cm tall, taller than about half its width).",
+                   (0.06, 0.2), (0.03, 0.15), aliases=("mug",), paper=True, droplets=_LIQUID,
+                   envelope=Envelope(height=(0.06, 0.16), width=(0.03, 0.15), length=(0.03, 0.2),
+                                     aspect=(0.5, inf))),
+        Affordance("bowl", "container", "A bowl holds food or liquid in a wide, open, upward-facing cavity reachable "
+                   "from above (rim 12.5-35 cm across, at least 4 cm deep, height at most 0.55 of the rim).",
+                   (0.125, 0.4), (0.04, 0.2), paper=True, droplets=_LIQUID,
+                   envelope=Envelope(height=(0.04, 0.2), width=(0.125, 0.4), length=(0.125, 0.4),
+                                     aspect=(0.0, 0.55))),
+        Affordance("vase", "container", "A vase holds water and flower stems in a deep cavity with an opening at the "
+                   "top, often narrower than its body (15-80 cm tall, clearly taller than wide, its body rarely over "
+                   "23 cm across).", (0.15, 0.85), (0.03, 0.23), paper=True,
+                   droplets=Droplets(scale=0.035, max_radius=LIQUID_RADIUS),
+                   envelope=Envelope(height=(0.15, 0.8), width=(0.03, 0.23), aspect=(1.2, inf))),
+        Affordance("pot", "container", "A pot holds food or soil in an open cavity, filled from above (rim 15-45 cm, "
+                   "10-30 cm tall).", (0.15, 0.5), (0.1, 0.45), droplets=_LIQUID,
+                   envelope=Envelope(height=(0.1, 0.3), width=(0.15, 0.5), aspect=(0.4, inf))),
+        Affordance("pen holder", "container", "A pen holder keeps pens upright in an open cavity filled from above "
+                   "(opening 4-12.5 cm, 7-16 cm tall).", (0.07, 0.2), (0.04, 0.15),
+                   aliases=("pencil holder", "pencil cup"),
+                   envelope=Envelope(height=(0.07, 0.16), width=(0.04, 0.15))),
+        Affordance("trash bin", "container", "A trash bin collects waste dropped through its top opening and keeps "
+                   "it inside (opening at least 18 cm, 30-90 cm tall).", (0.3, 1.0), (0.18, 0.8),
+                   aliases=("trash can", "garbage can", "bin"),
+                   envelope=Envelope(height=(0.3, 0.9), width=(0.18, 0.8))),
+        Affordance("basket", "container", "A basket carries items in an open, often perforated cavity whose holes are "
+                   "smaller than the items (opening over 12.5 cm, 4-35 cm deep, footprint at most 60 cm, not taller "
+                   "than wide).", (0.125, 0.65), (0.04, 0.6), paper=True, droplets=Droplets(min_radius=0.012),
+                   envelope=Envelope(height=(0.04, 0.35), width=(0.125, 0.6), length=(0.125, 0.65),
+                                     aspect=(0.0, 1.0))),
+        Affordance("bathtub", "container", "A bathtub holds enough water for a person to bathe in a long open basin "
+                   "on the floor (over 1.2 m long inside, 0.35-0.8 m tall).", (1.25, 2.5), (0.35, 1.2),
+                   aliases=("bath tub", "tub"), paper=True, droplets=Droplets(scale=0.05, max_radius=LIQUID_RADIUS),
+                   envelope=Envelope(height=(0.35, 0.8), width=(0.5, 2.5), length=(1.25, 2.5))),
+        Affordance("plate", "dish", "A plate holds food on a low, level, nearly flat surface (15-32 cm across, 1-4 cm "
+                   "tall).", (0.15, 0.32), (0.01, 0.045), aliases=("dish",), paper=True,
+                   envelope=Envelope(height=(0.01, 0.045), length=(0.15, 0.32))),
+        Affordance("table", "surface", "A table holds items on a level top surface 0.55-1.1 m high and at least "
+                   "0.5 m across, its top at least as wide as it is high.", (0.55, 3.0), (0.3, 1.6), paper=True,
+                   envelope=Envelope(height=(0.55, 1.12), width=(0.5, 3.0), aspect=(0.0, 1.0), rest=(0.54, 1.12))),
+        Affordance("chair", "seat", "A chair lets one person sit: a level seat 0.38-0.55 m high and 0.3-0.7 m "
+                   "across, usually with a backrest.", (0.4, 1.3), (0.3, 0.9), paper=True,
+                   envelope=Envelope(width=(0.3, 0.8), length=(0.3, 0.8), rest=(0.36, 0.57))),
+        Affordance("stool", "seat", "A stool lets one person sit on a level seat 0.38-0.85 m high, without a "
+                   "backrest.", (0.3, 1.0), (0.25, 0.75),
+                   envelope=Envelope(width=(0.25, 0.75), length=(0.25, 0.8), rest=(0.36, 0.87))),
+        Affordance("bench", "seat", "A bench lets people sit side by side on a long level seat 0.38-0.55 m high.",
+                   (0.9, 3.0), (0.25, 0.9), envelope=Envelope(length=(0.9, 3.0), rest=(0.36, 0.57))),
+        Affordance("bed", "lie", "A bed lets a person lie down on a large level surface a little above the floor.",
+                   (1.6, 2.6), (0.2, 1.2), envelope=Envelope(length=(1.6, 2.6), rest=(0.15, 0.9))),
+        Affordance("tray", "dish", "A tray carries items on a flat level base with a low rim (15-60 cm across, at "
+                   "most 4.5 cm tall).", (0.15, 0.6), (0.01, 0.045),
+                   envelope=Envelope(height=(0.01, 0.045), length=(0.15, 0.6))),
+        Affordance("shelf", "storage", "A shelf stores items on level boards reached horizontally from the front.",
+                   (0.5, 2.5), (0.15, 0.8), aliases=("bookshelf",)),
+        Affordance("cupboard", "storage", "A cupboard stores items inside an enclosure on level boards, reached "
+                   "through an opening at the front.", (0.5, 2.5), (0.3, 1.0), aliases=("cabinet",)),
+    )
+
+
+#: Every affordance by canonical name. Row order counts: PAPER_AFFORDANCES (the dataset's default request)
+#: follows it, and of two alternatives equally close in size the earlier row wins.
+REGISTRY: dict[str, Affordance] = {a.name: a for a in _rows()}
+
+#: The paper's eight, in registry order (cup, bowl, vase, basket, bathtub, plate, table, chair).
+PAPER_AFFORDANCES: tuple[str, ...] = tuple(a.name for a in REGISTRY.values() if a.paper)
+
+_BY_NAME: dict[str, Affordance] = {**{alias: a for a in REGISTRY.values() for alias in a.aliases}, **REGISTRY}
+
+
+def known_affordances() -> list[str]:
+    """The registered canonical names, sorted."""
+    return sorted(REGISTRY)
+
+
+def _spelling(name: str) -> str:
+    return re.sub(r"[\s_\-]+", " ", name.strip().lower())
+
+
+def _find(name: str) -> Affordance | None:
+    key = _spelling(name)
+    candidates = [key]  # then simple plurals: shelves, benches, cups
+    if key.endswith("ves"):
+        candidates.append(key[:-3] + "f")
+    if key.endswith("es"):
+        candidates.append(key[:-2])
+    if key.endswith("s"):
+        candidates.append(key[:-1])
+    return next((_BY_NAME[c] for c in candidates if c in _BY_NAME), None)
+
+
+def get(name: str) -> Affordance:
+    """The row of a name in any spelling (case, spaces / underscores / hyphens, simple plurals, aliases).
+
+    Raises UnknownAffordanceError listing the known names when there is none.
+    """
+    found = _find(name)
+    if found is None:
+        raise UnknownAffordanceError(
+            f"no offline imagination profile for affordance {name!r}; known: {', '.join(known_affordances())}. "
+            "An LLM provider imagines novel affordances: use --provider anthropic with ANTHROPIC_API_KEY set."
+        )
+    return found
+
+
+def normalize(name: str) -> str:
+    """The canonical name of a registered affordance (``"Trash_Bins"`` -> ``"trash bin"``); see :func:`get`."""
+    return get(name).name
+
+
+def label_key(name: str) -> str:
+    """The identifier form of any affordance name, as label files write it: a registered name's key
+    (``"Trash bins"``, ``"garbage can"`` -> ``"trash_bin"``), otherwise the name in lower case with runs of
+    spaces, underscores and hyphens as one underscore (labels may name uses outside the registry)."""
+    found = _find(name)
+    return found.key if found is not None else _spelling(name).replace(" ", "_")

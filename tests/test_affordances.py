@@ -1,0 +1,121 @@
+"""The affordance registry and its kinds: one answer to "what is a cup?" for every reader."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from typing import get_args
+
+import numpy as np
+import pytest
+from pydantic import ValidationError
+
+from rail_mj import dataset
+from rail_mj.affordances import (
+    PAPER_AFFORDANCES,
+    REGISTRY,
+    Affordance,
+    Envelope,
+    KindName,
+    get,
+    known_affordances,
+    label_key,
+    normalize,
+)
+from rail_mj.affordances.kinds import KINDS, kind_of
+from rail_mj.errors import UnknownAffordanceError
+from rail_mj.llm.checks import check_agent
+from rail_mj.llm.offline import offline_agent
+from rail_mj.llm.schemas import TaskDescription
+from rail_mj.robot.demo import DEMO_AFFORDANCES
+from rail_mj.scoring import compile_scoring
+
+
+def test_every_kind_name_has_one_kind_file_and_every_row_a_kind():
+    assert set(KINDS) == set(get_args(KindName))
+    assert all(KINDS[k].name == k for k in KINDS)
+    assert {a.kind for a in REGISTRY.values()} == set(KINDS)
+
+
+def test_names_are_canonical_and_aliases_unambiguous():
+    aliases = [alias for a in REGISTRY.values() for alias in a.aliases]
+    assert len(aliases) == len(set(aliases)) and not set(aliases) & set(REGISTRY)
+    for a in REGISTRY.values():
+        assert normalize(a.name) == a.name == " ".join(a.name.split()).lower()
+        assert get(a.key) is a and all(get(alias) is a for alias in a.aliases)
+
+
+@pytest.mark.parametrize(("given", "canonical", "key"), [
+    ("Trash_Bins", "trash bin", "trash_bin"), ("garbage can", "trash bin", "trash_bin"), ("mug", "cup", "cup"),
+    ("pen-holder", "pen holder", "pen_holder"), ("shelves", "shelf", "shelf"), ("Bath Tub", "bathtub", "bathtub"),
+])
+def test_one_normalisation_gives_the_name_and_the_label_key(given, canonical, key):
+    assert normalize(given) == canonical
+    assert label_key(given) == key == dataset.normalize_affordance(given)
+
+
+def test_unregistered_names_raise_with_the_known_ones_but_still_make_a_label_key():
+    with pytest.raises(UnknownAffordanceError) as err:
+        get("trampoline")
+    assert all(name in str(err.value) for name in known_affordances())
+    assert label_key("  Flux-Capacitor ") == "flux_capacitor"  # labels may name uses the registry does not know
+
+
+def test_the_paper_flag_is_the_one_list_of_the_paper_affordances():
+    assert PAPER_AFFORDANCES == ("cup", "bowl", "vase", "basket", "bathtub", "plate", "table", "chair")
+    assert set(PAPER_AFFORDANCES) == {a.name for a in REGISTRY.values() if a.paper}
+    assert all(get(n).key == n for n in PAPER_AFFORDANCES)  # the same string in labels and requests
+    assert dataset.PAPER_AFFORDANCES is PAPER_AFFORDANCES
+
+
+def test_the_dataset_answers_registered_affordances_by_their_keys():
+    assert all(get(k).key == k for k in dataset.AFFORDANCES)
+    for spec in dataset.CLASS_SPECS.values():
+        assert all(get(a).key == a for a in spec.affords), spec.name
+    assert dataset.ground_truth("cup", "Mugs") and dataset.ground_truth("trash_bin", "garbage can")
+
+
+def test_a_label_record_naming_one_affordance_twice_is_rejected():
+    record = {"mesh": "m.obj", "class": "cup", "affordances": {"Trash bin": True, "trash_bin": False}}
+    with pytest.raises(ValidationError, match="'Trash bin' and 'trash_bin' both name the affordance 'trash_bin'"):
+        dataset.LabelRecord.model_validate(record)
+
+
+def test_the_robot_demo_names_registered_affordances_and_takes_its_agent_from_the_kind():
+    for key, (obj_kind, agent, _) in DEMO_AFFORDANCES.items():
+        assert get(key).key == key == obj_kind
+        assert agent == ("ball" if get(key).kind == "container" else "block")
+
+
+@pytest.mark.parametrize("name", sorted(REGISTRY))
+def test_the_envelope_in_the_scoring_source_and_in_the_analyzer_agree(name):
+    env = get(name).envelope
+    e = np.random.default_rng(0).uniform(0.003, 1.6, (4000, 3))
+    in_source = eval("np.ones(len(e), dtype=bool)" + env.source(), {"np": np, "e": e})  # noqa: S307 (our own text)
+    in_check = np.array([get(name).pose_fits(h)[0] for h in e])
+    assert np.array_equal(in_source, in_check)
+
+
+def test_a_new_affordance_is_a_row_its_kind_imagines_without_a_new_file():
+    stockpot = Affordance("stockpot", "container", "A stockpot holds soup in a deep open cavity.", (0.25, 0.5),
+                          (0.2, 0.45), envelope=Envelope(height=(0.2, 0.45), aspect=(0.6, np.inf)))
+    kind = kind_of(stockpot)
+    shape = kind.agent(stockpot, [0.35, 0.3, 0.3])
+    source = kind.scoring(stockpot, shape).source
+    compile_scoring(source)
+    assert "(2.0 * e[:, 2] >= 0.2)" in source and "a stockpot" in kind.scoring(stockpot, shape).description
+    assert [p.name for p in kind.plans(shape)] == ["above", "above_front", "above_back", "above_left", "above_right"]
+
+
+def test_registered_agents_compile():
+    for name, a in REGISTRY.items():
+        task = TaskDescription(affordance=name, obb_dims=sorted((a.largest[0], a.smallest[1], a.smallest[0]),
+                                                                reverse=True))
+        check_agent(offline_agent(task), task)
+
+
+def test_the_registry_imports_without_the_llm_stages_and_the_kinds_import_first():
+    light = "import sys, rail_mj.affordances; assert 'rail_mj.llm' not in sys.modules"
+    first = "import rail_mj.affordances.kinds as k, rail_mj.llm.offline as o; assert o.kinds is k"
+    for code in (light, first):
+        subprocess.run([sys.executable, "-c", code], check=True)
