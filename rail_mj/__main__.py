@@ -1,12 +1,19 @@
-"""``python -m rail_mj MESH --affordance NAME``: one object, one verdict, for people."""
+"""``python -m rail_mj MESH --affordance NAME``: one object, one verdict, for people.
+
+Exit status and error output follow rail_mj.cli: 0 every case succeeded, 1 some case failed (its
+``error:`` line on stderr; with ``--json`` also its result line, carrying ``error``), 2 the command
+line was wrong (an empty or unknown affordance, a bad option value) and nothing ran, 130 interrupted.
+"""
 
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from rail_mj.cli import EXIT_FAILED, EXIT_OK, report_error
 from rail_mj.errors import RailError
 
 __all__ = ["main"]
@@ -14,8 +21,8 @@ __all__ = ["main"]
 
 def _describe(r) -> str:
     lines = [f"{r.object}: {r.requested!r} -> {'FUNCTIONAL' if r.functional else 'not functional'}"]
-    if r.error:
-        return f"{r.object}: {r.requested!r} -> error: {r.error}"
+    for note in r.mesh_notes:
+        lines.append(f"  mesh: {note}")
     if not r.dims_fit:
         lines.append(f"  dimension check failed: {'; '.join(r.analyzer_reasons)}")
         if r.alternative:
@@ -34,11 +41,19 @@ def _describe(r) -> str:
     return "\n".join(lines)
 
 
+def _metres_per_unit(text: str) -> float:
+    value = float(text)
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a positive number of metres per mesh unit, got {text}")
+    return value
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m rail_mj", description=__doc__)
+    p = argparse.ArgumentParser(prog="python -m rail_mj", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("mesh", type=Path, help="OBJ, STL, PLY, OFF, GLB or GLTF file")
     p.add_argument("--affordance", "-a", action="append", required=True, help="requested use; repeat for several")
-    p.add_argument("--units", type=float, default=1.0, help="metres per mesh unit (0.001 for millimetres)")
+    p.add_argument("--units", type=_metres_per_unit, default=1.0, help="metres per mesh unit (0.001 for millimetres)")
     p.add_argument("--up", choices=("z", "y"), default="z", help="the mesh's up axis")
     p.add_argument("--provider", default="auto", help="auto | offline | anthropic")
     p.add_argument("--backend", default="auto", help="auto | native | mjx")
@@ -57,17 +72,23 @@ def main(argv: Sequence[str] | None = None) -> int:
             progress=False,
         )
         for r in results:
-            print(r.model_dump_json() if args.json else _describe(r))
-        if args.render:
+            if r.error:
+                print(f"error: {r.object}: {r.requested!r}: {r.error}", file=sys.stderr)
+            if args.json:
+                print(r.model_dump_json())
+            elif not r.error:
+                print(_describe(r))
+        shown = next((r for r in results if r.functional), next((r for r in results if not r.error), None))
+        if args.render and shown is None:
+            print(f"no picture written to {args.render}: every case failed", file=sys.stderr)
+        elif args.render:
             from rail_mj.render import render_result
 
-            shown = next((r for r in results if r.functional), results[0])
             render_result(args.mesh, shown, args.render, units=args.units, up=args.up)
             print(f"wrote {args.render}", file=sys.stderr)
-    except RailError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    return 0 if all(r.error is None for r in results) else 1
+    except (RailError, KeyboardInterrupt) as exc:
+        return report_error(exc, json_out=args.json)
+    return EXIT_OK if all(r.error is None for r in results) else EXIT_FAILED
 
 
 if __name__ == "__main__":

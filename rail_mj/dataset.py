@@ -452,7 +452,11 @@ def _split(text: str | None) -> list[str] | None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """CLI entry point; returns the exit status."""
+    """CLI entry point; returns the exit status (the rule of rail_mj.cli: 0 written, 1 generation
+    failed, 2 bad command line and nothing written, 130 interrupted; errors as ``error:`` on stderr)."""
+    from rail_mj.cli import EXIT_OK, report_error
+    from rail_mj.errors import ConfigError
+
     parser = argparse.ArgumentParser(prog="python -m rail_mj.dataset", description="Generate the labelled procedural dataset.")
     parser.add_argument("--out", type=Path, help="output folder (meshes/ and labels.jsonl)")
     parser.add_argument("--classes", help=f"comma-separated classes (default all): {','.join(CLASSES)}")
@@ -463,9 +467,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.matrix:
         sys.stdout.write(ground_truth_markdown())
-        return 0
+        return EXIT_OK
     if args.out is None:
-        parser.error("--out is required (or use --matrix)")
+        return report_error(ConfigError("--out is required (or use --matrix)"))
+    if args.per_class < 1:
+        return report_error(ConfigError(f"--per-class must be >= 1, got {args.per_class}"))
+    if args.seed < 0:
+        return report_error(ConfigError(f"--seed must be >= 0, got {args.seed}"))
+    try:  # bad names are command-line errors (exit 2); generate raises DatasetError for both kinds
+        _resolve_names(args.classes, CLASSES, "classes", str.strip)
+        _resolve_names(args.affordances, list(AFFORDANCES), "affordances", normalize_affordance)
+    except DatasetError as e:
+        return report_error(ConfigError(str(e)))
     from tqdm import tqdm
 
     bar = tqdm(unit="obj", disable=None)
@@ -478,13 +491,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         records = generate(args.out, classes=_split(args.classes), per_class=args.per_class, seed=args.seed,
                            affordances=_split(args.affordances), progress=tick)
-    except DatasetError as e:
+    except (DatasetError, KeyboardInterrupt) as e:
         bar.close()
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+        return report_error(e)
+    except OSError as e:
+        bar.close()
+        return report_error(DatasetError(f"cannot write the dataset to {args.out}: {e.strerror or e}"))
     bar.close()
     print(f"wrote {len(records)} objects to {args.out}")
-    return 0
+    return EXIT_OK
 
 
 if __name__ == "__main__":

@@ -25,7 +25,7 @@ from rail_mj.llm.schemas import (
     ImaginationProfile,
     PoseCandidates,
 )
-from rail_mj.objects import load_object
+from rail_mj.objects import load_object, mesh_notes
 from rail_mj.results import AffordanceResult, PlanInfo, PoseInfo
 from rail_mj.scoring import ScoringFunction, compile_scoring
 from rail_mj.stable_poses import find_stable_poses
@@ -65,6 +65,21 @@ class ObjectInput(BaseModel):
     name: str | None = None
 
 
+def _check_names(affordances: Sequence[str]) -> None:
+    """Refuse a non-list, an empty list or an empty name: no provider can imagine those."""
+    if isinstance(affordances, str):
+        raise ConfigError(f"affordances must be a list of names, e.g. [{affordances!r}]; got a string")
+    known = ", ".join(llm.known_affordances())
+    if not affordances:
+        raise ConfigError(f"no affordance requested; name at least one, e.g. one of the offline library's: {known}")
+    for a in affordances:
+        if not isinstance(a, str) or not a.strip():
+            raise ConfigError(
+                f"affordance names must be non-empty text, got {a!r}; the offline library knows: {known} "
+                "(an LLM provider also imagines other named uses)"
+            )
+
+
 def _pose_info(i: int, pose: StablePose) -> PoseInfo:
     return PoseInfo(
         index=i,
@@ -90,6 +105,17 @@ class Pipeline:
     @property
     def provider_name(self) -> str:
         return getattr(self.provider, "name", str(self.config.provider))
+
+    def check_affordances(self, affordances: Sequence[str]) -> None:
+        """Refuse names this provider cannot imagine before any mesh or provider work.
+
+        Empty names always (ConfigError); with the offline provider, names outside its
+        library (UnknownAffordanceError listing the known names).
+        """
+        _check_names(affordances)
+        if self.provider_name == "offline":
+            for a in affordances:
+                llm.normalize_affordance(a)
 
     # ---- per-object work ------------------------------------------------------------
     def load(self, item: ObjectInput | RailObject | str | Path) -> RailObject:
@@ -240,6 +266,7 @@ class Pipeline:
         self, item: ObjectInput | RailObject | str | Path, affordances: Sequence[str]
     ) -> list[AffordanceResult]:
         """All requested affordances of one object; errors become error results."""
+        self.check_affordances(affordances)
         name = item.name if isinstance(item, RailObject) else str(getattr(item, "path", item))
         try:
             t = time.perf_counter()
@@ -250,6 +277,7 @@ class Pipeline:
             t_poses = time.perf_counter() - t
         except RailError as exc:
             return [self._error(name, a, exc) for a in affordances]
+        notes = mesh_notes(obj.mesh)
         results = []
         for a in affordances:
             try:
@@ -257,14 +285,17 @@ class Pipeline:
             except RailError as exc:
                 r = self._error(obj.name, a, exc)
             r.timings = {"load": t_load, "stable_poses": t_poses, **r.timings}
+            r.mesh_notes = notes
             results.append(r)
         return results
 
     def _error(self, name: str, affordance: str, exc: Exception) -> AffordanceResult:
+        """A failed case: no check ran, so ``dims_fit`` stays None (never a passed check)."""
         return AffordanceResult(
             object=name,
             affordance=affordance,
             requested=affordance,
+            dims_fit=None,
             error=f"{type(exc).__name__}: {exc}",
             provider=self.provider_name,
             backend=self.backend,
@@ -284,14 +315,13 @@ def classify(
 
     ``progress`` is ``True`` for a progress bar, ``False`` for none, or a callback
     ``(done, total, result)`` called after each (object, affordance).
+    Names no provider can imagine are refused (ConfigError, UnknownAffordanceError
+    listing the known names) before any provider is set up or any mesh is read.
     """
-    if isinstance(affordances, str):
-        raise ConfigError(f"affordances must be a list of names, e.g. [{affordances!r}]; got a string")
+    _check_names(affordances)
     cfg = (config or RunConfig()).model_copy(update={"provider": provider, "backend": backend})
     pipe = Pipeline(cfg)
-    if pipe.provider_name == "offline":
-        for a in affordances:
-            llm.normalize_affordance(a)  # fail fast: the error lists the known names
+    pipe.check_affordances(affordances)
     items = list(objects)
     total = len(items) * len(affordances)
     bar = None

@@ -41,7 +41,9 @@ class AffordanceResult(BaseModel):
     alternative: str | None = Field(
         default=None, description="what the analyser proposed when the dimensions did not fit"
     )
-    dims_fit: bool = Field(default=True, description="the Affordance Analyzer's dimension check")
+    dims_fit: bool | None = Field(
+        default=None, description="the Affordance Analyzer's dimension check; None when the case failed before it"
+    )
     functional: bool = False
     functional_pose: PoseInfo | None = None
     best_plan: PlanInfo | None = None
@@ -64,4 +66,7 @@ class AffordanceResult(BaseModel):
     timings: dict[str, float] = Field(default_factory=dict, description="seconds per stage")
     provider: str = ""
     backend: str = ""
+    mesh_notes: list[str] = Field(
+        default_factory=list, description="what loading changed in the mesh beyond repair, e.g. decimation"
+    )
     error: str | None = Field(default=None, description="why this case failed, when it did")

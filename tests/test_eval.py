@@ -179,4 +179,4 @@ def test_one_object_cli_bad_mesh(tmp_path, capsys):
     bad = tmp_path / "empty.obj"
     bad.write_text("")
     assert cli([str(bad), "-a", "cup", "--provider", "offline"]) == 1
-    assert "MeshError" in capsys.readouterr().out
+    assert "MeshError" in capsys.readouterr().err

@@ -1,11 +1,19 @@
-"""``python -m rail_mj.robot``: fetch the Panda model, or run the execution demo."""
+"""``python -m rail_mj.robot``: fetch the Panda model, or run the execution demo.
+
+Exit status and error output follow rail_mj.cli: 0 the command ran (failed trials are results, counted
+in the success rate), 1 it could not run (the model could not be fetched, an execution could not be set
+up), 2 the command line was wrong and nothing ran, 130 interrupted; errors are ``error:`` lines on stderr.
+``--json`` names the summary file, so there is no JSON error object on stdout.
+"""
 
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
+from rail_mj.cli import EXIT_OK, report_error
 from rail_mj.errors import RailError
 from rail_mj.robot.control import RobotConfig
 from rail_mj.robot.demo import DEMO_AFFORDANCES, run_demo
@@ -14,17 +22,30 @@ from rail_mj.robot.model import fetch_panda
 __all__ = ["main"]
 
 
+def _positive(kind: type):
+    def parse(text: str):
+        value = kind(text)
+        if not (math.isfinite(value) and value > 0):
+            raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+        return value
+
+    parse.__name__ = kind.__name__  # argparse names the type in "invalid int value"
+    return parse
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m rail_mj.robot", description=__doc__)
+    parser = argparse.ArgumentParser(prog="python -m rail_mj.robot", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--fetch", action="store_true", help="download and verify the Menagerie Panda into the cache")
     parser.add_argument("--demo", action="store_true", help="execute imagined interactions with the Panda")
     parser.add_argument("--affordance", action="append", choices=sorted(DEMO_AFFORDANCES),
                         help="repeatable; default: all")
-    parser.add_argument("--trials", type=int, default=4, help="objects per affordance")
+    parser.add_argument("--trials", type=_positive(int), default=4, help="objects per affordance")
     parser.add_argument("--planner", choices=("imagined", "scripted"), default="imagined",
                         help="imagined: classify -> functional pose -> best plan (default); scripted: hand-written "
                              "plans in the upright pose, to check the controller alone")
-    parser.add_argument("--force-limit", type=float, default=RobotConfig().force_limit, help="N")
+    parser.add_argument("--force-limit", type=_positive(float), default=RobotConfig().force_limit,
+                        help="N")
     parser.add_argument("--json", type=Path, help="write the summary here")
     parser.add_argument("--video", "--render", dest="video", type=Path,
                         help="folder for PNG frames of each affordance's first trial")
@@ -35,18 +56,15 @@ def main(argv: list[str] | None = None) -> int:
         if args.fetch:
             print(f"Panda model downloaded and verified in {fetch_panda()}")
         if args.demo:
-            if args.trials < 1:
-                parser.error("--trials must be >= 1")
             summary = run_demo(args.affordance, args.trials, config=RobotConfig(force_limit=args.force_limit),
                                planner=args.planner, json_path=args.json, video=args.video)
             print(f"success rate {summary['success_rate']:.1%} over {summary['n_trials']} trials, "
                   f"{summary['n_affordances']} affordances; peak hand contact force "
                   f"{summary['max_peak_force']:.1f} N (limit {summary['force_limit']:.1f} N), "
                   f"{summary['n_force_events']} force-limit events")
-    except RailError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 1
-    return 0
+    except (RailError, KeyboardInterrupt) as exc:
+        return report_error(exc)
+    return EXIT_OK
 
 
 if __name__ == "__main__":
