@@ -98,7 +98,8 @@ exec(compile(sys.stdin.read(), sandbox.SOURCE_FILENAME, "exec"), namespace)
 rng = np.random.default_rng(0)
 per_agent = {"agent_pos": 3, "agent_quat": 4, "agent_vel": 3}
 arrays = {n: rng.normal(0.0, 0.1, (batch, agents, k)) for n, k in per_agent.items()}
-arrays.update({n: rng.integers(0, 2, (batch, agents)) for n in ("contacts_object", "contacts_agents", "contacts_ground")})
+contacts = ("contacts_object", "contacts_agents", "contacts_ground")
+arrays.update({n: rng.integers(0, 2, (batch, agents)) for n in contacts})
 arrays.update(object_pos=rng.normal(size=(batch, 3)), object_tilt=rng.random(batch),
               object_half_extents=np.full((batch, 3), 0.1))
 times = []

@@ -254,7 +254,8 @@ def test_message_too_big_to_build_under_the_limit_is_replaced(arena):
     watched, cwd, batch = arena
     # repr() of the 50 MB key needs another 50 MB, more than is left of the call's 64 MB (+ slack)
     f = compile_scoring(_body("k = 'x' * (50 * 2**20)\nd = {}\nreturn d[k]"), memory_mb=64)
-    with pytest.raises(ScoringRuntimeError, match=r"at line 4: KeyError: \(the message could not be shown: MemoryError"):
+    with pytest.raises(ScoringRuntimeError,
+                       match=r"at line 4: KeyError: \(the message could not be shown: MemoryError"):
         f(**batch)
     _assert_unharmed(watched, cwd, batch)
 

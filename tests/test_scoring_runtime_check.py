@@ -29,7 +29,8 @@ from rail_mj.types import SCORING_ARGS, AgentSetup, RailObject
 
 SIGNATURE = f"def score({', '.join(SCORING_ARGS)}):\n"
 CUP = TaskDescription(affordance="cup", obb_dims=[0.12, 0.09, 0.09])
-DROPLET = '<mujoco><worldbody><body name="drop"><geom type="sphere" size="0.006" mass="0.001"/></body></worldbody></mujoco>'
+DROPLET = ('<mujoco><worldbody><body name="drop"><geom type="sphere" size="0.006" mass="0.001"/></body>'
+           '</worldbody></mujoco>')
 
 # (id, body of score, what the repair message must say)
 FAILING = [
@@ -102,7 +103,8 @@ def test_runtime_failure_is_an_invalid_answer_that_says_what_went_wrong(case_id,
     text = str(err.value)
     n_agents, batch = request.layout.n_agents, len(request.plans.plans) * len(candidate_half_extents(CUP.obb_dims))
     assert f"B={batch} rollouts x N={n_agents} agents" in text
-    assert f"agent_pos float64 ({batch}, {n_agents}, 3)" in text and f"contacts_ground int64 ({batch}, {n_agents})" in text
+    assert f"agent_pos float64 ({batch}, {n_agents}, 3)" in text
+    assert f"contacts_ground int64 ({batch}, {n_agents})" in text
 
 
 def test_static_rejection_is_still_an_unsafe_code_error():
