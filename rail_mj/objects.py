@@ -63,8 +63,8 @@ MJX_MAX_HULL_VERTICES = 64
 #: 20k 8.5, 50k 24), oriented bounds and winding repair too, and 32 hulls of <= 64 vertices keep none
 #: of the extra detail. Household models and the procedural dataset (< 3k faces) stay below it.
 FACE_BUDGET = 20_000
-#: Meshes with more faces are refused: merging and decimating cost ~3 s and ~0.4 GB per million faces
-#: here, so this many take ~15 s before the pipeline proper starts.
+#: Meshes with more faces are refused: reading, cleaning and decimating cost ~3 s of CPU and ~0.6 GB
+#: per million faces here (2M: 5.3 s, 1.2 GB), so this many take ~12 s and ~2.5 GB before CoACD.
 MAX_FACES = 4_000_000
 #: Larger files are refused before parsing: MAX_FACES faces as binary STL (50 bytes a face) fit under it.
 MAX_FILE_BYTES = 256 * 2**20
