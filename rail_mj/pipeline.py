@@ -19,12 +19,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from rail_mj import llm
 from rail_mj.errors import ConfigError, RailError
 from rail_mj.imagination import imagine, resolve_backend
-from rail_mj.llm.schemas import (
-    CandidateInteraction,
-    FunctionalPoseRequest,
-    ImaginationProfile,
-    PoseCandidates,
-)
+from rail_mj.llm.schemas import ImaginationProfile
 from rail_mj.objects import load_object, mesh_notes
 from rail_mj.results import AffordanceResult, PlanInfo, PoseInfo
 from rail_mj.scoring import ScoringFunction, compile_scoring
@@ -97,8 +92,11 @@ class Pipeline:
     def __init__(self, config: RunConfig | None = None):
         self.config = config or RunConfig()
         self.backend = resolve_backend(self.config.backend)
+        # the run's LLM settings go to the provider once; every stage then reads them from it
         options = {"model": self.config.model} if self.config.model else {}
-        self.provider = llm.get_provider(self.config.provider, **options)
+        self.provider = llm.get_provider(
+            self.config.provider, max_retries=self.config.max_retries, cache=self.config.cache, **options
+        )
         self._profiles: dict[tuple, ImaginationProfile] = {}
         self._scorers: dict[str, ScoringFunction] = {}
 
@@ -109,13 +107,12 @@ class Pipeline:
     def check_affordances(self, affordances: Sequence[str]) -> None:
         """Refuse names this provider cannot imagine before any mesh or provider work.
 
-        Empty names always (ConfigError); with the offline provider, names outside its
-        library (UnknownAffordanceError listing the known names).
+        Empty names always (ConfigError); names outside the registry when the provider
+        cannot imagine novel ones (the offline library: UnknownAffordanceError listing the known names).
         """
         _check_names(affordances)
-        if self.provider_name == "offline":
-            for a in affordances:
-                llm.normalize_affordance(a)
+        for a in affordances:
+            self.provider.affordance_name(a)
 
     # ---- per-object work ------------------------------------------------------------
     def load(self, item: ObjectInput | RailObject | str | Path) -> RailObject:
@@ -130,17 +127,14 @@ class Pipeline:
 
     # ---- per-affordance work --------------------------------------------------------
     def profile(self, affordance: str, obb_dims: Sequence[float]) -> ImaginationProfile:
-        """A profile for this affordance, reused for objects of similar size."""
+        """A profile for this affordance, reused for objects of similar size and for every spelling
+        of the name that the provider resolves alike ("mug" and "cup" share one)."""
+        task = llm.task_description(affordance, obb_dims, self.provider)
         b = math.log1p(self.config.profile_bin)
-        key = (affordance.strip().lower(), *(round(math.log(max(d, 1e-4)) / b) for d in obb_dims))
+        # lower case: a novel name (an LLM provider's) is kept as written, in any case
+        key = (task.affordance.lower(), *(round(math.log(max(d, 1e-4)) / b) for d in task.obb_dims))
         if key not in self._profiles:
-            self._profiles[key] = llm.generate_profile(
-                affordance,
-                [float(d) for d in obb_dims],
-                self.provider,
-                cache=self.config.cache,
-                max_retries=self.config.max_retries,
-            )
+            self._profiles[key] = llm.task_profile(task, self.provider)
         return self._profiles[key]
 
     def scorer(self, source: str) -> ScoringFunction:
@@ -226,41 +220,9 @@ class Pipeline:
         return result
 
     def _analyse(self, profile, poses, kept, outcomes, scores, trajectories):
-        """The Functional Pose Analyzer over the candidate functional interactions."""
-        n_plans = len(profile.plans.plans)
-        pose_candidates = []
-        for k, i in enumerate(kept):
-            if not np.any(scores[k * n_plans : (k + 1) * n_plans] > 0):
-                continue  # no candidate: the pose is not put to the analyser
-            tried = [
-                CandidateInteraction(
-                    plan=plan.name,
-                    description=plan.description,
-                    via_poses=trajectories[k][j][:, :3].tolist(),
-                    score=float(scores[k * n_plans + j]),
-                    summary=llm.result_summary(outcomes, k * n_plans + j),
-                )
-                for j, plan in enumerate(profile.plans.plans)
-            ]
-            pose_candidates.append(
-                PoseCandidates(
-                    pose_index=i,
-                    probability=float(poses[i].probability),
-                    half_extents=[float(v) for v in poses[i].half_extents],
-                    candidates=[c for c in tried if c.score > 0],
-                    failed=[c for c in tried if c.score <= 0],
-                )
-            )
-        if not pose_candidates:
-            return None
-        request = FunctionalPoseRequest(
-            affordance=profile.affordance,
-            expected_outcome=profile.analysis.expected_outcome,
-            poses=pose_candidates,
-        )
-        return llm.analyze_functional_poses(
-            request, self.provider, cache=self.config.cache, max_retries=self.config.max_retries
-        )
+        """The Functional Pose Analyzer over the candidate functional interactions; None without one."""
+        request = llm.functional_pose_request(profile, poses, kept, outcomes, scores, trajectories)
+        return None if request is None else llm.analyze_functional_poses(request, self.provider)
 
     def classify_object(
         self, item: ObjectInput | RailObject | str | Path, affordances: Sequence[str]

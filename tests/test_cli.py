@@ -34,7 +34,7 @@ def garbage_stl(tmp_path: Path) -> Path:
 def no_work(monkeypatch: pytest.MonkeyPatch) -> None:
     """Fail the test if any mesh is read or any provider is asked."""
     monkeypatch.setattr(pipeline, "load_object", lambda *a, **k: pytest.fail("no mesh may be read"))
-    monkeypatch.setattr(llm, "generate_profile", lambda *a, **k: pytest.fail("no provider may be asked"))
+    monkeypatch.setattr(llm, "task_profile", lambda *a, **k: pytest.fail("no provider may be asked"))
 
 
 @pytest.mark.parametrize("provider", ["offline", "anthropic"])

@@ -85,9 +85,9 @@ def test_invalid_mjcf_is_repaired_with_the_error_text(provider_for):
 
 def test_retries_exhausted_names_stage_and_problem(provider_for):
     with MessagesServer(_bad_agent_then_offline(BROKEN_MJCF, 99)) as server:
-        provider = provider_for(server)
+        provider = provider_for(server, max_retries=2)
         with pytest.raises(StageError, match=r"agent_model.*3 attempts.*last problem") as err:
-            generate_agent_model(AgentModelRequest(task=CUP, analysis=offline_analysis(CUP)), provider, max_retries=2)
+            generate_agent_model(AgentModelRequest(task=CUP, analysis=offline_analysis(CUP)), provider)
     assert len(server.requests) == 3
     assert "spheroid" in str(err.value)
 
@@ -111,7 +111,7 @@ def test_second_run_is_served_from_cache(provider_for, monkeypatch):
         n = len(server.requests)
         second = generate_profile("bowl", [0.2, 0.2, 0.08], provider)
         assert len(server.requests) == n == 6 and second == first
-        generate_profile("bowl", [0.2, 0.2, 0.08], provider, cache=False)
+        generate_profile("bowl", [0.2, 0.2, 0.08], provider_for(server, cache=False))
         assert len(server.requests) == 2 * n
         monkeypatch.setenv("RAIL_MJ_NO_CACHE", "1")
         generate_profile("bowl", [0.2, 0.2, 0.08], provider)

@@ -31,9 +31,10 @@ CUP = TaskDescription(affordance="cup", obb_dims=[0.12, 0.09, 0.09])
 
 @pytest.fixture
 def provider_for(tmp_path):
-    def make(server: MessagesServer) -> AnthropicProvider:
-        return AnthropicProvider(api_key="test-key", base_url=server.base_url, cache_root=tmp_path / "cache",
-                                 model="test-model", timeout=10.0, http_retries=0)
+    def make(server: MessagesServer, **kw) -> AnthropicProvider:
+        opts = {"api_key": "test-key", "base_url": server.base_url, "cache_root": tmp_path / "cache",
+                "model": "test-model", "timeout": 10.0, "http_retries": 0, "cache": False, **kw}
+        return AnthropicProvider(**opts)
 
     return make
 
@@ -75,7 +76,7 @@ NOT_A_MESSAGE = [
 def test_http_200_that_is_not_a_message_is_a_failed_attempt(provider_for, bad, named):
     """An HTTP 200 whose body was no Message crashed with TypeError / AttributeError inside the SDK."""
     with MessagesServer(_first_then_offline("AffordanceAnalysis", bad)) as server:
-        analysis = analyze_affordance(AnalyzerRequest(task=CUP), provider_for(server), cache=False)
+        analysis = analyze_affordance(AnalyzerRequest(task=CUP), provider_for(server))
     assert analysis == offline_analysis(CUP)
     assert len(server.requests) == 2
     repair = server.requests[1]["messages"][-1]
@@ -85,7 +86,7 @@ def test_http_200_that_is_not_a_message_is_a_failed_attempt(provider_for, bad, n
 def test_http_200_that_is_never_a_message_ends_in_a_stage_error(provider_for):
     with MessagesServer(lambda body: Reply(200, {"hello": "world"})) as server:
         with pytest.raises(StageError, match=r"3 attempts.*is not a Message \(type None\)"):
-            analyze_affordance(AnalyzerRequest(task=CUP), provider_for(server), max_retries=2, cache=False)
+            analyze_affordance(AnalyzerRequest(task=CUP), provider_for(server, max_retries=2))
     assert len(server.requests) == 3
 
 
@@ -93,7 +94,7 @@ def _repair_of(provider_for, title: str, bad: Reply, request) -> tuple[list[dict
     """The second request's messages after one ``bad`` answer, and the stage's final answer."""
     ask = {"AffordanceAnalysis": analyze_affordance, "AgentModel": generate_agent_model}[title]
     with MessagesServer(_first_then_offline(title, bad)) as server:
-        answer = ask(request, provider_for(server), cache=False)
+        answer = ask(request, provider_for(server))
     assert len(server.requests) == 2
     return server.requests[1]["messages"], answer
 

@@ -19,6 +19,7 @@ from rail_mj.llm import (
     ResultSummary,
     agent_setup,
     analyze_functional_poses,
+    functional_pose_request,
     generate_profile,
     get_provider,
     known_affordances,
@@ -33,7 +34,7 @@ from rail_mj.llm.checks import (
     layout_offsets,
 )
 from rail_mj.scoring import compile_scoring
-from rail_mj.types import Outcomes
+from rail_mj.types import Outcomes, StablePose
 
 
 def _dims(name: str, where: float) -> list[float]:
@@ -302,3 +303,41 @@ def test_plate_pose_with_the_rim_around_the_food_wins():
                                                              poses=[upturned, upright]))
     assert [v.accept for v in verdict.poses] == [True, True]
     assert verdict.best_pose == 1
+
+
+def test_the_leak_test_is_defined_once_for_the_scoring_and_the_analyser(monkeypatch):
+    """result_summary and the container scoring source each wrote their own 0.25 ellipse."""
+    from rail_mj.affordances.kinds import container
+
+    h, dims = [0.04, 0.04, 0.05], [0.1, 0.08, 0.08]
+    pos = np.random.default_rng(0).uniform(-0.03, 0.03, (27, 3))
+    pos[0] = [0.7 * h[0], 0.0, -0.045]  # on the ground, 0.7 of the half size off the middle
+    out = dataclasses.replace(_outcomes(pos, h), contacts_ground=np.eye(1, 27, dtype=np.int64))
+    assert result_summary(out, 0).frac_through_object == 0.0 and _score("cup", dims, out) > 0
+    monkeypatch.setattr(container, "BENEATH_MIDDLE", 0.9**2)  # a wider middle: that droplet came through
+    assert result_summary(out, 0).frac_through_object == pytest.approx(1 / 27)
+    assert _score("cup", dims, out) == -1.0
+
+
+def test_stage_7_request_from_one_batch():
+    profile = generate_profile("cup", [0.1, 0.08, 0.08])
+    n_plans = len(profile.plans.plans)
+    h = np.array([0.04, 0.04, 0.05])
+    poses = [StablePose(pos=np.zeros(3), quat=np.array([1.0, 0, 0, 0]), probability=p, half_extents=h * (1 + p))
+             for p in (0.5, 0.3, 0.2)]
+    kept = [0, 2]  # pose 1 was too rare to imagine
+    one = _outcomes(np.random.default_rng(2).uniform(-0.03, 0.03, (27, 3)), h)
+    batch = Outcomes(**{f.name: np.repeat(getattr(one, f.name), 2 * n_plans, axis=0) for f in dataclasses.fields(one)})
+    trajectories = [trajectory_array(profile, poses[i].half_extents) for i in kept]
+    scores = np.full(2 * n_plans, -1.0)
+    assert functional_pose_request(profile, poses, kept, batch, scores, trajectories) is None
+    scores[n_plans + 1] = 0.3  # one success, in pose 2
+    request = functional_pose_request(profile, poses, kept, batch, scores, trajectories)
+    assert request is not None and request.affordance == "cup"
+    assert request.expected_outcome == profile.analysis.expected_outcome
+    (pose,) = request.poses  # pose 0 had no candidate: not put to the analyser
+    assert (pose.pose_index, pose.probability, pose.half_extents) == (2, 0.2, (h * 1.2).tolist())
+    assert [c.plan for c in pose.candidates] == [profile.plans.plans[1].name]
+    assert len(pose.failed) == n_plans - 1 and all(c.score == -1.0 for c in pose.failed)
+    (c,) = pose.candidates
+    assert c.summary == result_summary(batch, n_plans + 1) and c.via_poses == trajectories[1][1][:, :3].tolist()

@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-from rail_mj.llm.anthropic_provider import AnthropicProvider
+from rail_mj.llm.anthropic_provider import AnthropicConfig, AnthropicProvider
 from rail_mj.llm.checks import InvalidAnswerError
 from rail_mj.llm.offline import known_affordances, normalize_affordance
 from rail_mj.llm.prompts import PROMPT_VERSION
-from rail_mj.llm.providers import OfflineProvider, Provider, get_provider
+from rail_mj.llm.providers import OfflineProvider, Provider, ProviderConfig, get_provider
 from rail_mj.llm.schemas import (
     AffordanceAnalysis,
     AgentLayout,
@@ -36,6 +36,7 @@ from rail_mj.llm.stages import (
     agent_setup,
     analyze_affordance,
     analyze_functional_poses,
+    functional_pose_request,
     generate_agent_model,
     generate_layout,
     generate_profile,
@@ -43,6 +44,8 @@ from rail_mj.llm.stages import (
     generate_trajectories,
     plan_motions,
     result_summary,
+    task_description,
+    task_profile,
     trajectory_array,
 )
 
@@ -52,6 +55,7 @@ __all__ = [
     "AgentModel",
     "AgentModelRequest",
     "AnalyzerRequest",
+    "AnthropicConfig",
     "AnthropicProvider",
     "CandidateInteraction",
     "FunctionalPoseRequest",
@@ -68,6 +72,7 @@ __all__ = [
     "PoseCandidates",
     "PoseVerdict",
     "Provider",
+    "ProviderConfig",
     "ResultSummary",
     "ScoringCode",
     "ScoringRequest",
@@ -78,6 +83,7 @@ __all__ = [
     "agent_setup",
     "analyze_affordance",
     "analyze_functional_poses",
+    "functional_pose_request",
     "generate_agent_model",
     "generate_layout",
     "generate_profile",
@@ -88,5 +94,7 @@ __all__ = [
     "normalize_affordance",
     "plan_motions",
     "result_summary",
+    "task_description",
+    "task_profile",
     "trajectory_array",
 ]

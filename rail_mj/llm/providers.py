@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import os
+from dataclasses import fields
 from typing import Any
 
 from rail_mj.errors import ConfigError, StageError
 from rail_mj.llm import offline
-from rail_mj.llm.provider_base import REJECTIONS, Provider
+from rail_mj.llm.provider_base import REJECTIONS, Provider, ProviderConfig
 from rail_mj.llm.schemas import (
     AgentModelRequest,
     AnalyzerRequest,
@@ -18,19 +19,32 @@ from rail_mj.llm.schemas import (
     TrajectoryRequest,
 )
 
-__all__ = ["Provider", "OfflineProvider", "PROVIDERS", "get_provider", "REJECTIONS"]
+__all__ = ["Provider", "ProviderConfig", "OfflineProvider", "PROVIDERS", "get_provider", "REJECTIONS"]
 
 #: Provider names accepted by :func:`get_provider`.
 PROVIDERS = ("auto", "offline", "anthropic")
+#: Options every provider takes.
+_COMMON = tuple(f.name for f in fields(ProviderConfig))
 
 
 class OfflineProvider(Provider):
-    """The built-in profile library (:mod:`rail_mj.llm.offline`); deterministic, needs no cache."""
+    """The built-in profile library (:mod:`rail_mj.llm.offline`) for the registry's affordances.
+
+    It takes the common settings so that a run configures any provider alike, and needs neither:
+    its answers are deterministic (nothing to cache) and a rejected one cannot be repaired.
+    """
 
     name = "offline"
-    model = "offline-library"
+    novel_affordances = False
 
-    def answer(self, stage, request, check, *, max_retries=2, cache=True):
+    def __init__(self, *, max_retries: int = 2, cache: bool = True) -> None:
+        super().__init__(ProviderConfig(max_retries=max_retries, cache=cache))
+
+    @property
+    def model(self) -> str:
+        return "offline-library"
+
+    def answer(self, stage, request, check):
         if isinstance(request, AnalyzerRequest):
             result = offline.offline_analysis(request.task)
         elif isinstance(request, AgentModelRequest):
@@ -56,20 +70,27 @@ class OfflineProvider(Provider):
 
 
 def get_provider(name: str = "auto", **options: Any) -> Provider:
-    """``offline``, ``anthropic``, or ``auto`` (anthropic when ANTHROPIC_API_KEY is set, else offline).
+    """``offline``, ``anthropic``, or ``auto`` (anthropic when ANTHROPIC_API_KEY is set, else offline),
+    configured once with ``options``.
 
-    ``options`` go to :class:`rail_mj.llm.anthropic_provider.AnthropicProvider`
-    (model, api_key, base_url, timeout, temperature, ...).
+    Every provider takes ``max_retries`` and ``cache`` (:class:`ProviderConfig`); the Anthropic one also
+    the options of :class:`rail_mj.llm.anthropic_provider.AnthropicProvider` (model, api_key, base_url,
+    timeout, temperature, ...). Options a provider does not take are a ConfigError naming the valid ones.
     """
     key = name.strip().lower()
     if key == "auto":
         key = "anthropic" if os.environ.get("ANTHROPIC_API_KEY") else "offline"
     if key == "offline":
-        if options:
-            raise ConfigError(f"the offline provider takes no options; got {sorted(options)}")
-        return OfflineProvider()
+        unknown = sorted(set(options) - set(_COMMON))
+        if unknown:
+            raise ConfigError(f"the offline provider takes no LLM options; got {unknown}; "
+                              f"valid: {', '.join(_COMMON)}")
+        return OfflineProvider(**options)
     if key == "anthropic":
-        from rail_mj.llm.anthropic_provider import AnthropicProvider  # imported when asked for: it loads the SDK
+        from rail_mj.llm.anthropic_provider import OPTIONS, AnthropicProvider  # when asked for: it loads the SDK
 
+        unknown = sorted(set(options) - set(OPTIONS))
+        if unknown:
+            raise ConfigError(f"the anthropic provider takes no option {unknown}; valid: {', '.join(OPTIONS)}")
         return AnthropicProvider(**options)
     raise ConfigError(f"unknown LLM provider {name!r}; valid: {', '.join(PROVIDERS)}")

@@ -1,12 +1,17 @@
-"""The seven stages as functions (pydantic request in, validated pydantic answer out) and the profile.
+"""The seven stages as functions (a pydantic request and a provider in, a validated pydantic answer out).
 
 Every stage runs through a provider (offline library or LLM) with its check;
-:func:`generate_profile` chains stages 1–6 into an :class:`ImaginationProfile`.
+the provider carries its settings (retries, cache, model), fixed when it is
+made. :func:`task_description` resolves the affordance name once, through the
+provider; :func:`task_profile` chains stages 1–6 into an
+:class:`ImaginationProfile` and :func:`generate_profile` does both. Stage 7's
+request is built from the rollouts here too (:func:`functional_pose_request`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -32,6 +37,7 @@ from rail_mj.llm.schemas import (
     AgentModel,
     AgentModelRequest,
     AnalyzerRequest,
+    CandidateInteraction,
     FunctionalPoseRequest,
     FunctionalPoseVerdict,
     ImaginationProfile,
@@ -39,6 +45,7 @@ from rail_mj.llm.schemas import (
     MotionPlans,
     PlannerRequest,
     PlanTrajectory,
+    PoseCandidates,
     ResultSummary,
     ScoringCode,
     ScoringRequest,
@@ -46,7 +53,7 @@ from rail_mj.llm.schemas import (
     TrajectoryRequest,
     Trajectories,
 )
-from rail_mj.types import AgentSetup, Outcomes
+from rail_mj.types import AgentSetup, Outcomes, StablePose
 
 __all__ = [
     "analyze_affordance",
@@ -56,10 +63,13 @@ __all__ = [
     "generate_trajectories",
     "generate_scoring",
     "analyze_functional_poses",
+    "task_description",
+    "task_profile",
     "generate_profile",
     "trajectory_array",
     "agent_setup",
     "result_summary",
+    "functional_pose_request",
 ]
 
 ProviderLike = str | Provider
@@ -69,30 +79,24 @@ def _provider(provider: ProviderLike) -> Provider:
     return get_provider(provider) if isinstance(provider, str) else provider
 
 
-def analyze_affordance(request: AnalyzerRequest, provider: ProviderLike = "offline", *, max_retries: int = 2,
-                       cache: bool = True) -> AffordanceAnalysis:
+def analyze_affordance(request: AnalyzerRequest, provider: ProviderLike = "offline") -> AffordanceAnalysis:
     """Stage 1: dimension check (+ alternative), IBD, agent / interaction / outcome outline."""
     return _provider(provider).answer(STAGES["affordance_analyzer"], request,
-                                      lambda a: check_analysis(a, request.task), max_retries=max_retries, cache=cache)
+                                      lambda a: check_analysis(a, request.task))
 
 
-def generate_agent_model(request: AgentModelRequest, provider: ProviderLike = "offline", *, max_retries: int = 2,
-                         cache: bool = True) -> AgentModel:
+def generate_agent_model(request: AgentModelRequest, provider: ProviderLike = "offline") -> AgentModel:
     """Stage 2: the agent as a one-body, joint-free MJCF fragment scaled to the object."""
-    return _provider(provider).answer(STAGES["agent_model"], request, lambda a: check_agent(a, request.task),
-                                      max_retries=max_retries, cache=cache)
+    return _provider(provider).answer(STAGES["agent_model"], request, lambda a: check_agent(a, request.task))
 
 
-def generate_layout(request: LayoutRequest, provider: ProviderLike = "offline", *, max_retries: int = 2,
-                    cache: bool = True) -> AgentLayout:
+def generate_layout(request: LayoutRequest, provider: ProviderLike = "offline") -> AgentLayout:
     """Stage 3: grid counts and spacing that keep agents apart."""
     radius = agent_geometry(request.agent).radius
-    return _provider(provider).answer(STAGES["agent_configuration"], request, lambda a: check_layout(a, radius),
-                                      max_retries=max_retries, cache=cache)
+    return _provider(provider).answer(STAGES["agent_configuration"], request, lambda a: check_layout(a, radius))
 
 
-def plan_motions(request: PlannerRequest, provider: ProviderLike = "offline", *, max_retries: int = 2,
-                 cache: bool = True) -> MotionPlans:
+def plan_motions(request: PlannerRequest, provider: ProviderLike = "offline") -> MotionPlans:
     """Stage 4: at least five language plans with distinct names."""
 
     def check(plans: MotionPlans) -> None:
@@ -100,16 +104,16 @@ def plan_motions(request: PlannerRequest, provider: ProviderLike = "offline", *,
         if len(set(names)) != len(names):
             raise InvalidAnswerError(f"plan names must be distinct; got {names}")
 
-    return _provider(provider).answer(STAGES["motion_planner"], request, check, max_retries=max_retries, cache=cache)
+    return _provider(provider).answer(STAGES["motion_planner"], request, check)
 
 
 def generate_trajectories(request: TrajectoryRequest, provider: ProviderLike = "offline", *,
-                          half_extents: Sequence[Sequence[float]] | np.ndarray | None = None, max_retries: int = 2,
-                          cache: bool = True) -> Trajectories:
+                          half_extents: Sequence[Sequence[float]] | np.ndarray | None = None) -> Trajectories:
     """Stage 5: via-poses per plan, checked for each pose's half extents.
 
-    ``half_extents`` (P, 3) are the object's half extents in its stable poses;
-    without them every axis-aligned orientation of the OBB is checked.
+    ``half_extents`` (P, 3) are the object's half extents in its stable poses (what the
+    check tests, not a provider setting); without them every axis-aligned orientation of
+    the OBB is checked.
     """
     if half_extents is None:
         poses = candidate_half_extents(request.task.obb_dims)
@@ -121,24 +125,51 @@ def generate_trajectories(request: TrajectoryRequest, provider: ProviderLike = "
     radius = agent_geometry(request.agent).radius
     offsets = layout_offsets(request.layout)
     return _provider(provider).answer(
-        STAGES["trajectory"], request,
-        lambda t: check_trajectories(t, request.plans, radius, offsets, poses),
-        max_retries=max_retries, cache=cache,
+        STAGES["trajectory"], request, lambda t: check_trajectories(t, request.plans, radius, offsets, poses)
     )
 
 
-def generate_scoring(request: ScoringRequest, provider: ProviderLike = "offline", *, max_retries: int = 2,
-                     cache: bool = True) -> ScoringCode:
+def generate_scoring(request: ScoringRequest, provider: ProviderLike = "offline") -> ScoringCode:
     """Stage 6: numpy scoring source accepted by the scoring sandbox and run there on a synthetic batch."""
-    return _provider(provider).answer(STAGES["scoring"], request, lambda s: check_scoring(s, request),
-                                      max_retries=max_retries, cache=cache)
+    return _provider(provider).answer(STAGES["scoring"], request, lambda s: check_scoring(s, request))
 
 
-def analyze_functional_poses(request: FunctionalPoseRequest, provider: ProviderLike = "offline", *,
-                             max_retries: int = 2, cache: bool = True) -> FunctionalPoseVerdict:
+def analyze_functional_poses(request: FunctionalPoseRequest,
+                             provider: ProviderLike = "offline") -> FunctionalPoseVerdict:
     """Stage 7: accept or reject each pose's successes by common sense; pick the best (pose, plan)."""
-    return _provider(provider).answer(STAGES["functional_pose"], request, lambda v: check_verdict(v, request),
-                                      max_retries=max_retries, cache=cache)
+    return _provider(provider).answer(STAGES["functional_pose"], request, lambda v: check_verdict(v, request))
+
+
+def task_description(affordance: str, obb_dims: Sequence[float] | np.ndarray, provider: Provider) -> TaskDescription:
+    """The task every stage request of a profile carries: the name as ``provider`` resolves it (the
+    registry's canonical name when known; see :meth:`Provider.affordance_name`), dims sorted descending.
+
+    The one place a requested name becomes the name the stages see.
+    """
+    dims = sorted((float(d) for d in np.asarray(obb_dims, dtype=float).ravel()), reverse=True)
+    if len(dims) != 3 or not all(np.isfinite(dims)) or dims[-1] <= 0:
+        raise ConfigError(f"obb_dims must be three positive finite extents in metres; got {list(obb_dims)}")
+    return TaskDescription(affordance=provider.affordance_name(affordance), obb_dims=dims)
+
+
+def task_profile(task: TaskDescription, provider: Provider, *,
+                 half_extents: Sequence[Sequence[float]] | np.ndarray | None = None) -> ImaginationProfile:
+    """Stages 1–6 for a task from :func:`task_description` (``half_extents``: see :func:`generate_trajectories`)."""
+    analysis = analyze_affordance(AnalyzerRequest(task=task), provider)
+    agent = generate_agent_model(AgentModelRequest(task=task, analysis=analysis), provider)
+    layout = generate_layout(LayoutRequest(task=task, analysis=analysis, agent=agent), provider)
+    plans = plan_motions(PlannerRequest(task=task, analysis=analysis), provider)
+    trajectories = generate_trajectories(
+        TrajectoryRequest(task=task, analysis=analysis, agent=agent, layout=layout, plans=plans), provider,
+        half_extents=half_extents,
+    )
+    scoring = generate_scoring(ScoringRequest(task=task, analysis=analysis, agent=agent, layout=layout, plans=plans),
+                               provider)
+    return ImaginationProfile(
+        affordance=task.affordance, obb_dims=list(task.obb_dims), provider=provider.name, model=provider.model,
+        prompt_versions={k: v for k, v in PROMPT_VERSION.items() if k != "functional_pose"},
+        analysis=analysis, agent=agent, layout=layout, plans=plans, trajectories=trajectories, scoring=scoring,
+    )
 
 
 def generate_profile(
@@ -147,45 +178,26 @@ def generate_profile(
     provider: ProviderLike = "offline",
     *,
     half_extents: Sequence[Sequence[float]] | np.ndarray | None = None,
-    model: str | None = None,
-    cache: bool = True,
-    max_retries: int = 2,
+    **options: Any,
 ) -> ImaginationProfile:
     """Stages 1–6 for one affordance and one object.
 
-    The profile is made for the requested affordance even when stage 1 says
-    the dims do not fit (``profile.analysis.fits`` / ``.alternative`` tell the
-    caller, who may imagine the alternative instead). ``model`` picks the LLM
-    when ``provider`` is a name; ``half_extents`` are the stable poses' (see
-    :func:`generate_trajectories`).
+    The profile is made for the requested affordance (by its canonical name when
+    the registry knows it) even when stage 1 says the dims do not fit
+    (``profile.analysis.fits`` / ``.alternative`` tell the caller, who may imagine
+    the alternative instead). A provider name is built with ``options``
+    (``get_provider(provider, **options)``: model, max_retries, cache, ...); a
+    provider object is already configured and takes none. ``half_extents`` are the
+    stable poses' (see :func:`generate_trajectories`).
     """
-    dims = sorted((float(d) for d in np.asarray(obb_dims, dtype=float).ravel()), reverse=True)
-    if len(dims) != 3 or not all(np.isfinite(dims)) or dims[-1] <= 0:
-        raise ConfigError(f"obb_dims must be three positive finite extents in metres; got {list(obb_dims)}")
     if isinstance(provider, str):
-        prov = get_provider(provider, model=model) if model is not None else get_provider(provider)
-    elif model is not None and model != provider.model:
-        raise ConfigError(f"model {model!r} conflicts with the given provider's model {provider.model!r}; "
-                          "pass one or the other")
+        prov = get_provider(provider, **options)
+    elif options:
+        raise ConfigError(f"the given {provider.name} provider was configured when it was made; got options "
+                          f"{sorted(options)} for it: pass them to get_provider(name, ...), or pass the name")
     else:
         prov = provider
-    opts = {"max_retries": max_retries, "cache": cache}
-    task = TaskDescription(affordance=affordance.strip(), obb_dims=dims)
-    analysis = analyze_affordance(AnalyzerRequest(task=task), prov, **opts)
-    agent = generate_agent_model(AgentModelRequest(task=task, analysis=analysis), prov, **opts)
-    layout = generate_layout(LayoutRequest(task=task, analysis=analysis, agent=agent), prov, **opts)
-    plans = plan_motions(PlannerRequest(task=task, analysis=analysis), prov, **opts)
-    trajectories = generate_trajectories(
-        TrajectoryRequest(task=task, analysis=analysis, agent=agent, layout=layout, plans=plans), prov,
-        half_extents=half_extents, **opts,
-    )
-    scoring = generate_scoring(ScoringRequest(task=task, analysis=analysis, agent=agent, layout=layout, plans=plans),
-                               prov, **opts)
-    return ImaginationProfile(
-        affordance=task.affordance, obb_dims=dims, provider=prov.name, model=prov.model,
-        prompt_versions={k: v for k, v in PROMPT_VERSION.items() if k != "functional_pose"},
-        analysis=analysis, agent=agent, layout=layout, plans=plans, trajectories=trajectories, scoring=scoring,
-    )
+    return task_profile(task_description(affordance, obb_dims, prov), prov, half_extents=half_extents)
 
 
 def trajectory_array(profile_or_traj: ImaginationProfile | Trajectories | PlanTrajectory,
@@ -216,12 +228,15 @@ def agent_setup(profile: ImaginationProfile) -> AgentSetup:
 
 def result_summary(outcomes: Outcomes, b: int) -> ResultSummary:
     """Summary of rollout ``b`` for the Functional Pose Analyzer."""
+    # here, not at module level: the kinds import rail_mj.llm.schemas, whose package imports this module
+    from rail_mj.affordances.kinds.container import BENEATH_MIDDLE
+
     h = outcomes.object_half_extents[b]
     pos = outcomes.agent_pos[b]
     q = outcomes.agent_quat[b]
     cos_tilt = np.clip(1.0 - 2.0 * (q[:, 1] ** 2 + q[:, 2] ** 2), -1.0, 1.0)
     rel = pos - outcomes.object_pos[b]  # the object may have slid under the agents' impacts
-    beneath = (rel[:, 0] / h[0]) ** 2 + (rel[:, 1] / h[1]) ** 2 < 0.25
+    beneath = (rel[:, 0] / h[0]) ** 2 + (rel[:, 1] / h[1]) ** 2 < BENEATH_MIDDLE  # the container's leak test
     return ResultSummary(
         frac_inside_bbox=float(np.mean(np.all(np.abs(pos) < h, axis=1))),
         frac_on_ground=float(np.mean(outcomes.contacts_ground[b] > 0)),
@@ -231,4 +246,50 @@ def result_summary(outcomes: Outcomes, b: int) -> ResultSummary:
         agent_tilt_deg=float(np.mean(np.degrees(np.arccos(cos_tilt)))),
         agent_speed=float(np.mean(np.linalg.norm(outcomes.agent_vel[b], axis=1))),
         frac_through_object=float(np.mean(beneath & (outcomes.contacts_ground[b] > 0))),
+    )
+
+
+def functional_pose_request(
+    profile: ImaginationProfile,
+    poses: Sequence[StablePose],
+    kept: Sequence[int],
+    outcomes: Outcomes,
+    scores: np.ndarray,
+    trajectories: Sequence[Sequence[np.ndarray]],
+) -> FunctionalPoseRequest | None:
+    """Stage 7's request from one batched imagination; None when no plan scored above 0 in any pose.
+
+    ``kept`` are the indices into ``poses`` that were imagined, in batch order (rollout
+    ``k * n_plans + j`` is pose ``kept[k]``, plan ``j``); ``scores`` (B,) and ``trajectories``
+    (per kept pose, per plan, (K, 7)) come from the same batch. A pose is put to the analyser
+    only with a candidate; its failed plans go along as evidence.
+    """
+    n_plans = len(profile.plans.plans)
+    pose_candidates = []
+    for k, i in enumerate(kept):
+        if not np.any(scores[k * n_plans : (k + 1) * n_plans] > 0):
+            continue
+        tried = [
+            CandidateInteraction(
+                plan=plan.name,
+                description=plan.description,
+                via_poses=trajectories[k][j][:, :3].tolist(),
+                score=float(scores[k * n_plans + j]),
+                summary=result_summary(outcomes, k * n_plans + j),
+            )
+            for j, plan in enumerate(profile.plans.plans)
+        ]
+        pose_candidates.append(
+            PoseCandidates(
+                pose_index=i,
+                probability=float(poses[i].probability),
+                half_extents=[float(v) for v in poses[i].half_extents],
+                candidates=[c for c in tried if c.score > 0],
+                failed=[c for c in tried if c.score <= 0],
+            )
+        )
+    if not pose_candidates:
+        return None
+    return FunctionalPoseRequest(
+        affordance=profile.affordance, expected_outcome=profile.analysis.expected_outcome, poses=pose_candidates
     )

@@ -21,7 +21,12 @@ from rail_mj.affordances.kinds.base import (
 from rail_mj.affordances.registry import Affordance
 from rail_mj.llm.schemas import AgentLayout, CandidateInteraction, MotionPlan, ScoringCode, ViaPose
 
-__all__ = ["Container"]
+__all__ = ["BENEATH_MIDDLE", "Container"]
+
+#: A point on the ground is beneath the object's middle when (x/h_x)^2 + (y/h_y)^2 is below this (an ellipse
+#: half the footprint's size): a droplet resting there came through the object, so it leaks. The scoring source
+#: (run in the sandbox, so it cannot import this) has it formatted in; stage 7's ``frac_through_object`` reads it.
+BENEATH_MIDDLE = 0.25
 
 #: Horizontal offset (units of h) of the above_<side> plans: a handle shifts the box centre off the cavity's
 #: axis by a fraction of the half size, so the grid must move by about that much, not onto the rim.
@@ -37,7 +42,7 @@ _BODY = '''    """Fraction of droplets inside the box below the rim and off the 
     frac = np.mean(inside, axis=1)
     # a droplet on the ground under the middle of the object came through it: the container leaks
     rel = agent_pos - object_pos[:, None, :]  # the object may have slid under the droplets' impacts
-    under = (rel[:, :, 0] / h[:, :, 0]) ** 2 + (rel[:, :, 1] / h[:, :, 1]) ** 2 < 0.25
+    under = (rel[:, :, 0] / h[:, :, 0]) ** 2 + (rel[:, :, 1] / h[:, :, 1]) ** 2 < {beneath!r}
     leaked = np.any(under & (contacts_ground > 0), axis=1)
     ok = (object_tilt < {max_tilt:.4f}) & ~leaked{object_cond}
     return np.where(ok, frac - {min_frac}, -1.0)
@@ -84,7 +89,7 @@ class Container(Kind):
     def scoring(self, aff: Affordance, shape: AgentShape) -> ScoringCode:
         envelope = aff.envelope.doc()
         body = _BODY.format(min_frac=0.5, max_tilt=math.radians(15), name=aff.name, envelope=envelope,
-                            object_cond=aff.envelope.source())
+                            object_cond=aff.envelope.source(), beneath=BENEATH_MIDDLE)
         return ScoringCode(description="Success when more than half the droplets rest inside the object's box "
                                        "below the rim and off the ground, none leaks through to the ground under "
                                        f"the object, the object is upright and its pose has "
