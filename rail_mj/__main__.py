@@ -3,6 +3,9 @@
 Exit status and error output follow rail_mj.cli: 0 every case succeeded, 1 some case failed (its
 ``error:`` line on stderr; with ``--json`` also its result line, carrying ``error``), 2 the command
 line was wrong (an empty or unknown affordance, a bad option value) and nothing ran, 130 interrupted.
+A picture asked for (``--render``, ``--contact-sheet``) of a result that has nothing to draw (its
+dimension check failed, so nothing was imagined) is not written; a line on stderr says why, and that
+alone is not a failure.
 """
 
 from __future__ import annotations
@@ -48,6 +51,32 @@ def _metres_per_unit(text: str) -> float:
     return value
 
 
+def _pictures(args: argparse.Namespace, results) -> None:
+    """Write the requested pictures of the first functional result, else the first one with a rollout to
+    draw; when no result has one, say why (that is an answer, not an error)."""
+    from rail_mj.render import nothing_to_draw, render_contact_sheet, render_result
+
+    targets = [p for p in (args.render, args.contact_sheet) if p is not None]
+    done = [r for r in results if not r.error]
+    if not done:
+        print(f"no picture written to {', '.join(map(str, targets))}: every case failed", file=sys.stderr)
+        return
+    shown = next((r for r in done if r.functional), next((r for r in done if nothing_to_draw(r) is None), None))
+    if shown is None:
+        for r in done:
+            print(f"no picture written: {nothing_to_draw(r)}", file=sys.stderr)
+        return
+    from rail_mj.objects import load_object
+
+    obj = load_object(args.mesh, units=args.units, up=args.up)
+    if args.render:
+        render_result(obj, shown, args.render, draw_mesh=args.draw_mesh)
+        print(f"wrote {args.render}", file=sys.stderr)
+    if args.contact_sheet:
+        sheet = render_contact_sheet(obj, shown, args.contact_sheet, draw_mesh=args.draw_mesh)
+        print(f"wrote {args.contact_sheet} ({len(sheet.tiles)} stable poses)", file=sys.stderr)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python -m rail_mj", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -58,7 +87,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--provider", default="auto", help="auto | offline | anthropic")
     p.add_argument("--backend", default="auto", help="auto | native | mjx")
     p.add_argument("--json", action="store_true", help="print the results as JSON lines")
-    p.add_argument("--render", type=Path, help="write a PNG of the functional pose with the agents")
+    p.add_argument("--render", type=Path, metavar="PNG",
+                   help="write a captioned picture of the functional pose (else the best-scoring one) with the agents")
+    p.add_argument("--contact-sheet", type=Path, metavar="PNG",
+                   help="write one grid picture of every stable pose with its best-scoring plan (re-imagines them)")
+    p.add_argument("--draw-mesh", action="store_true",
+                   help="draw the original mesh in the pictures instead of its CoACD hulls")
     args = p.parse_args(argv)
 
     from rail_mj.pipeline import ObjectInput, classify
@@ -78,14 +112,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                 print(r.model_dump_json())
             elif not r.error:
                 print(_describe(r))
-        shown = next((r for r in results if r.functional), next((r for r in results if not r.error), None))
-        if args.render and shown is None:
-            print(f"no picture written to {args.render}: every case failed", file=sys.stderr)
-        elif args.render:
-            from rail_mj.render import render_result
-
-            render_result(args.mesh, shown, args.render, units=args.units, up=args.up)
-            print(f"wrote {args.render}", file=sys.stderr)
+        if args.render or args.contact_sheet:
+            _pictures(args, results)
     except (RailError, KeyboardInterrupt) as exc:
         return report_error(exc, json_out=args.json)
     return EXIT_OK if all(r.error is None for r in results) else EXIT_FAILED

@@ -365,9 +365,10 @@ def write_report(out: Path, summary: dict, lines: Sequence[dict], root: Path, *,
         f"\n## Misclassified cases ({len(wrong)})\n",
     ]
     if render and wrong:
-        from rail_mj.render import render_result
+        from rail_mj.render import nothing_to_draw, render_result
 
         (out / "renders").mkdir(exist_ok=True)
+        how = {r.mesh: r for r in read_labels(root)}  # each mesh is drawn read as it was classified
     for ln in wrong:
         r = AffordanceResult.model_validate(ln["result"])
         verdict = "error" if ln["error"] else ("functional" if ln["predicted"] else "not functional")
@@ -376,10 +377,13 @@ def write_report(out: Path, summary: dict, lines: Sequence[dict], root: Path, *,
             f"{'functional' if ln['label'] else 'not functional'}\n\n"
             + (f"Error: {ln['error']}\n" if ln["error"] else "Reasons: " + "; ".join(r.analyzer_reasons) + "\n")
         )
-        if render and not ln["error"] and r.evidence_pose is not None:
+        if render and not ln["error"] and nothing_to_draw(r) is not None:
+            parts.append(f"\n({nothing_to_draw(r)})\n")
+        elif render and not ln["error"]:
             png = out / "renders" / (ln["key"].replace("/", "_").replace("::", "__") + ".png")
             try:
-                render_result(root / ln["mesh"], r, png, units=1.0)
+                label = how[ln["mesh"]]
+                render_result(root / ln["mesh"], r, png, units=label.units, up=label.up)
                 parts.append(f"\n![{ln['key']}](renders/{png.name})\n")
             except RailError as exc:
                 parts.append(f"\n(render failed: {exc})\n")
