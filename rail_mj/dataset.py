@@ -22,6 +22,7 @@ CLI::
 
     python -m rail_mj.dataset --out DIR [--classes cup,bowl] [--per-class N] [--seed S]
                               [--affordances cup,chair]
+    python -m rail_mj.dataset real --out DIR    # the real-mesh development set, see rail_mj.realset
 """
 
 from __future__ import annotations
@@ -457,6 +458,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     from rail_mj.cli import EXIT_OK, report_error
     from rail_mj.errors import ConfigError
 
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv[:1] == ["real"]:  # the real-mesh development set has its own options (rail_mj.realset)
+        from rail_mj.realset import main as real_main
+
+        return real_main(argv[1:])
     parser = argparse.ArgumentParser(prog="python -m rail_mj.dataset", description="Generate the labelled procedural dataset.")
     parser.add_argument("--out", type=Path, help="output folder (meshes/ and labels.jsonl)")
     parser.add_argument("--classes", help=f"comma-separated classes (default all): {','.join(CLASSES)}")
