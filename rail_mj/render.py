@@ -38,6 +38,7 @@ __all__ = [
     "GROUND_SQUARE_M",
     "ContactSheet",
     "caption",
+    "fit_camera",
     "nothing_to_draw",
     "render_result",
     "render_contact_sheet",
@@ -300,6 +301,19 @@ def _fit(points: np.ndarray, azimuth: float, elevation: float, fovy: float, aspe
     tan_v = math.tan(math.radians(fovy) / 2) * _FILL
     need = np.maximum(np.abs(rel @ up) / tan_v, np.abs(rel @ right) / (tan_v * aspect)) + toward
     return lookat, float(max(need.max(), 1e-3) * 1.02)
+
+
+def fit_camera(points: np.ndarray, azimuth: float, elevation: float, *, fovy: float = 45.0, aspect: float = 4 / 3):
+    """A free ``mujoco.MjvCamera`` at these angles (degrees) whose picture holds every point (P, 3) with a
+    margin; ``fovy`` is the model's ``vis.global_.fovy`` and ``aspect`` the picture's width / height."""
+    import mujoco
+
+    lookat, distance = _fit(np.asarray(points, dtype=np.float64).reshape(-1, 3), azimuth, elevation, fovy, aspect)
+    cam = mujoco.MjvCamera()
+    cam.type = mujoco.mjtCamera.mjCAMERA_FREE
+    cam.lookat[:] = lookat
+    cam.distance, cam.azimuth, cam.elevation = distance, azimuth, elevation
+    return cam
 
 
 def _visible(model, data, samples: np.ndarray, agent_bodies: Sequence[int], object_body: int,

@@ -48,7 +48,7 @@ def main(argv: list[str] | None = None) -> int:
                         help="N")
     parser.add_argument("--json", type=Path, help="write the summary here")
     parser.add_argument("--video", "--render", dest="video", type=Path,
-                        help="folder for PNG frames of each affordance's first trial")
+                        help="folder for an mp4 of each affordance's first trial (AFFORDANCE_OBJECT.mp4)")
     args = parser.parse_args(argv)
     if not (args.fetch or args.demo):
         parser.error("give --fetch and/or --demo")

@@ -216,7 +216,9 @@ def imagined_case(obj: RailObject, affordance: str, backend: str = "auto") -> De
 def run_demo(affordances: list[str] | None = None, trials: int = 4, *, config: RobotConfig | None = None,
              json_path: Path | None = None, video: Path | None = None, planner: str = "imagined",
              progress: Callable[[str], None] | None = print) -> dict:
-    """Execute ``trials`` objects per affordance; return (and optionally write) the summary."""
+    """Execute ``trials`` objects per affordance; return (and optionally write) the summary.
+
+    ``video`` is a folder that gets ``AFFORDANCE_OBJECT.mp4`` of each affordance's first trial."""
     if planner not in ("imagined", "scripted"):
         raise ConfigError(f"unknown planner {planner!r}; valid: imagined, scripted")
     names = affordances or list(DEMO_AFFORDANCES)
@@ -236,7 +238,7 @@ def run_demo(affordances: list[str] | None = None, trials: int = 4, *, config: R
                 if progress:
                     progress(f"{name:11s} {obj.name:14s} success=False (imagination found no functional pose)")
                 continue
-            render = video / f"{obj.name}" if video is not None and seed == 0 else None
+            render = video / f"{name}_{obj.name}.mp4" if video is not None and seed == 0 else None
             res: ExecutionResult = execute(obj, case.pose, case.agent_fragment, case.via_poses, case.scoring,
                                            config=cfg, render=render)
             row = {"object": obj.name, "affordance": name, **res.to_dict(), "seconds": time.perf_counter() - t0}

@@ -11,9 +11,8 @@ the table plays the ground) and scored with the plan's scoring function.
 
 from __future__ import annotations
 
+import math
 import time
-import zlib
-import struct
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -59,6 +58,8 @@ __all__ = [
     "DriveResult",
     "drive",
     "execute",
+    "VIDEO_SIZE",
+    "VIDEO_FPS",
 ]
 
 #: A compiled scoring function: outcomes of B rollouts -> (B,) scores, success where > 0.
@@ -70,6 +71,9 @@ _FINGERTIP_Z = 0.1125
 _GRASP_QUAT = np.array([0.0, 1.0, 0.0, 0.0])
 _PRIMITIVES = (mujoco.mjtGeom.mjGEOM_SPHERE, mujoco.mjtGeom.mjGEOM_BOX, mujoco.mjtGeom.mjGEOM_CAPSULE,
                mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_ELLIPSOID)
+#: Video frames: (width, height) in pixels and frames per simulated second.
+VIDEO_SIZE = (640, 480)
+VIDEO_FPS = 25
 
 
 @dataclass(frozen=True)
@@ -271,7 +275,7 @@ def build_scene(cfg: RobotConfig, *, obj: RailObject | None = None, pose: Stable
 class _Sim:
     """One execution's mutable state: data, force bookkeeping, optional frame capture."""
 
-    def __init__(self, scene: RobotScene, cfg: RobotConfig, render: Path | None):
+    def __init__(self, scene: RobotScene, cfg: RobotConfig, camera: mujoco.MjvCamera | None):
         self.scene, self.cfg = scene, cfg
         self.model = scene.model
         self.data = mujoco.MjData(self.model)
@@ -282,8 +286,16 @@ class _Sim:
         self.events: list[ForceEvent] = []
         self.over = False  # currently above the limit (an event is logged once per crossing)
         self.frames: list[np.ndarray] = []
-        self.renderer = mujoco.Renderer(self.model, 240, 320) if render is not None else None
-        self.frame_every = max(1, int(round(1 / (25 * cfg.dt))))
+        self.camera = camera
+        self.renderer = None
+        if camera is not None:
+            # software GL spends ~0.6 s a frame on the shadow map and multisampling: ~25 ms without them
+            self.model.light_castshadow[:] = False
+            self.model.vis.quality.offsamples = 0
+            self.model.vis.global_.offwidth = max(self.model.vis.global_.offwidth, VIDEO_SIZE[0])
+            self.model.vis.global_.offheight = max(self.model.vis.global_.offheight, VIDEO_SIZE[1])
+            self.renderer = mujoco.Renderer(self.model, *VIDEO_SIZE[::-1])
+        self.frame_every = max(1, int(round(1 / (VIDEO_FPS * cfg.dt))))
         self.steps = 0
 
     def site_pose(self) -> tuple[np.ndarray, np.ndarray]:
@@ -302,7 +314,7 @@ class _Sim:
         force = contact_force(self.model, self.data, mask)
         self.peak = max(self.peak, force)
         if self.renderer is not None and self.steps % self.frame_every == 0:
-            self.renderer.update_scene(self.data, camera=_camera(self.scene))
+            self.renderer.update_scene(self.data, camera=self.camera)
             self.frames.append(self.renderer.render().copy())
         return force
 
@@ -318,11 +330,25 @@ class _Sim:
         return False
 
 
-def _camera(scene: RobotScene) -> mujoco.MjvCamera:
-    cam = mujoco.MjvCamera()
-    cam.lookat[:] = scene.task_origin
-    cam.distance, cam.azimuth, cam.elevation = 1.1, 150.0, -25.0
-    return cam
+def _video_camera(scene: RobotScene, sols: list[np.ndarray], targets: list[tuple[np.ndarray, np.ndarray]]
+                  ) -> mujoco.MjvCamera:
+    """One fixed camera for the whole video: from the side of the base-to-object line, a little in front,
+    fitted to the arm in its home posture and at every IK solution, the agent's path and the object."""
+    from rail_mj.render import fit_camera
+
+    model = scene.model
+    data = mujoco.MjData(model)
+    robot = scene.geom_owner == OWNER_OTHER
+    points = [p for p, _ in targets]
+    for q in [HOME_QPOS, *sols]:
+        data.qpos[scene.arm.qpos] = q
+        mujoco.mj_kinematics(model, data)
+        points.extend(data.geom_xpos[robot])
+    signs = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
+    points.extend(scene.task_origin + signs * scene.half_extents)
+    side = math.degrees(math.atan2(scene.task_origin[1], scene.task_origin[0])) + 120.0
+    return fit_camera(np.array(points), side, -22.0, fovy=float(model.vis.global_.fovy),
+                      aspect=VIDEO_SIZE[0] / VIDEO_SIZE[1])
 
 
 def _follow(sim: _Sim, waypoints: list[tuple[np.ndarray, np.ndarray]], postures: list[np.ndarray],
@@ -457,36 +483,14 @@ def _resolve_scoring(scoring: ScoringFunction | str | None) -> ScoringFunction |
     return compile_scoring(scoring)
 
 
-def _write_frames(frames: list[np.ndarray], path: Path) -> None:
-    """PNG sequence in ``path`` (a folder), or an mp4 when the path ends in .mp4 and imageio-ffmpeg exists."""
-    if path.suffix == ".mp4":
-        try:
-            import imageio.v2 as imageio
-        except ImportError as exc:
-            raise RobotError(f"writing {path} needs imageio + imageio-ffmpeg; give a folder for PNG frames") from exc
-        imageio.mimwrite(path, frames, fps=25)
-        return
-    path.mkdir(parents=True, exist_ok=True)
-    for i, img in enumerate(frames):
-        (path / f"frame_{i:05d}.png").write_bytes(_png(img))
-
-
-def _png_chunk(tag: bytes, body: bytes) -> bytes:
-    return struct.pack(">I", len(body)) + tag + body + struct.pack(">I", zlib.crc32(tag + body))
-
-
-def _png(img: np.ndarray) -> bytes:
-    """An RGB uint8 image as PNG bytes (no imaging library needed)."""
-    h, w, _ = img.shape
-    raw = b"".join(b"\x00" + img[r].tobytes() for r in range(h))
-    return (b"\x89PNG\r\n\x1a\n" + _png_chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0))
-            + _png_chunk(b"IDAT", zlib.compress(raw, 6)) + _png_chunk(b"IEND", b""))
-
-
 def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: np.ndarray,
             scoring: ScoringFunction | str | None, *, config: RobotConfig | None = None,
             render: Path | None = None) -> ExecutionResult:
-    """Carry the agent along ``trajectory`` ((K, 7) via-poses of its centre, task frame), release, judge."""
+    """Carry the agent along ``trajectory`` ((K, 7) via-poses of its centre, task frame), release, judge.
+
+    ``render`` records the execution: an mp4 when it ends in .mp4, else a folder of PNG frames
+    (:func:`rail_mj.render.write_frames`), seen by one fixed camera that keeps the arm and the agent in view.
+    """
     cfg = config or RobotConfig()
     traj = np.asarray(trajectory, dtype=float)
     if traj.ndim != 2 or traj.shape[1] != 7 or traj.shape[0] < 1 or not np.all(np.isfinite(traj)):
@@ -529,7 +533,7 @@ def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: 
         return result(False, float("nan"), False, why, None, None)
 
     t0 = time.perf_counter()
-    sim = _Sim(scene, cfg, render)
+    sim = _Sim(scene, cfg, _video_camera(scene, sols, targets) if render is not None else None)
     data = sim.data
     data.qpos[scene.arm.qpos] = HOME_QPOS
     mujoco.mj_kinematics(scene.model, data)
@@ -569,7 +573,9 @@ def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: 
 
     outcomes = _outcomes(sim, obj_pos0, obj_quat0)
     if render is not None:
-        _write_frames(sim.frames, Path(render))
+        from rail_mj.render import write_frames
+
+        write_frames(sim.frames, Path(render), fps=VIDEO_FPS)
     if score_fn is None:
         return result(False, float("nan"), True, "executed, not scored", sim, outcomes)
     t0 = time.perf_counter()
