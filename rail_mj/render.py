@@ -57,7 +57,7 @@ _TRANSLUCENT_ALPHA = 0.35
 _HIDDEN_GROUP = 3  # a geom group the default visual options do not draw
 _VISIBLE_GROUPS = np.array([1, 1, 1, 0, 0, 0], dtype=np.uint8)  # MuJoCo's default drawn groups
 _AZIMUTHS = tuple(range(0, 360, 45))
-_ELEVATIONS = (-20.0, -35.0, -50.0, -65.0, -80.0, -89.0)
+_ELEVATIONS = (-20.0, -35.0, -50.0, -60.0, -70.0, -78.0, -85.0, -89.0)  # denser where a deep opening needs it
 _PREFERRED_VIEW = (135.0, -35.0)  # a three-quarter view from above
 #: A view may score this much less than the best view (see _visible) to be nearer the three-quarter view.
 _VIEW_SLACK = 0.03
@@ -347,7 +347,7 @@ def _choose_view(model, data, object_body: int, agent_bodies: Sequence[int], asp
             camera = lookat - distance * _axes(az, el)[0]
             vis, hidden = _visible(model, data, samples, agent_bodies, object_body, camera)
             turn = abs((az - _PREFERRED_VIEW[0] + 180.0) % 360.0 - 180.0)
-            views.append((abs(el - _PREFERRED_VIEW[1]) + 0.25 * turn,
+            views.append((abs(el - _PREFERRED_VIEW[1]) + 0.02 * turn,  # the shallowest view, then the azimuth
                           _View(az, el, distance, lookat, vis, hidden, translucent=hidden > 0)))
     top = max(v.visible for _, v in views)
     _, k = min((cost, k) for k, (cost, v) in enumerate(views) if v.visible >= top - _VIEW_SLACK)
