@@ -51,6 +51,13 @@ def _metres_per_unit(text: str) -> float:
     return value
 
 
+def _picture_path(text: str) -> Path:
+    path = Path(text)
+    if path.suffix.lower() not in (".png", ".jpg", ".jpeg"):
+        raise argparse.ArgumentTypeError(f"must name a .png or .jpg file, got {text}")
+    return path
+
+
 def _pictures(args: argparse.Namespace, results) -> None:
     """Write the requested pictures of the first functional result, else the first one with a rollout to
     draw; when no result has one, say why (that is an answer, not an error)."""
@@ -87,9 +94,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--provider", default="auto", help="auto | offline | anthropic")
     p.add_argument("--backend", default="auto", help="auto | native | mjx")
     p.add_argument("--json", action="store_true", help="print the results as JSON lines")
-    p.add_argument("--render", type=Path, metavar="PNG",
+    p.add_argument("--render", type=_picture_path, metavar="PNG",
                    help="write a captioned picture of the functional pose (else the best-scoring one) with the agents")
-    p.add_argument("--contact-sheet", type=Path, metavar="PNG",
+    p.add_argument("--contact-sheet", type=_picture_path, metavar="PNG",
                    help="write one grid picture of every stable pose with its best-scoring plan (re-imagines them)")
     p.add_argument("--draw-mesh", action="store_true",
                    help="draw the original mesh in the pictures instead of its CoACD hulls")

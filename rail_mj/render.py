@@ -58,8 +58,8 @@ _HIDDEN_GROUP = 3  # a geom group the default visual options do not draw
 _VISIBLE_GROUPS = np.array([1, 1, 1, 0, 0, 0], dtype=np.uint8)  # MuJoCo's default drawn groups
 _AZIMUTHS = tuple(range(0, 360, 45))
 _ELEVATIONS = (-20.0, -35.0, -50.0, -60.0, -70.0, -78.0, -85.0, -89.0)  # denser where a deep opening needs it
-_PREFERRED_VIEW = (135.0, -35.0)  # a three-quarter view from above
-#: A view may score this much less than the best view (see _visible) to be nearer the three-quarter view.
+_PREFERRED_VIEW = (135.0, -35.0)  # a three-quarter view from above: the elevation first, then the azimuth
+#: A view may score this much less than the best view (see _visible) to be nearer the preferred view.
 _VIEW_SLACK = 0.03
 _FILL = 0.85  # the framed points span this fraction of the picture
 _NEAR_RADII = 4.0  # agents farther than this many object radii (e.g. rolled away) are not framed

@@ -227,9 +227,17 @@ def test_cli_says_plainly_when_nothing_can_be_drawn(tmp_path, capsys):
     from rail_mj.__main__ import main as cli
 
     _cup_mesh().export(tmp_path / "cup.obj")
-    png = tmp_path / "out.png"
+    png, sheet = tmp_path / "out.png", tmp_path / "sheet.png"
     assert cli([str(tmp_path / "cup.obj"), "-a", "chair", "--provider", "offline", "--backend", "native",
-                "--render", str(png)]) == 0
+                "--render", str(png), "--contact-sheet", str(sheet)]) == 0
     err = capsys.readouterr().err
     assert "nothing to draw" in err and "dimension check failed" in err and "error" not in err
-    assert not png.exists()
+    assert not png.exists() and not sheet.exists()
+
+
+def test_cli_refuses_a_picture_format_before_any_work(tmp_path, capsys):
+    from rail_mj.__main__ import main as cli
+
+    with pytest.raises(SystemExit) as exit_:
+        cli([str(tmp_path / "cup.obj"), "-a", "cup", "--render", str(tmp_path / "out.gif")])
+    assert exit_.value.code == 2 and ".png or .jpg" in capsys.readouterr().err
