@@ -24,6 +24,7 @@ __all__ = [
     "DatasetError",
     "RobotError",
     "FolderInUseError",
+    "WorkerError",
 ]
 
 
@@ -100,4 +101,11 @@ class FolderInUseError(RailError):
     The message names the holder (pid, host, start time, command). CLI exit status 1, not 2: the
     command line is valid (the same command succeeds once the holder has ended), and 2 would tell a
     script to change it; nothing was written.
+    """
+
+
+class WorkerError(RailError):
+    """A worker process of a parallel or Ray run died (a crash in native code, the OOM killer, a kill) while on
+    an object: that object's cases become error results and the run goes on. Raised, stopping the run, only
+    when no worker process can be started at all.
     """

@@ -28,6 +28,7 @@ from rail_mj.geometry import rotation_to_z, up_in_mesh_frame
 from rail_mj.imagination.config import ImaginationConfig
 from rail_mj.mjcf import compose_scene
 from rail_mj.paths import cache_dir
+from rail_mj.runfiles import atomic_write_text
 from rail_mj.types import RailObject, StablePose, StablePoses
 
 __all__ = ["find_stable_poses", "pose_from_up"]
@@ -158,7 +159,7 @@ def _drop(
         mujoco.mju_quat2Mat(rot, q)
         qpos0[i, o + 2] = drop_height - (verts @ rot.reshape(3, 3).T)[:, 2].min()
     qpos0[:, o + 3 : o + 7] = quats
-    batch = mujoco.batch.Batch(scene.model, n_drops, nthread=0)
+    batch = mujoco.batch.Batch(scene.model, n_drops, nthread=cfg.nthread)
     qpos, qvel = batch.bind("qpos"), batch.bind("qvel")
     batch.reset(stage=mujoco.mjtStage.mjSTAGE_NONE)
     qpos[:] = qpos0
@@ -248,7 +249,10 @@ def find_stable_poses(
                   tolerance_deg=tolerance_deg, min_probability=min_probability)
     path = _cache_path(obj, params)
     if use_cache and path.exists():
-        return _from_json(path.read_text())
+        try:
+            return _from_json(path.read_text())
+        except (ValueError, KeyError, TypeError):
+            path.unlink(missing_ok=True)  # a torn entry (a writer killed before the atomic writes) is recomputed
     quats, settled = _drop(obj, _uniform_quats(np.random.default_rng(seed), n_drops), settle_time, drop_height)
     if not settled.any():
         raise StablePoseError(
@@ -284,6 +288,6 @@ def find_stable_poses(
             poses.append(pose_from_up(obj, reps[best], probability))
     poses.sort(key=lambda p: -p.probability)
     result = StablePoses(poses=tuple(poses), n_drops=n_drops, n_unsettled=int((~settled).sum()))
-    if use_cache:
-        path.write_text(_to_json(result))
+    if use_cache:  # atomic: a concurrent reader (another worker, a node on shared storage) never sees half a file
+        atomic_write_text(path, _to_json(result))
     return result

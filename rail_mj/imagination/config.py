@@ -2,11 +2,25 @@
 
 from __future__ import annotations
 
+import os
+
 from pydantic import BaseModel, ConfigDict, Field
 
+from rail_mj.errors import ConfigError
 from rail_mj.mjcf import FRICTION, SOLREF_TIMECONST_FACTOR, ScenePhysics
 
-__all__ = ["ImaginationConfig"]
+__all__ = ["THREADS_ENV", "ImaginationConfig"]
+
+#: MuJoCo batch threads of this process when a config does not name ``nthread`` (0 or unset: all CPUs).
+#: rail_mj.parallel sets it in its workers so that workers x threads = cores; outcomes do not depend on it.
+THREADS_ENV = "RAIL_MJ_THREADS"
+
+
+def _env_threads() -> int:
+    raw = os.environ.get(THREADS_ENV, "0").strip() or "0"
+    if not raw.isdigit():
+        raise ConfigError(f"{THREADS_ENV}={raw!r}: give a whole number of threads (0 = all CPUs), or unset it")
+    return int(raw)
 
 
 class ImaginationConfig(BaseModel):
@@ -26,7 +40,7 @@ class ImaginationConfig(BaseModel):
     check_every: int = Field(20, ge=1, description="steps between settle checks")
     iterations: int = Field(20, ge=1, description="constraint solver iterations")
     ls_iterations: int = Field(10, ge=1, description="solver line-search iterations")
-    nthread: int = Field(0, ge=0, description="native threads; 0 = all CPUs")
+    nthread: int = Field(default_factory=_env_threads, ge=0, description="native threads; 0 = all CPUs")
     max_hull_vertices: int = Field(32, ge=4, description="MuJoCo simplifies each hull to at most this many vertices")
     speculative: bool = Field(
         True, description="speculative contacts (native): fast small droplets do not tunnel through thin bottoms"
