@@ -16,6 +16,15 @@ case in progress:
 * ``summary.json`` is computed over one line per expected case, and ``complete``
   is true when the file holds every expected case exactly once.
 
+Objects are spread over ``--workers`` processes (default: every core), or run as
+Ray tasks with ``--ray [ADDRESS]`` (see :mod:`rail_mj.parallel`; the caches are
+keyed by content, so shared storage in ``RAIL_MJ_CACHE`` serves a cluster). This
+process stays the only writer of ``results.jsonl``. Each case's result is the same
+however the objects were spread. ``--shard i/n`` evaluates every n-th object
+starting with the i-th. ``python -m rail_mj.eval merge OUT... --out OUT`` joins
+the shards' folders into the files that one serial run would have written (the
+timings apart). Each run writes ``OUT/plan.json`` (its settings and cases) first.
+
 Rules (also printed in the report):
 
 * classification is correct when ``functional`` equals the label; a case that
@@ -38,6 +47,7 @@ import sys
 import time
 from collections import Counter, defaultdict
 from collections.abc import Sequence
+from contextlib import ExitStack, closing
 from pathlib import Path
 
 import numpy as np
@@ -47,13 +57,18 @@ from rail_mj.affordances import PAPER_AFFORDANCES
 from rail_mj.cli import EXIT_FAILED, EXIT_OK, report_error
 from rail_mj.dataset import AFFORDANCES, CLASSES, DEFECTS, LabelRecord, generate, normalize_affordance, read_labels
 from rail_mj.errors import ConfigError, DatasetError, RailError
+from rail_mj.parallel import check_executor, cpu_count, object_task, plan_workers, run_tasks
 from rail_mj.pipeline import ObjectInput, Pipeline, RunConfig
 from rail_mj.results import AffordanceResult, PoseInfo
 from rail_mj.runfiles import atomic_write_text, folder_lock
 
-__all__ = ["POSE_TOLERANCE_DEG", "EvalConfig", "run_eval", "summarize", "main"]
+__all__ = [
+    "POSE_TOLERANCE_DEG", "PLAN_FILE", "EvalConfig", "run_eval", "merge_runs", "parse_shard", "summarize", "main",
+]
 
 POSE_TOLERANCE_DEG = 20.0
+#: a run's settings and cases, written before any case runs: what ``merge`` joins shards by
+PLAN_FILE = "plan.json"
 PER_OBJECT_STAGES = ("load", "stable_poses")
 
 
@@ -283,16 +298,43 @@ def _dataset(cfg: EvalConfig, out: Path, affordances: list[str] | None) -> tuple
     return root, read_labels(root)
 
 
-def run_eval(cfg: EvalConfig, out: Path, *, resume: bool = False, progress: bool = True) -> dict:
+def parse_shard(text: str) -> tuple[int, int]:
+    """``"i/n"`` → ``(i, n)``, with 1 <= i <= n."""
+    i, slash, n = text.partition("/")
+    if not (slash and i.strip().isdigit() and n.strip().isdigit() and 1 <= int(i) <= int(n)):
+        raise ConfigError(f"--shard {text!r}: give i/n with 1 <= i <= n, e.g. 1/4 (the first of four parts)")
+    return int(i), int(n)
+
+
+def run_eval(
+    cfg: EvalConfig,
+    out: Path,
+    *,
+    resume: bool = False,
+    progress: bool = True,
+    workers: int | None = None,
+    executor: str = "local",
+    ray_address: str | None = None,
+    shard: tuple[int, int] | None = None,
+) -> dict:
     """Run (or resume) an evaluation into ``out``; returns the summary.
 
+    ``workers``, ``executor`` and ``ray_address`` say where the objects run (:func:`rail_mj.parallel.run_tasks`;
+    ``workers=None``: every core). ``shard=(i, n)`` takes every n-th labelled object from the i-th (1-based).
     Raises :class:`~rail_mj.errors.FolderInUseError` when another live run holds ``out``.
     """
+    check_executor(executor, ray_address, workers)  # before any work
+    if shard is not None:
+        parse_shard(f"{shard[0]}/{shard[1]}")
     with folder_lock(out, advice="wait for it to end, or choose another --out"):
-        return _run_locked(cfg, out, resume=resume, progress=progress)
+        return _run_locked(cfg, out, resume=resume, progress=progress, workers=workers, executor=executor,
+                           ray_address=ray_address, shard=shard)
 
 
-def _run_locked(cfg: EvalConfig, out: Path, *, resume: bool, progress: bool) -> dict:
+def _run_locked(
+    cfg: EvalConfig, out: Path, *, resume: bool, progress: bool, workers: int | None, executor: str,
+    ray_address: str | None, shard: tuple[int, int] | None,
+) -> dict:
     for stale in out.glob(".*.tmp"):  # a killed run's unfinished atomic writes; no other run is here
         stale.unlink()
     results_path = out / "results.jsonl"
@@ -308,13 +350,34 @@ def _run_locked(cfg: EvalConfig, out: Path, *, resume: bool, progress: bool) -> 
         missing = [a for a in affordances if a not in r.affordances]
         if missing:
             raise ConfigError(f"{r.mesh} has no label for {missing}; labelled: {sorted(r.affordances)}")
+    all_keys = [f"{r.mesh}::{a}" for r in records for a in affordances]
+    if shard is not None:
+        records = records[shard[0] - 1 :: shard[1]]
     expected = [f"{r.mesh}::{a}" for r in records for a in affordances]
     done = _tidy_results(results_path)
     pending = [(r, [a for a in affordances if f"{r.mesh}::{a}" not in done]) for r in records]
     pending = [(r, affs) for r, affs in pending if affs]
     total = sum(len(affs) for _, affs in pending)
 
-    pipe = Pipeline(RunConfig(**cfg.model_dump(include=set(RunConfig.model_fields))))
+    run_cfg = RunConfig(**cfg.model_dump(include=set(RunConfig.model_fields)))
+    pipe = Pipeline(run_cfg)
+    config = {**cfg.model_dump(mode="json"), "backend_used": pipe.backend}
+    plan = {"config": config, "shard": list(shard) if shard else None, "dataset_root": str(root.resolve()),
+            "keys": all_keys, "expected": expected}
+    atomic_write_text(out / PLAN_FILE, json.dumps(plan))
+    # the workers get the provider and backend this process resolved, so a node without an API key fails
+    # visibly instead of falling back to another provider
+    task_cfg = run_cfg.model_copy(update={"provider": pipe.provider_name, "backend": pipe.backend})
+    tasks = [
+        object_task(i, ObjectInput(path=root / r.mesh, units=r.units, up=r.up, name=r.mesh), affs, task_cfg)
+        for i, (r, affs) in enumerate(pending)
+    ]
+    if executor == "local":
+        n_workers, threads = plan_workers(workers, len(tasks))
+        execution = {"executor": "local", "workers": n_workers, "threads_per_worker": threads, "cores": cpu_count()}
+    else:
+        execution = {"executor": executor, "address": ray_address, "local_cpus": workers}
+    execution["shard"] = f"{shard[0]}/{shard[1]}" if shard else None
     bar = None
     if progress:
         from tqdm.auto import tqdm
@@ -323,10 +386,14 @@ def _run_locked(cfg: EvalConfig, out: Path, *, resume: bool, progress: bool) -> 
     t0 = time.perf_counter()
     interrupted = False
     try:
-        with results_path.open("a", encoding="utf-8") as fh:
-            for record, affs in pending:
-                item = ObjectInput(path=root / record.mesh, units=record.units, up=record.up, name=record.mesh)
-                for a, result in zip(affs, pipe.classify_object(item, affs)):
+        with ExitStack() as stack:
+            fh = stack.enter_context(results_path.open("a", encoding="utf-8"))
+            stream = stack.enter_context(
+                closing(run_tasks(tasks, workers=workers, executor=executor, ray_address=ray_address))
+            )
+            for task, results in stream:
+                record = pending[task.index][0]
+                for a, result in zip(task.affordances, results):
                     fh.write(json.dumps(_line(record, a, result)) + "\n")
                     fh.flush()
                     os.fsync(fh.fileno())  # a finished case survives a kill or a power cut
@@ -343,10 +410,11 @@ def _run_locked(cfg: EvalConfig, out: Path, *, resume: bool, progress: bool) -> 
     for ln in found:
         first.setdefault(ln["key"], ln)
     lines = [first[k] for k in expected if k in first]
-    summary = summarize(lines, config={**cfg.model_dump(mode="json"), "backend_used": pipe.backend})
+    summary = summarize(lines, config=config)
     summary["n_expected"] = len(expected)
     summary["wall_s_this_run"] = time.perf_counter() - t0  # a wall time, not a stage: kept out of "timing"
     summary["complete"] = not interrupted and all(counts[k] == 1 for k in expected)
+    summary["execution"] = execution
     atomic_write_text(out / "summary.json", json.dumps(summary, indent=2))
     write_report(out, summary, lines, root, render=cfg.render and not interrupted)
     if interrupted:
@@ -390,6 +458,87 @@ def write_report(out: Path, summary: dict, lines: Sequence[dict], root: Path, *,
     atomic_write_text(out / "report.md", "".join(parts))
 
 
+def _read_plan(folder: Path) -> dict:
+    path = folder / PLAN_FILE
+    try:
+        plan = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise ConfigError(f"{folder} holds no readable {PLAN_FILE} ({exc}); give folders that "
+                          "`python -m rail_mj.eval --out` wrote") from None
+    if not isinstance(plan, dict) or not {"config", "shard", "keys", "expected", "dataset_root"} <= set(plan):
+        raise ConfigError(f"{path} is not a run plan (it lacks config, shard, keys, expected or dataset_root); "
+                          "give folders that `python -m rail_mj.eval --out` wrote")
+    return plan
+
+
+def merge_runs(inputs: Sequence[Path], out: Path, *, render: bool = True) -> dict:
+    """Join runs of one evaluation (its ``--shard`` parts) into ``out`` and return the summary.
+
+    ``out`` gets ``results.jsonl`` in the order of one serial run, ``summary.json``, ``report.md`` and a
+    ``plan.json``. Every case except the timings is the same as in that serial run. ``complete`` is true
+    when every shard is there and each holds each of its cases exactly once. The runs must have used the
+    same settings and labels. Each input is locked while it is read, so a run still writing one is refused.
+    """
+    inputs = [Path(p) for p in inputs]
+    out = Path(out)
+    if not inputs:
+        raise ConfigError("merge: give the output folders of the runs to join, e.g. merge runs/s1 runs/s2 "
+                          "--out runs/all")
+    repeated = sorted({str(p) for p in inputs if inputs.count(p) > 1})
+    if repeated:
+        raise ConfigError(f"merge: {', '.join(repeated)} given more than once; give each run once")
+    if any(p.resolve() == out.resolve() for p in inputs):
+        raise ConfigError(f"merge: --out {out} is also an input; write the merge to a folder of its own")
+    plans = [_read_plan(p) for p in inputs]
+    if (out / "results.jsonl").exists() and "merged_from" not in _read_plan(out):
+        raise ConfigError(f"merge: {out} holds a run's results; merge into an empty folder or a previous merge's")
+    ref, ref_plan = inputs[0], plans[0]
+    for p, plan in zip(inputs[1:], plans[1:]):
+        differ = sorted(k for k in ref_plan["config"].keys() | plan["config"].keys()
+                        if ref_plan["config"].get(k) != plan["config"].get(k))
+        if differ:
+            raise ConfigError(f"merge: {p} was run with other settings than {ref} ({', '.join(differ)}); "
+                              "merge the shards of one command")
+        if plan["keys"] != ref_plan["keys"]:
+            raise ConfigError(f"merge: {p} evaluates other cases than {ref} (other labels or --affordances); "
+                              "merge the shards of one command")
+    shards = [tuple(plan["shard"]) if plan["shard"] else (1, 1) for plan in plans]
+    if len({n for _, n in shards}) > 1:
+        raise ConfigError("merge: the runs split the labels differently ("
+                          + ", ".join(f"{p}: {i}/{n}" for p, (i, n) in zip(inputs, shards)) + "); give shards of one n")
+    dupes = sorted({f"{i}/{n}" for i, n in shards if shards.count((i, n)) > 1})
+    if dupes:
+        raise ConfigError(f"merge: shard {', '.join(dupes)} given more than once; give each shard's folder once")
+    n = shards[0][1]
+    missing = [f"{i}/{n}" for i in range(1, n + 1) if (i, n) not in shards]
+    with ExitStack() as stack:
+        stack.enter_context(folder_lock(out, advice="wait for it to end, or choose another --out"))
+        for p in inputs:
+            stack.enter_context(folder_lock(p, advice="wait for that run to end, then merge"))
+        by_key: dict[str, dict] = {}
+        whole = True
+        for p, plan in zip(inputs, plans):
+            found = _read_lines(p / "results.jsonl")
+            counts = Counter(ln["key"] for ln in found)
+            first: dict[str, dict] = {}
+            for ln in found:
+                first.setdefault(ln["key"], ln)
+            by_key.update((k, first[k]) for k in plan["expected"] if k in first)
+            whole = whole and all(counts[k] == 1 for k in plan["expected"])
+        lines = [by_key[k] for k in ref_plan["keys"] if k in by_key]
+        summary = summarize(lines, config=ref_plan["config"])
+        summary["n_expected"] = len(ref_plan["keys"])
+        summary["complete"] = whole and not missing and len(lines) == len(ref_plan["keys"])
+        summary["merged_from"] = [str(p) for p in inputs]
+        summary["missing_shards"] = missing
+        atomic_write_text(out / "results.jsonl", "".join(json.dumps(ln) + "\n" for ln in lines))
+        merged_plan = {**ref_plan, "shard": None, "expected": ref_plan["keys"], "merged_from": summary["merged_from"]}
+        atomic_write_text(out / PLAN_FILE, json.dumps(merged_plan))
+        atomic_write_text(out / "summary.json", json.dumps(summary, indent=2))
+        write_report(out, summary, lines, Path(ref_plan["dataset_root"]), render=render)
+    return summary
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m rail_mj.eval", description=__doc__.split("\n\n")[0])
     p.add_argument("--dataset", default="procedural", help="'procedural' or a folder with labels.jsonl")
@@ -404,6 +553,25 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--drops", type=int, default=64, help="drops for stable-pose imagination")
     p.add_argument("--no-render", action="store_true", help="skip the pictures in report.md")
     p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--workers", type=int, default=None,
+                   help=f"worker processes, one object each at a time (default: every core, {cpu_count()} here; "
+                        "1 runs in this process); with --ray and no ADDRESS, the local Ray's CPUs")
+    p.add_argument("--ray", nargs="?", const="", default=None, metavar="ADDRESS",
+                   help="run the objects as Ray tasks on the cluster at ADDRESS, or on a local Ray without one "
+                        "(pip install -e '.[cluster]')")
+    p.add_argument("--shard", help="i/n: evaluate every n-th labelled object from the i-th (1-based); "
+                                   "join the parts with `python -m rail_mj.eval merge`")
+    return p
+
+
+def _merge_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="python -m rail_mj.eval merge",
+        description="Join the output folders of one evaluation's --shard runs into the files one serial run writes.",
+    )
+    p.add_argument("inputs", nargs="+", type=Path, metavar="OUT", help="output folders of the shard runs")
+    p.add_argument("--out", type=Path, required=True, help="folder for the merged results (empty, or a merge's)")
+    p.add_argument("--no-render", action="store_true", help="skip the pictures in report.md")
     return p
 
 
@@ -432,29 +600,54 @@ def _config(args: argparse.Namespace) -> EvalConfig:
         raise ConfigError(f"bad option value: {problems}") from None
 
 
+def _print_outcome(summary: dict, out: Path) -> int:
+    print(_tables(summary))
+    print("\n" + _timing_table(summary))
+    print(f"\nwrote {out / 'results.jsonl'}, {out / 'summary.json'}, {out / 'report.md'}")
+    for key, message in summary["errors"].items():
+        print(f"error: {key}: {message}", file=sys.stderr)
+    if summary.get("missing_shards"):
+        print(f"error: shards {', '.join(summary['missing_shards'])} were not given; merge again with them",
+              file=sys.stderr)
+    if not summary["complete"]:
+        print(
+            f"error: {out / 'results.jsonl'} does not hold each of the {summary['n_expected']} expected "
+            "cases exactly once; "
+            + ("rerun the shard runs with --resume, then merge again" if "merged_from" in summary
+               else "rerun with --resume"),
+            file=sys.stderr,
+        )
+    return EXIT_OK if summary["complete"] and not summary["errors"] else EXIT_FAILED
+
+
+def _merge_main(argv: Sequence[str]) -> int:
+    args = _merge_parser().parse_args(argv)
+    try:
+        summary = merge_runs(args.inputs, args.out, render=not args.no_render)
+    except RailError as exc:
+        return report_error(exc)
+    return _print_outcome(summary, args.out)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """CLI entry point; exit status by the rule in :mod:`rail_mj.cli`."""
+    """CLI entry point; exit status by the rule in :mod:`rail_mj.cli`. ``merge ...`` joins shard runs."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv[:1] == ["merge"]:
+        return _merge_main(argv[1:])
     args = _parser().parse_args(argv)
     try:
-        summary = run_eval(_config(args), args.out, resume=args.resume, progress=not args.no_progress)
+        summary = run_eval(
+            _config(args), args.out, resume=args.resume, progress=not args.no_progress, workers=args.workers,
+            executor="local" if args.ray is None else "ray", ray_address=args.ray or None,
+            shard=None if args.shard is None else parse_shard(args.shard),
+        )
     except KeyboardInterrupt as exc:
         code = report_error(exc)
         print(f"finished lines are in {args.out / 'results.jsonl'}; rerun with --resume", file=sys.stderr)
         return code
     except RailError as exc:
         return report_error(exc)
-    print(_tables(summary))
-    print("\n" + _timing_table(summary))
-    print(f"\nwrote {args.out / 'results.jsonl'}, {args.out / 'summary.json'}, {args.out / 'report.md'}")
-    for key, message in summary["errors"].items():
-        print(f"error: {key}: {message}", file=sys.stderr)
-    if not summary["complete"]:
-        print(
-            f"error: {args.out / 'results.jsonl'} does not hold each of the {summary['n_expected']} expected "
-            "cases exactly once; rerun with --resume",
-            file=sys.stderr,
-        )
-    return EXIT_OK if summary["complete"] and not summary["errors"] else EXIT_FAILED
+    return _print_outcome(summary, args.out)
 
 
 if __name__ == "__main__":

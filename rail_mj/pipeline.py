@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Iterable, Sequence
+from contextlib import closing
 from pathlib import Path
 from typing import Literal
 
@@ -272,33 +273,49 @@ def classify(
     backend: str = "auto",
     progress: bool | ProgressCallback = True,
     config: RunConfig | None = None,
+    workers: int | None = None,
+    executor: str = "local",
+    ray_address: str | None = None,
 ) -> list[AffordanceResult]:
-    """Classify every object for every requested affordance.
+    """Classify every object for every requested affordance; results object-major, in input order.
 
     ``progress`` is ``True`` for a progress bar, ``False`` for none, or a callback
-    ``(done, total, result)`` called after each (object, affordance).
+    ``(done, total, result)`` called after each (object, affordance), as objects finish.
     Names no provider can imagine are refused (ConfigError, UnknownAffordanceError
     listing the known names) before any provider is set up or any mesh is read.
+
+    Objects are spread over ``workers`` processes (None: every core; 1: this process), or run as
+    Ray tasks with ``executor="ray"`` on the cluster at ``ray_address`` (None: a local Ray); see
+    :mod:`rail_mj.parallel`. A worker that crashes on an object gives error results for it. Each
+    result is the same however the objects were spread.
     """
+    from rail_mj.parallel import object_task, run_tasks
+
     _check_names(affordances)
     cfg = (config or RunConfig()).model_copy(update={"provider": provider, "backend": backend})
     pipe = Pipeline(cfg)
     pipe.check_affordances(affordances)
-    items = list(objects)
-    total = len(items) * len(affordances)
+    task_cfg = cfg.model_copy(update={"provider": pipe.provider_name, "backend": pipe.backend})
+    tasks = [object_task(i, item, affordances, task_cfg) for i, item in enumerate(objects)]
+    total = len(tasks) * len(affordances)
     bar = None
     if progress is True:
         from tqdm.auto import tqdm
 
         bar = tqdm(total=total, unit="case", desc="rail_mj")
-    results: list[AffordanceResult] = []
-    for item in items:
-        for r in pipe.classify_object(item, affordances):
-            results.append(r)
-            if bar is not None:
-                bar.update(1)
-            elif callable(progress):
-                progress(len(results), total, r)
-    if bar is not None:
-        bar.close()
-    return results
+    per_object: list[list[AffordanceResult]] = [[] for _ in tasks]
+    done = 0
+    try:
+        with closing(run_tasks(tasks, workers=workers, executor=executor, ray_address=ray_address)) as stream:
+            for task, results in stream:
+                per_object[task.index] = results
+                for r in results:
+                    done += 1
+                    if bar is not None:
+                        bar.update(1)
+                    elif callable(progress):
+                        progress(done, total, r)
+    finally:
+        if bar is not None:
+            bar.close()
+    return [r for results in per_object for r in results]
