@@ -245,6 +245,16 @@ def test_run_tasks_checks_its_options():
     assert task.label == "x.obj" and task.affordances == ("cup",)
 
 
+def test_ray_missing_is_a_usage_error_before_any_work(tmp_path, monkeypatch, capsys):
+    import rail_mj.parallel as parallel
+
+    real = parallel.importlib.util.find_spec
+    monkeypatch.setattr(parallel.importlib.util, "find_spec", lambda name: None if name == "ray" else real(name))
+    assert rail_eval.main([*ARGS, "--out", str(tmp_path / "o"), "--ray"]) == 2
+    assert "pip install -e '.[cluster]'" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()  # refused before the dataset or the lock
+
+
 def _start(out: Path, *extra: str) -> subprocess.Popen:
     log = out.parent / f"{out.name}.{time.monotonic_ns()}.log"
     cmd = [sys.executable, "-m", "rail_mj.eval", *ARGS, "--out", str(out), "--workers", "2", *extra]
