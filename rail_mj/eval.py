@@ -49,13 +49,14 @@ from collections import Counter, defaultdict
 from collections.abc import Sequence
 from contextlib import ExitStack, closing
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 from pydantic import Field, ValidationError
 
 from rail_mj.affordances import PAPER_AFFORDANCES
 from rail_mj.cli import EXIT_FAILED, EXIT_OK, report_error
-from rail_mj.dataset import AFFORDANCES, CLASSES, DEFECTS, LabelRecord, generate, normalize_affordance, read_labels
+from rail_mj.dataset import AFFORDANCES, DEFECTS, FAMILIES, LabelRecord, generate, normalize_affordance, read_labels
 from rail_mj.errors import ConfigError, DatasetError, RailError
 from rail_mj.parallel import check_executor, cpu_count, object_task, plan_workers, run_tasks
 from rail_mj.pipeline import ObjectInput, Pipeline, RunConfig
@@ -78,6 +79,7 @@ class EvalConfig(RunConfig):
     dataset: str = "procedural"
     per_class: int = Field(3, ge=1)
     dataset_seed: int = 0
+    family: Literal["core", "world", "all"] = "core"  # procedural class family (rail_mj.dataset.FAMILIES)
     affordances: list[str] | None = None
     classes: list[str] | None = None
     render: bool = True
@@ -278,16 +280,17 @@ def _stale_reason(root: Path, classes: Sequence[str], per_class: int, affordance
 
 def _dataset(cfg: EvalConfig, out: Path, affordances: list[str] | None) -> tuple[Path, list[LabelRecord]]:
     if cfg.dataset == "procedural":
-        classes = list(dict.fromkeys(cfg.classes or CLASSES))
+        classes = list(dict.fromkeys(cfg.classes or FAMILIES[cfg.family]))
         names = affordances or list(PAPER_AFFORDANCES)
-        _check_names(classes, CLASSES, "--classes")
+        _check_names(classes, FAMILIES[cfg.family], "--classes")
         _check_names(names, list(AFFORDANCES), "--affordances")
         root = out / "dataset"
         why = _stale_reason(root, classes, cfg.per_class, names)
         if why is not None:
             if root.exists():  # e.g. left by an older run killed while writing it
                 print(f"rebuilding {root}: {why}", file=sys.stderr)
-            generate(root, classes=classes, per_class=cfg.per_class, seed=cfg.dataset_seed, affordances=names)
+            generate(root, classes=classes, per_class=cfg.per_class, seed=cfg.dataset_seed, affordances=names,
+                     family=cfg.family)
         return root, read_labels(root)
     root = Path(cfg.dataset)
     if not (root / "labels.jsonl").is_file():
@@ -544,7 +547,10 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--dataset", default="procedural", help="'procedural' or a folder with labels.jsonl")
     p.add_argument("--per-class", type=int, default=3, help="objects per class (procedural)")
     p.add_argument("--seed", type=int, default=0, help="dataset seed (procedural)")
-    p.add_argument("--classes", help="comma-separated classes (procedural), default all")
+    p.add_argument("--family", default="core", choices=tuple(FAMILIES),
+                   help="procedural class family: core (default, the published set), world (shapes of real meshes, "
+                   "scan-like corruption mixed in) or all")
+    p.add_argument("--classes", help="comma-separated classes (procedural), default all of the family")
     p.add_argument("--affordances", help="comma-separated requested affordances, default all labelled")
     p.add_argument("--out", type=Path, required=True, help="output folder (one run at a time)")
     p.add_argument("--resume", action="store_true", help="continue an interrupted run in --out")
@@ -586,6 +592,7 @@ def _config(args: argparse.Namespace) -> EvalConfig:
             dataset=args.dataset,
             per_class=args.per_class,
             dataset_seed=args.seed,
+            family=args.family,
             classes=split(args.classes),
             affordances=split(args.affordances),
             provider=args.provider,
