@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from rail_mj.errors import ConfigError, RailError
+from rail_mj.geometry import quat_mul, quat_rotate
 from rail_mj.results import AffordanceResult
 from rail_mj.types import AgentSetup, RailObject, StablePose
 
@@ -170,22 +171,6 @@ def _best_plan(result: AffordanceResult, pose: int) -> int:
 
 
 # ---------------------------------------------------------------- scene
-
-
-def _quat_rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    import mujoco
-
-    out = np.empty(3)
-    mujoco.mju_rotVecQuat(out, np.asarray(v, dtype=np.float64), np.asarray(q, dtype=np.float64))
-    return out
-
-
-def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    import mujoco
-
-    out = np.empty(4)
-    mujoco.mju_mulQuat(out, np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64))
-    return out
 
 
 def _scene(obj: RailObject, fragment: str, state: _State, *, draw_mesh: bool, width: int, height: int):
@@ -469,10 +454,10 @@ def _placement_state(result: AffordanceResult, pose: int, agent_pos: np.ndarray,
     shift, rot = np.asarray(object_move[0], dtype=np.float64), np.asarray(object_move[1], dtype=np.float64)
     origin = origin0 + shift
     return _State(
-        object_pos=origin + _quat_rotate(rot, obj_pos - origin0),
-        object_quat=_quat_mul(rot, obj_quat),
-        agent_pos=origin + np.array([_quat_rotate(rot, p) for p in agent_pos]).reshape(-1, 3),
-        agent_quat=np.array([_quat_mul(rot, q) for q in quats]).reshape(-1, 4),
+        object_pos=origin + quat_rotate(rot, obj_pos - origin0),
+        object_quat=quat_mul(rot, obj_quat),
+        agent_pos=origin + quat_rotate(rot, agent_pos),
+        agent_quat=quat_mul(rot, np.asarray(quats, dtype=np.float64)),
     )
 
 
