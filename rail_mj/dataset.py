@@ -187,7 +187,7 @@ CLASS_SPECS: dict[str, ClassSpec] = {
         _spec("bar_chair", "seat", {"chair", "stool"}, (0.92, 1.16), (0.55, 0.76)),
         _spec("shell_chair", "seat", {"chair", "stool"}, (0.68, 0.9), (0.68, 0.77)),
         _spec("stool", "seat", {"chair", "stool"}, (0.43, 0.5), (0.3, 0.53)),
-        _spec("ottoman", "seat", {"chair", "stool"}, (0.4, 0.46), (0.41, 0.85)),
+        _spec("ottoman", "seat", {"chair", "stool"}, (0.4, 0.46), (0.41, 0.6)),
         _spec("sofa", "seat", {"bench"}, (0.77, 0.9), (1.48, 2.37)),
         _spec("bowl_real", "vessel", {"bowl", "basket"}, (0.056, 0.148), (0.13, 0.28)),
         _spec("saucepan", "vessel", {"bowl", "basket"}, (0.065, 0.165), (0.3, 0.45)),
@@ -308,7 +308,7 @@ CROSS_REASONS: dict[tuple[str, str], str] = {
     "chairs without one).",
     ("stool", "stool"): "true: a backless seat 0.43-0.5 m high and 0.3-0.38 m across on splayed legs.",
     ("stool", "table"): "false: the seat is below the table range and under 0.5 m across.",
-    ("ottoman", "chair"): "true: an upholstered block 0.4-0.46 m high and 0.4-0.58 m across; no backrest needed.",
+    ("ottoman", "chair"): "true: an upholstered round pouf 0.4-0.46 m high and 0.4-0.6 m across; no backrest needed.",
     ("ottoman", "stool"): "true: the sitting box stays on its top.",
     ("ottoman", "table"): "false: 0.4-0.46 m high, below the table range.",
     ("sofa", "bench"): "true: 2-3 seat cushions, a seat 1.0-1.8 m long at 0.41-0.46 m: two people sit side by side.",
@@ -344,7 +344,8 @@ CROSS_REASONS: dict[tuple[str, str], str] = {
     ("plate_real", "plate"): "true: Ø 20-28 cm, 2-3.2 cm tall, a flat well inside a raised rim, on a foot ring.",
     ("plate_real", "tray"): "true: as plate -> tray: a rimmed flat surface of 20-28 cm.",
     ("plate_real", "bowl"): "false: under 3 cm deep inside, a bowl needs 4 cm.",
-    ("cubby", "cupboard"): "true: an enclosure with its own floor, roofed, open at the front; 22-32 cm high inside.",
+    ("cubby", "cupboard"): "true: an enclosure with its own floor, roofed, open at the front; 22-32 cm high "
+    "inside. On a side wall it is one too; its label names the as-built pose.",
     ("cubby", "basket"): "false: as built its opening faces sideways. On its back it would hold dropped items, but that "
     "is another pose, which the ground truth does not count (as a bathtub on its side is no table).",
     ("cubby", "shelf"): "false: its top (0.26-0.34 m) is neither above 1.1 m nor below other boards.",

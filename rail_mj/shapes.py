@@ -524,24 +524,15 @@ def sofa(rng: np.random.Generator) -> Built:
 
 
 def ottoman(rng: np.random.Generator) -> Built:
+    # round: a square block on its side has a level seat at its width, which would make the pose ambiguous
     H = _u(rng, 0.4, 0.46)
     ct = _u(rng, 0.05, 0.08)
     f = _u(rng, 0.03, 0.06) if rng.random() < 0.5 else 0.0
-    if rng.random() < 0.5:
-        R = _u(rng, 0.2, 0.29)
-        parts = [_cylinder(R, f, H - ct + 0.005, sections=48), _cylinder(R + 0.006, H - ct, H, sections=48)]
-        across = 2 * R
-        shape = f"round, Ø {_cm(2 * R)}"
-    else:
-        a = _u(rng, 0.4, 0.58)
-        parts = [_box((-a / 2, -a / 2, f), (a / 2, a / 2, H - ct + 0.005)),
-                 _box((-a / 2 - 0.006, -a / 2 - 0.006, H - ct), (a / 2 + 0.006, a / 2 + 0.006, H))]
-        across = a
-        shape = f"square, {_cm(a)}"
+    R = _u(rng, 0.2, 0.29)
+    parts = [_cylinder(R, f, H - ct + 0.005, sections=48), _cylinder(R + 0.006, H - ct, H, sections=48)]
     if f > 0:
-        k = 0.25 * across if shape.startswith("round") else 0.5 * across - 0.05
-        parts += _feet(k, k, f + 0.01, 0.02)
-    desc = f"upholstered ottoman (block stool), {shape}, {_cm(H)} high, cushion top {_cm(ct)}"
+        parts += _feet(0.5 * R, 0.5 * R, f + 0.01, 0.02)
+    desc = f"upholstered ottoman (round pouf), Ø {_cm(2 * R)}, {_cm(H)} high, cushion top {_cm(ct)}"
     return Built(_union(parts), desc + (", on feet" if f else ""))
 
 
