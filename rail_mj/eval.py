@@ -264,17 +264,37 @@ def _check_names(given: Sequence[str], valid: Sequence[str], option: str) -> Non
         raise ConfigError(f"{option}: unknown {', '.join(map(repr, unknown))}; valid: {', '.join(valid)}")
 
 
-def _stale_reason(root: Path, classes: Sequence[str], per_class: int, affordances: Sequence[str]) -> str | None:
-    """Why ``root`` does not hold the procedural dataset the command asks for; None when it does."""
+#: Written beside a generated procedural dataset: what made it, so a resumed run reuses it only when the
+#: command and the generator code are the same (class counts alone missed another --seed).
+DATASET_SPEC = "dataset_spec.json"
+
+
+def _dataset_spec(cfg: EvalConfig, classes: Sequence[str], affordances: Sequence[str]) -> dict:
+    import hashlib
+
+    from rail_mj import dataset, shapes
+
+    code = hashlib.sha256(Path(dataset.__file__).read_bytes() + Path(shapes.__file__).read_bytes()).hexdigest()
+    return {"family": cfg.family, "classes": list(classes), "per_class": cfg.per_class, "seed": cfg.dataset_seed,
+            "affordances": list(affordances), "generator_sha256": code}
+
+
+def _stale_reason(root: Path, spec: dict) -> str | None:
+    """Why ``root`` does not hold the procedural dataset ``spec`` describes; None when it does."""
     try:
         records = read_labels(root)
     except DatasetError as exc:
         return str(exc)
-    want = Counter({c: per_class for c in classes})
+    try:
+        made = json.loads((root / DATASET_SPEC).read_text())
+    except (OSError, ValueError):
+        return f"it has no readable {DATASET_SPEC} saying how it was made"
+    changed = [k for k in spec if made.get(k) != spec[k]]
+    if changed:
+        return f"it was made with other settings or generator code ({', '.join(changed)})"
+    want = Counter({c: spec["per_class"] for c in spec["classes"]})
     if Counter(r.class_name for r in records) != want:
-        return f"it holds {len(records)} objects, the command asks for {sum(want.values())} ({per_class} per class)"
-    if any(set(r.affordances) != set(affordances) for r in records):
-        return f"its labels are not for exactly {', '.join(affordances)}"
+        return f"it holds {len(records)} objects, the command asks for {sum(want.values())}"
     return None
 
 
@@ -285,12 +305,15 @@ def _dataset(cfg: EvalConfig, out: Path, affordances: list[str] | None) -> tuple
         _check_names(classes, FAMILIES[cfg.family], "--classes")
         _check_names(names, list(AFFORDANCES), "--affordances")
         root = out / "dataset"
-        why = _stale_reason(root, classes, cfg.per_class, names)
+        spec = _dataset_spec(cfg, classes, names)
+        why = _stale_reason(root, spec)
         if why is not None:
             if root.exists():  # e.g. left by an older run killed while writing it
                 print(f"rebuilding {root}: {why}", file=sys.stderr)
+                (root / DATASET_SPEC).unlink(missing_ok=True)
             generate(root, classes=classes, per_class=cfg.per_class, seed=cfg.dataset_seed, affordances=names,
                      family=cfg.family)
+            atomic_write_text(root / DATASET_SPEC, json.dumps(spec, indent=2))
         return root, read_labels(root)
     root = Path(cfg.dataset)
     if not (root / "labels.jsonl").is_file():

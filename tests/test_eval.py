@@ -109,6 +109,21 @@ def test_resume_rebuilds_a_dataset_an_older_run_left_partial(eval_run, tmp_path)
     assert summary["n_cases"] == summary["n_expected"] == 2 and summary["complete"]
 
 
+def test_resumed_dataset_is_rebuilt_for_another_seed_and_reused_for_the_same(tmp_path, capsys):
+    def dataset(seed: int) -> list[str]:
+        cfg = rail_eval.EvalConfig(classes=["cup", "solid_cylinder"], per_class=1, dataset_seed=seed,
+                                   affordances=["cup"], provider="offline", render=False)
+        root, _ = rail_eval._dataset(cfg, tmp_path, ["cup"])
+        return [p.read_bytes().hex() for p in sorted((root / "meshes").iterdir())]
+
+    first = dataset(3)
+    assert dataset(3) == first and "rebuilding" not in capsys.readouterr().err
+    other = dataset(4)  # class counts match, so only the recorded spec can tell the seeds apart
+    assert other != first and "seed" in capsys.readouterr().err
+    (tmp_path / "dataset" / rail_eval.DATASET_SPEC).unlink()  # a dataset from before specs were written
+    assert dataset(4) == other and "dataset_spec.json" in capsys.readouterr().err
+
+
 def test_cli_second_run_on_one_out_names_the_holder(tmp_path, capsys):
     out = tmp_path / "out"
     with folder_lock(out, advice="wait"):
