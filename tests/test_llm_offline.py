@@ -280,12 +280,44 @@ def test_a_container_that_leaks_under_the_centre_pour_is_rejected():
         for failed in (leaked, missed)]
     assert verdicts[0].best_pose is None and "beneath" in verdicts[0].poses[0].reason
     assert verdicts[1].best_pose == 0  # droplets that missed the opening are no evidence of a leak
-    # droplets spilt past a cup's handle end on the ground beneath its box: no evidence either
-    spilt = _candidate("above_front", [0.024, 0.0, 0.1], score=-1.0, frac_through_object=0.1)
+    # droplets spilt past a cup's handle end on the ground beneath its box, touching nothing: no evidence either
+    spilt = _candidate("above_front", [0.024, 0.0, 0.1], score=-1.0, frac_through_object=0.1,
+                       frac_touching_object=0.0, frac_on_ground=0.3)
     cup = analyze_functional_poses(FunctionalPoseRequest(affordance="cup", expected_outcome="held", poses=[
         PoseCandidates(pose_index=0, probability=1.0, half_extents=[0.06, 0.042, 0.05], candidates=[held],
                        failed=[spilt])]))
     assert cup.best_pose == 0
+
+
+def _leak_verdict(affordance, h, held, failed):
+    return analyze_functional_poses(FunctionalPoseRequest(affordance=affordance, expected_outcome="held", poses=[
+        PoseCandidates(pose_index=0, probability=1.0, half_extents=h, candidates=held, failed=failed)]))
+
+
+def test_a_side_pour_that_leaks_through_slats_is_rejected():
+    """A slatted crate: the centre pours land on a board, the side pours land on slats and leak between them."""
+    h = [0.149, 0.082, 0.041]
+    held = [_candidate(p, [0.0, 0.0, 0.08], score=0.5, frac_inside_bbox=1.0, frac_touching_object=0.33)
+            for p in ("above", "above_front", "above_back")]
+    leaked = _candidate("above_left", [0.0, 0.045, 0.08], score=-1.0, frac_inside_bbox=0.89, frac_on_ground=0.3,
+                        frac_touching_object=0.81, frac_through_object=0.15)
+    verdict = _leak_verdict("bowl", h, held, [leaked])
+    assert verdict.best_pose is None and "above_left" in verdict.poses[0].reason
+
+
+def test_a_centre_pour_over_a_long_handle_is_no_leak():
+    """A saucepan's box centre lies over its handle: droplets poured there fall past the pan to the ground beneath
+    the box; the pour offset over the pan holds them all."""
+    h = [0.17, 0.078, 0.054]
+    held = [_candidate("above_front", [0.05, 0.0, 0.1], score=0.5, frac_inside_bbox=1.0, frac_touching_object=1.0)]
+    past = _candidate("above", [0.0, 0.0, 0.1], score=-1.0, frac_inside_bbox=0.81, frac_on_ground=0.85,
+                      frac_touching_object=0.15, frac_through_object=0.41)
+    piled = _candidate("above_back", [-0.05, 0.0, 0.1], score=-1.0, frac_inside_bbox=1.0, frac_on_ground=0.33,
+                       frac_touching_object=0.0, frac_through_object=0.33)
+    # poured at the pan's edge by the handle: droplets rest on the rim, spill beside the body, one by the handle
+    rim = _candidate("above_left", [0.0, 0.03, 0.1], score=-1.0, frac_inside_bbox=0.7, frac_on_ground=0.41,
+                     frac_touching_object=0.59, frac_through_object=0.04)
+    assert _leak_verdict("basket", h, held, [past, piled, rim]).best_pose == 0
 
 
 def test_plate_pose_with_the_rim_around_the_food_wins():

@@ -32,6 +32,9 @@ BENEATH_MIDDLE = 0.25
 #: axis by a fraction of the half size, so the grid must move by about that much, not onto the rim.
 _OFFSET = 0.3
 
+#: Fraction of droplets resting on the object that shows a pour landed on it (a leak test's evidence).
+_LANDED = 0.5
+
 _BODY = '''    """Fraction of droplets inside the box below the rim and off the ground, minus {min_frac}; -1 if tipped,
     if a droplet leaked through to the ground under the object, or if the pose is outside the {name} size
     envelope ({envelope})."""
@@ -47,6 +50,19 @@ _BODY = '''    """Fraction of droplets inside the box below the rim and off the 
     ok = (object_tilt < {max_tilt:.4f}) & ~leaked{object_cond}
     return np.where(ok, frac - {min_frac}, -1.0)
 '''
+
+
+def _leaked(c: CandidateInteraction) -> bool:
+    """Whether a pour is evidence of a leak: it landed in the object, and most of its droplets that reached the
+    ground lie beneath the object's middle, so they came through it rather than over the rim.
+
+    Landed: most droplets rest on the object, or, poured at the centre, most stayed off the ground (they plug a
+    hole in the base). Droplets that fell past a handle (a saucepan's box centre lies over its handle) reach the
+    ground or pile there touching nothing; one that spills over the rim by a handle lands beside the body.
+    """
+    s = c.summary
+    landed = s.frac_touching_object >= _LANDED or (c.plan == "above" and s.frac_on_ground < 0.5)
+    return landed and s.frac_through_object > 0 and s.frac_through_object >= 0.5 * s.frac_on_ground
 
 
 class Container(Kind):
@@ -108,8 +124,9 @@ class Container(Kind):
     def accept_pose(
         self, aff: Affordance, accepted: list[CandidateInteraction], tried: list[CandidateInteraction]
     ) -> tuple[list[CandidateInteraction], str]:
-        # only the centre pour is evidence: droplets spilt past a cup's handle also end on the ground beneath its box
-        if any(c.plan == "above" and c.summary.frac_through_object > 0 for c in tried):
-            return [], (f"droplets poured at the centre came through the object to the ground beneath it; "
-                        f"a {aff.name} that leaks does not hold")
+        # whichever pour it was: a slatted crate leaks from its side pours too
+        leaks = [c.plan for c in tried if _leaked(c)]
+        if leaks:
+            return [], (f"droplets poured into the object ({', '.join(leaks)}) came through it to the ground "
+                        f"beneath; a {aff.name} that leaks does not hold")
         return accepted, ""
