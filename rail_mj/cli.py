@@ -16,10 +16,13 @@ from __future__ import annotations
 
 import json
 import sys
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import Any
 
 from rail_mj.errors import ConfigError, RailError, UnknownAffordanceError
 
-__all__ = ["EXIT_OK", "EXIT_FAILED", "EXIT_USAGE", "EXIT_INTERRUPTED", "exit_code", "report_error"]
+__all__ = ["EXIT_OK", "EXIT_FAILED", "EXIT_USAGE", "EXIT_INTERRUPTED", "exit_code", "report_error", "object_bar"]
 
 EXIT_OK = 0
 EXIT_FAILED = 1
@@ -46,3 +49,22 @@ def report_error(exc: RailError | KeyboardInterrupt, *, json_out: bool = False) 
     if json_out:
         print(json.dumps({"error": message, "type": type(exc).__name__}))
     return exit_code(exc)
+
+
+@contextmanager
+def object_bar() -> Iterator[Callable[[int, int, Any], None]]:
+    """A progress bar over objects: yields the ``progress(done, total, record)`` callback that the dataset
+    builders take (``record.mesh`` is shown), and closes the bar however the block ends."""
+    from tqdm import tqdm
+
+    bar = tqdm(unit="obj", disable=None)
+
+    def tick(done: int, total: int, record: Any) -> None:
+        bar.total = total
+        bar.set_postfix_str(record.mesh, refresh=False)
+        bar.update(1)
+
+    try:
+        yield tick
+    finally:
+        bar.close()

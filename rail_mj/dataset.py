@@ -797,7 +797,7 @@ def _split(text: str | None) -> list[str] | None:
 def main(argv: Sequence[str] | None = None) -> int:
     """CLI entry point; returns the exit status (the rule of rail_mj.cli: 0 written, 1 generation
     failed, 2 bad command line and nothing written, 130 interrupted; errors as ``error:`` on stderr)."""
-    from rail_mj.cli import EXIT_OK, report_error
+    from rail_mj.cli import EXIT_OK, object_bar, report_error
     from rail_mj.errors import ConfigError
 
     argv = list(sys.argv[1:] if argv is None else argv)
@@ -832,26 +832,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         _resolve_names(args.affordances, list(AFFORDANCES), "affordances", normalize_affordance)
     except DatasetError as e:
         return report_error(ConfigError(str(e)))
-    from tqdm import tqdm
-
-    bar = tqdm(unit="obj", disable=None)
-
-    def tick(done: int, total: int, record: LabelRecord) -> None:
-        bar.total = total
-        bar.set_postfix_str(record.mesh, refresh=False)
-        bar.update(1)
-
     try:
-        records = generate(args.out, classes=_split(args.classes), per_class=args.per_class, seed=args.seed,
-                           affordances=_split(args.affordances), family=args.family, corrupt=args.corrupt,
-                           progress=tick)
+        with object_bar() as tick:
+            records = generate(args.out, classes=_split(args.classes), per_class=args.per_class, seed=args.seed,
+                               affordances=_split(args.affordances), family=args.family, corrupt=args.corrupt,
+                               progress=tick)
     except (DatasetError, KeyboardInterrupt) as e:
-        bar.close()
         return report_error(e)
     except OSError as e:
-        bar.close()
         return report_error(DatasetError(f"cannot write the dataset to {args.out}: {e.strerror or e}"))
-    bar.close()
     print(f"wrote {len(records)} objects to {args.out}")
     return EXIT_OK
 

@@ -566,7 +566,7 @@ def manifest_markdown() -> str:
 def main(argv: Sequence[str] | None = None) -> int:
     """``python -m rail_mj.dataset real``: exit status by the rule of rail_mj.cli (0 written, 1 a fetch or
     check failed, 2 bad command line, 130 interrupted)."""
-    from rail_mj.cli import EXIT_OK, report_error
+    from rail_mj.cli import EXIT_OK, object_bar, report_error
     from rail_mj.errors import ConfigError
 
     parser = argparse.ArgumentParser(prog="python -m rail_mj.dataset real",
@@ -586,24 +586,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         _select(objects)
     except DatasetError as exc:
         return report_error(ConfigError(str(exc)))
-    from tqdm import tqdm
-
-    bar = tqdm(unit="obj", disable=None)
-
-    def tick(done: int, total: int, record: LabelRecord) -> None:
-        bar.total = total
-        bar.set_postfix_str(record.mesh, refresh=False)
-        bar.update(1)
-
     try:
-        records = build(args.out, objects=objects, wheels_dir=args.wheels, progress=tick)
+        with object_bar() as tick:
+            records = build(args.out, objects=objects, wheels_dir=args.wheels, progress=tick)
     except (DatasetError, KeyboardInterrupt) as exc:
-        bar.close()
         return report_error(exc)
     except OSError as exc:
-        bar.close()
         return report_error(DatasetError(f"cannot write the real-mesh set to {args.out}: {exc.strerror or exc}"))
-    bar.close()
     positives = sum(any(r.affordances.values()) for r in records)
     print(f"wrote {len(records)} objects ({positives} afford at least one of the eight) to {args.out}")
     return EXIT_OK
