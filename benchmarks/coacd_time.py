@@ -1,17 +1,36 @@
-"""Time one CoACD decomposition (default DecompositionConfig) of generated household shapes.
+"""Cold load time and hull quality of meshes: read, repair, decimate, CoACD, quality guard.
 
-Run: ``python benchmarks/coacd_time.py`` (uses a fresh temporary cache, so
-CoACD really runs). Prints wall and CPU seconds, hull count, max hull
-vertices, total hull volume over mesh volume, and for shapes with a cavity the
-fraction of cavity sample points some hull covers (should be ~0: hulls that
-fill a cup's inside make it hold nothing).
+Run on a folder of meshes (metres, z up), on a labels file (``labels.jsonl`` or its folder: the
+real-mesh development set, ``python -m rail_mj.dataset real --out DIR``; units and up axis come
+from the labels), or, with neither, on four generated household shapes with known cavities::
+
+    python benchmarks/coacd_time.py --labels DIR [--jobs 2] [--limit N]
+    python benchmarks/coacd_time.py --dir DIR
+    python benchmarks/coacd_time.py
+
+Every run uses a fresh temporary cache, so CoACD really runs. Per mesh it prints the load wall
+time (as ``load_object``), the CoACD part of it, faces in the file, after repair (decimation) and
+as CoACD saw them, the hull count, and the quality of the hulls (``rail_mj.objects.hull_quality``):
+the union volume over the mesh volume (closed meshes), the probe-ray excess (hulls standing in
+front of the mesh: a filled cavity) and missing (mesh no hull covers); for the generated shapes
+also the fraction of sample points inside the cavity that some hull covers (should be ~0). Then
+the median and worst load, and the load average, since timing on a shared machine is noisy.
 """
 
 from __future__ import annotations
 
+import argparse
+import json
 import os
+import resource
+import statistics
+import subprocess
+import sys
 import tempfile
 import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import asdict, dataclass
+from pathlib import Path
 
 import numpy as np
 import trimesh
@@ -67,38 +86,192 @@ def cavity_samples(radius: float, z_lo: float, z_hi: float, n: int = 500) -> np.
     return np.column_stack([r * np.cos(theta), r * np.sin(theta), rng.uniform(z_lo, z_hi, n)])
 
 
-def main() -> None:
-    os.environ["RAIL_MJ_CACHE"] = tempfile.mkdtemp(prefix="rail_mj_coacd_bench_")
-    from rail_mj.objects import DecompositionConfig, decompose, repair_mesh
+@dataclass(frozen=True)
+class Item:
+    name: str
+    path: Path | None = None  # a mesh file, or None for a generated shape
+    units: float = 1.0
+    up: str = "z"
 
-    config = DecompositionConfig()
-    print(f"config: {config}")
-    print(
-        f"{'shape':8s} {'faces':>6s} {'wall_s':>7s} {'cpu_s':>7s} {'hulls':>5s} {'max_v':>5s} "
-        f"{'hull_vol/mesh_vol':>17s} {'cavity_covered':>14s}"
-    )
-    shapes = (
-        ("cup", cup(), cavity_samples(0.034, 0.01, 0.095)),
-        ("bowl", bowl(), cavity_samples(0.05, 0.03, 0.075)),
-        ("open_cup", open_cup(), cavity_samples(0.034, 0.01, 0.095)),
-        ("stool", stool(), None),
-    )
-    for name, mesh, cavity in shapes:
-        mesh = repair_mesh(mesh, label=name)
-        wall, cpu = time.perf_counter(), time.process_time()
-        hulls = decompose(mesh, config)
-        wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
-        hull_meshes = [trimesh.convex.convex_hull(h) for h in hulls]
-        hull_volume = sum(h.volume for h in hull_meshes)
-        covered = "-"
-        if cavity is not None:
-            covered = f"{np.any([h.contains(cavity) for h in hull_meshes], axis=0).mean():.3f}"
-        print(
-            f"{name:8s} {len(mesh.faces):6d} {wall:7.1f} {cpu:7.1f} {len(hulls):5d} "
-            f"{max(len(h) for h in hulls):5d} {hull_volume / abs(mesh.volume):17.2f} {covered:>14s}",
-            flush=True,
+
+# Generated shapes and the cavity each should keep open.
+GENERATED = {
+    "cup": (cup, (0.034, 0.01, 0.095)),
+    "bowl": (bowl, (0.05, 0.03, 0.075)),
+    "open_cup": (open_cup, (0.034, 0.01, 0.095)),
+    "stool": (stool, None),
+}
+
+
+def items_from(args: argparse.Namespace) -> list[Item]:
+    from rail_mj.dataset import read_labels
+    from rail_mj.objects import SUPPORTED_EXTENSIONS
+
+    if args.labels:
+        root = args.labels if args.labels.is_dir() else args.labels.parent
+        return [
+            Item(Path(r.mesh).stem, r.mesh_path(root), r.units, r.up) for r in read_labels(args.labels)
+        ]
+    if args.dir:
+        files = sorted(p for p in args.dir.iterdir() if p.suffix.lower() in SUPPORTED_EXTENSIONS)
+        return [Item(p.stem, p) for p in files]
+    return [Item(name) for name in GENERATED]
+
+
+def measure(item: Item) -> dict:
+    """Load one object cold (the cache is empty) and measure its hulls."""
+    import rail_mj.objects as objects
+
+    seen: dict[str, float] = {"coacd_s": 0.0, "coacd_faces": 0}
+    run_coacd = objects._run_coacd
+
+    def timed_coacd(mesh, config):
+        t = time.perf_counter()
+        try:
+            return run_coacd(mesh, config)
+        finally:
+            seen["coacd_s"] += time.perf_counter() - t
+            seen["coacd_faces"] = len(mesh.faces)
+
+    objects._run_coacd = timed_coacd
+    t, cpu = time.perf_counter(), time.process_time()
+    if item.path is None:
+        raw = GENERATED[item.name][0]()
+        faces_in = len(raw.faces)
+        obj = objects.object_from_mesh(raw, name=item.name)
+    else:
+        faces_in = len(trimesh.load(item.path, force="mesh", process=False).faces)
+        t, cpu = time.perf_counter(), time.process_time()
+        obj = objects.load_object(item.path, units=item.units, up=item.up, name=item.name)  # type: ignore[arg-type]
+    load_s, cpu_s = time.perf_counter() - t, time.process_time() - cpu
+    objects._run_coacd = run_coacd
+    t = time.perf_counter()
+    quality = objects.hull_quality(obj.mesh, obj.hulls)
+    quality_s = time.perf_counter() - t
+    covered = None
+    if item.path is None and GENERATED[item.name][1] is not None:
+        cavity = cavity_samples(*GENERATED[item.name][1])
+        covered = float(np.any([trimesh.convex.convex_hull(h).contains(cavity) for h in obj.hulls], axis=0).mean())
+    return {
+        "name": item.name,
+        "faces_in": faces_in,
+        "faces": len(obj.mesh.faces),
+        "coacd_faces": int(seen["coacd_faces"]),
+        "closed": bool(obj.mesh.is_volume),
+        "extent": float(np.ptp(obj.mesh.bounds, axis=0).max()),
+        "load_s": load_s,
+        "cpu_s": cpu_s,
+        "coacd_s": seen["coacd_s"],
+        "quality_s": quality_s,
+        "hulls": quality.n_hulls,
+        "volume_ratio": quality.volume_ratio,
+        "excess": quality.excess,
+        "missing": quality.missing,
+        "covered": covered,
+        "notes": objects.mesh_notes(obj.mesh),
+    }
+
+
+def run_one(item: Item, mem_gb: float, timeout_s: float) -> dict:
+    """:func:`measure` in a child process under an address-space cap, so a CoACD blow-up fails one mesh."""
+
+    def cap() -> None:
+        limit = int(mem_gb * 2**30)
+        resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+
+    t = time.perf_counter()
+    try:
+        done = subprocess.run(
+            [sys.executable, __file__, "--worker", json.dumps(asdict(item), default=str)],
+            capture_output=True, text=True, timeout=timeout_s, preexec_fn=cap, check=False,
         )
+    except subprocess.TimeoutExpired:
+        return {"name": item.name, "error": f"no result within {timeout_s:.0f} s", "load_s": time.perf_counter() - t}
+    lines = done.stdout.strip().splitlines()
+    if done.returncode == 0 and lines:
+        return json.loads(lines[-1])
+    why = (done.stderr.strip().splitlines() or [f"exit status {done.returncode}"])[-1]
+    return {"name": item.name, "error": why[:200], "load_s": time.perf_counter() - t}
+
+
+def _fmt(x: float | None, spec: str) -> str:
+    return "-" if x is None else format(x, spec)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    source = parser.add_mutually_exclusive_group()
+    source.add_argument("--labels", type=Path, help="labels.jsonl, or the folder holding it (units, up from it)")
+    source.add_argument("--dir", type=Path, help="a folder of mesh files in metres, z up")
+    parser.add_argument("--jobs", type=int, default=1, help="objects loaded at once, each in its own process")
+    parser.add_argument("--limit", type=int, default=0, help="only the first N meshes")
+    parser.add_argument("--mem-gb", type=float, default=6.0, help="address-space cap of each mesh's process")
+    parser.add_argument("--timeout", type=float, default=900.0, help="seconds one mesh may take")
+    parser.add_argument(
+        "--cache", type=Path, help="hull cache to use (default: a fresh one, so every load is cold); a second "
+        "run with the first one's cache measures the quality of its hulls again without CoACD"
+    )
+    parser.add_argument("--worker", help=argparse.SUPPRESS)  # one item as JSON: measure it, print the row as JSON
+    args = parser.parse_args(argv)
+    if args.worker:
+        item = json.loads(args.worker)
+        item["path"] = item["path"] and Path(item["path"])
+        print(json.dumps(measure(Item(**item))))
+        return 0
+    os.environ["RAIL_MJ_CACHE"] = str(args.cache or tempfile.mkdtemp(prefix="rail_mj_coacd_bench_"))
+    items = items_from(args)[: args.limit or None]
+    print(
+        f"{len(items)} meshes, {args.jobs} at once, cache {os.environ['RAIL_MJ_CACHE']}, load average before: "
+        f"{os.getloadavg()}",
+        flush=True,
+    )
+    header = (
+        f"{'mesh':22s} {'faces_in':>8s} {'faces':>6s} {'coacd_f':>7s} {'closed':>6s} {'size_m':>6s} "
+        f"{'load_s':>7s} {'cpu_s':>7s} {'coacd_s':>7s} {'qual_s':>6s} {'hulls':>5s} {'vol':>5s} {'excess':>6s} "
+        f"{'missing':>7s} {'cavity':>6s}"
+    )
+    print(header, flush=True)
+    rows = []
+    wall = time.perf_counter()
+    with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
+        for r in pool.map(lambda item: run_one(item, args.mem_gb, args.timeout), items):
+            rows.append(r)
+            if "error" in r:
+                print(f"{r['name'][:22]:22s} failed after {r['load_s']:.1f} s: {r['error']}", flush=True)
+                continue
+            print(
+                f"{r['name'][:22]:22s} {r['faces_in']:8d} {r['faces']:6d} {r['coacd_faces']:7d} "
+                f"{'yes' if r['closed'] else 'no':>6s} {r['extent']:6.3f} {r['load_s']:7.1f} {r['cpu_s']:7.1f} {r['coacd_s']:7.1f} "
+                f"{r['quality_s']:6.2f} {r['hulls']:5d} {_fmt(r['volume_ratio'], '5.2f')} {r['excess']:6.3f} "
+                f"{r['missing']:7.3f} {_fmt(r['covered'], '6.3f')}",
+                flush=True,
+            )
+    wall = time.perf_counter() - wall
+    failed = [r for r in rows if "error" in r]
+    rows = [r for r in rows if "error" not in r]
+    if not rows:
+        print(f"every mesh failed ({len(failed)})")
+        return 1
+    loads, cpus = [r["load_s"] for r in rows], [r["cpu_s"] for r in rows]
+    worst = max(rows, key=lambda r: r["load_s"])
+    print(
+        f"load per mesh: median {statistics.median(loads):.1f} s, mean {statistics.mean(loads):.1f} s, "
+        f"worst {worst['load_s']:.1f} s ({worst['name']}); CPU median {statistics.median(cpus):.1f} s, "
+        f"worst {max(cpus):.1f} s; {len(rows)} loaded, {len(failed)} failed, {wall:.0f} s wall"
+    )
+    ratios = [r["volume_ratio"] for r in rows if r["volume_ratio"] is not None]
+    if ratios:
+        print(f"volume ratio (closed meshes): min {min(ratios):.2f}, median {statistics.median(ratios):.2f}, "
+              f"max {max(ratios):.2f}")
+    print(f"excess: worst {max(r['excess'] for r in rows):.3f}; missing: worst {max(r['missing'] for r in rows):.3f}")
+    for r in rows:
+        for note in r["notes"]:
+            print(f"note {r['name']}: {note}")
+    for r in failed:
+        print(f"failed {r['name']}: {r['error']}")
+    print(f"load average after: {os.getloadavg()}")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -4,10 +4,16 @@ Every mesh entering rail_mj goes through :func:`load_mesh` (files) or
 :func:`object_from_mesh` (in-memory meshes); both repair and validate it the
 same way, so the mesh frame is always metres, z up.
 
-Meshes over :data:`FACE_BUDGET` faces are decimated (quadric decimation, trimesh's
-``simplify_quadric_decimation`` backed by fast-simplification) before any step whose cost
-grows faster than the face count; :func:`mesh_notes` says what was done. Meshes over
-:data:`MAX_FACES` faces or files over :data:`MAX_FILE_BYTES` are refused at once.
+Meshes over :data:`FACE_BUDGET` faces are decimated (closed ones by manifold3d, so they stay
+closed; others by quadric decimation, trimesh's ``simplify_quadric_decimation`` backed by
+fast-simplification) before any step whose cost grows faster than the face count;
+:func:`mesh_notes` says what was done. Meshes over :data:`MAX_FACES` faces or files over
+:data:`MAX_FILE_BYTES` are refused at once.
+
+Decomposition: a mesh of separate bodies is decomposed body by body; meshes over
+:data:`DENSE_FACES` faces get faster CoACD settings (:func:`decomposition_for`); every object's
+hulls pass a quality guard (:func:`hull_quality`: volume ratio, cavities kept open, surface
+covered) in :func:`object_from_mesh`.
 """
 
 from __future__ import annotations
@@ -17,7 +23,7 @@ import io
 import json
 import re
 import zipfile
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Literal
 
@@ -38,13 +44,20 @@ __all__ = [
     "FACE_BUDGET",
     "MAX_FACES",
     "MAX_FILE_BYTES",
+    "DENSE_FACES",
+    "DENSE_DECOMPOSITION",
+    "MAX_EXCESS",
+    "MAX_MISSING",
     "DecompositionConfig",
+    "decomposition_for",
     "load_mesh",
     "repair_mesh",
     "mesh_notes",
     "mesh_hash",
     "decompose",
     "reduce_hull",
+    "HullQuality",
+    "hull_quality",
     "object_from_mesh",
     "load_object",
 ]
@@ -68,6 +81,20 @@ FACE_BUDGET = 20_000
 MAX_FACES = 4_000_000
 #: Larger files are refused before parsing: MAX_FACES faces as binary STL (50 bytes a face) fit under it.
 MAX_FILE_BYTES = 256 * 2**20
+# manifold3d's simplification gives up (quadric decimation takes over) past this tolerance, a fraction
+# of the largest extent: beyond it the surface may move more than CoACD's own concavity tolerance.
+_MAX_SIMPLIFY_TOLERANCE = 0.02
+#: Meshes with more faces are dense (scans, CAD exports): :func:`decomposition_for` gives them faster
+#: settings. The procedural dataset stays at or under it (``rail_mj.dataset.MAX_FACES``), so its hulls
+#: and their cache keys are those of the defaults.
+DENSE_FACES = 5_000
+#: The quality guard (:func:`object_from_mesh`): most of :attr:`HullQuality.excess` and
+#: :attr:`HullQuality.missing` that hulls may have. The procedural dataset's default hulls reach
+#: 0.04 and 0.23 (a sphere's 64-vertex hull); one hull of a cup gives 0.73 excess.
+MAX_EXCESS = 0.25
+MAX_MISSING = 0.3
+# Fewest faces DecompositionConfig.max_faces may ask for: below it decimation erases whole features.
+_MIN_COACD_FACES = 500
 # A mesh is flat when its smallest extent is below this fraction of its largest.
 _FLAT_RATIO = 1e-6
 # Hulls with less volume than this (m^3) are slivers MuJoCo cannot give inertia.
@@ -107,6 +134,9 @@ class DecompositionConfig:
     mcts_max_depth: int = 2
     seed: int = 0
     convex_shortcut: bool = True  # a convex mesh is its own (reduced) hull, no CoACD call
+    # CoACD sees at most this many faces: the mesh is decimated for it alone (the object keeps the
+    # repaired mesh); None: CoACD sees the mesh as repaired (<= FACE_BUDGET faces)
+    max_faces: int | None = None
 
     def __post_init__(self) -> None:
         if not 0.0 < self.threshold <= 1.0:
@@ -122,6 +152,12 @@ class DecompositionConfig:
         for name in ("preprocess_resolution", "resolution", "mcts_nodes", "mcts_iterations", "mcts_max_depth"):
             if getattr(self, name) < 1:
                 raise ConfigError(f"{name} must be >= 1, got {getattr(self, name)}")
+        if self.max_faces is not None and self.max_faces < _MIN_COACD_FACES:
+            raise ConfigError(f"max_faces must be None or >= {_MIN_COACD_FACES}, got {self.max_faces}")
+
+
+#: :func:`decomposition_for` meshes of more than :data:`DENSE_FACES` faces.
+DENSE_DECOMPOSITION = DecompositionConfig(threshold=0.07, mcts_iterations=15, max_faces=3_000)
 
 
 def _fail(label: str, problem: str) -> MeshError:
@@ -259,14 +295,61 @@ def _clean(mesh: trimesh.Trimesh) -> None:
     mesh.remove_unreferenced_vertices()
 
 
-def _decimate(mesh: trimesh.Trimesh, label: str) -> trimesh.Trimesh:
-    """``mesh`` decimated to :data:`FACE_BUDGET` faces (quadric error, fast-simplification) and cleaned."""
+def _simplify_closed(mesh: trimesh.Trimesh, face_count: int, *, strict: bool) -> trimesh.Trimesh | None:
+    """A closed mesh simplified by manifold3d to at most ``face_count`` faces, still closed; None if it cannot.
+
+    Manifold moves no surface by more than its tolerance and keeps the result a closed manifold;
+    quadric decimation (fast-simplification) left non-manifold edges in 9 of 9 closed dense meshes
+    tried (a 42k-face bowl: 12 at 20k faces), so CoACD then remeshed them, which filled cavities.
+    The tolerance grows from 0.1% of the largest extent until the faces fit; where they do not fit
+    by :data:`_MAX_SIMPLIFY_TOLERANCE`, the result there is returned unless ``strict``.
+    """
+    import manifold3d
+
     try:
-        small = mesh.simplify_quadric_decimation(face_count=FACE_BUDGET)
+        solid = manifold3d.Manifold(
+            manifold3d.Mesh(
+                vert_properties=np.asarray(mesh.vertices, dtype=np.float32),
+                tri_verts=np.asarray(mesh.faces, dtype=np.uint32),
+            )
+        )
+    except (RuntimeError, ValueError):
+        return None
+    if solid.status() != manifold3d.Error.NoError:
+        return None
+    largest = float(np.ptp(mesh.vertices, axis=0).max())
+    tolerance = 1e-3 * largest
+    while solid.num_tri() > face_count:
+        if tolerance > _MAX_SIMPLIFY_TOLERANCE * largest:
+            if strict:
+                return None
+            break
+        solid = solid.simplify(tolerance)
+        tolerance *= 1.25
+    out = solid.to_mesh()
+    result = trimesh.Trimesh(
+        vertices=np.asarray(out.vert_properties[:, :3], dtype=np.float64),
+        faces=np.asarray(out.tri_verts, dtype=np.int64),
+        process=False,
+    )
+    _clean(result)
+    return result if len(result.faces) and result.is_volume else None
+
+
+def _decimate(mesh: trimesh.Trimesh, label: str, face_count: int, *, strict: bool = True) -> trimesh.Trimesh:
+    """``mesh`` cut to at most ``face_count`` faces and cleaned: a closed mesh by manifold3d so it stays
+    closed (:func:`_simplify_closed`), any other (or one manifold3d refuses) by quadric decimation.
+    Not ``strict``: a closed mesh stays closed even where that leaves it over ``face_count``."""
+    if mesh.is_volume:
+        closed = _simplify_closed(mesh, face_count, strict=strict)
+        if closed is not None:
+            return closed
+    try:
+        small = mesh.simplify_quadric_decimation(face_count=face_count)
     except Exception as exc:  # fast-simplification reports failures as assorted types
         raise _fail(
             label,
-            f"has {len(mesh.faces):,} faces, over the face budget of {FACE_BUDGET:,}, and decimating it failed "
+            f"has {len(mesh.faces):,} faces, over the face budget of {face_count:,}, and decimating it failed "
             f"({type(exc).__name__}: {exc}); decimate it first, e.g. with Blender's Decimate modifier",
         ) from exc
     out = trimesh.Trimesh(
@@ -275,7 +358,7 @@ def _decimate(mesh: trimesh.Trimesh, label: str) -> trimesh.Trimesh:
     )
     _clean(out)
     if len(out.faces) == 0:
-        raise _fail(label, f"has no faces left after decimating its {len(mesh.faces):,} faces to {FACE_BUDGET:,}")
+        raise _fail(label, f"has no faces left after decimating its {len(mesh.faces):,} faces to {face_count:,}")
     return out
 
 
@@ -283,7 +366,7 @@ def repair_mesh(mesh: trimesh.Trimesh, *, label: str = "mesh") -> trimesh.Trimes
     """Validate and repair a mesh (returns a new one); raise MeshError naming ``label``.
 
     Repairs: merge duplicate vertices, drop degenerate and duplicate faces and
-    unreferenced vertices, decimate to :data:`FACE_BUDGET` faces when over it,
+    unreferenced vertices, decimate to at most :data:`FACE_BUDGET` faces when over it,
     make winding consistent and normals outward.
     Rejects: no faces, more than :data:`MAX_FACES` faces, non-finite vertices,
     flat meshes, absurd sizes. What was changed beyond cleaning is listed by
@@ -326,7 +409,7 @@ def repair_mesh(mesh: trimesh.Trimesh, *, label: str = "mesh") -> trimesh.Trimes
         )
     if len(out.faces) > FACE_BUDGET:
         n_faces = len(out.faces)
-        out = _decimate(out, label)
+        out = _decimate(out, label, FACE_BUDGET)
         notes.append(f"decimated from {n_faces:,} to {len(out.faces):,} faces (face budget {FACE_BUDGET:,})")
     trimesh.repair.fix_normals(out)
     if notes:
@@ -404,9 +487,14 @@ def reduce_hull(points: np.ndarray, max_vertices: int) -> np.ndarray:
     return hull_pts[np.sort(chosen)]
 
 
-def _cache_key(digest: str, config: DecompositionConfig) -> str:
-    payload = json.dumps({"mesh": digest, "config": asdict(config)}, sort_keys=True)
-    return hashlib.sha256(payload.encode()).hexdigest()
+def _cache_key(digest: str, config: DecompositionConfig, n_bodies: int) -> str:
+    # Options left at None and a single body are left out of the key, so the meshes and configs that
+    # existed before those options and the split into bodies keep their cache entries.
+    fields = {k: v for k, v in asdict(config).items() if v is not None}
+    payload = {"mesh": digest, "config": fields}
+    if n_bodies > 1:
+        payload["bodies"] = n_bodies
+    return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
 
 
 def _preprocess_mode(mesh: trimesh.Trimesh, config: DecompositionConfig) -> str:
@@ -439,13 +527,55 @@ def _run_coacd(mesh: trimesh.Trimesh, config: DecompositionConfig) -> list[np.nd
     return [np.asarray(v, dtype=np.float64) for v, _ in parts]
 
 
+def _bodies(mesh: trimesh.Trimesh) -> list[trimesh.Trimesh]:
+    """The mesh's connected pieces (faces joined by shared edges), in the order of their first face."""
+    labels = trimesh.graph.connected_component_labels(mesh.face_adjacency, node_count=len(mesh.faces))
+    _, first = np.unique(labels, return_index=True)
+    pieces = []
+    for label in labels[np.sort(first)]:
+        piece = trimesh.Trimesh(mesh.vertices, mesh.faces[labels == label], process=False)
+        piece.remove_unreferenced_vertices()
+        pieces.append(piece)
+    return pieces
+
+
+def _point_hull_volume(points: np.ndarray) -> float:
+    try:
+        return float(ConvexHull(points).volume)
+    except (QhullError, ValueError):
+        return 0.0
+
+
+def _decompose_bodies(bodies: list[trimesh.Trimesh], config: DecompositionConfig) -> list[np.ndarray]:
+    """Raw parts of a mesh made of separate bodies, each body decomposed on its own.
+
+    CoACD given the bodies together treats them as one surface: on overlapping closed bodies
+    (a teddy made of 15 convex pieces, a tray of 5 boxes) it ran for minutes or exhausted memory.
+    A convex body is its own hull; the others share what the hull cap leaves, by their hull volume.
+    """
+    convex = [config.convex_shortcut and body.is_convex for body in bodies]
+    weights = [_point_hull_volume(np.asarray(body.vertices)) for body in bodies]
+    concave = sum(w for w, c in zip(weights, convex, strict=True) if not c)
+    spare = config.max_convex_hull - len(bodies)
+    raw: list[np.ndarray] = []
+    for body, is_convex, weight in zip(bodies, convex, weights, strict=True):
+        cap = 1 if is_convex or concave <= 0 else 1 + int(spare * weight / concave)
+        if cap == 1:
+            raw.append(np.asarray(body.vertices, dtype=np.float64))
+        else:
+            raw.extend(_run_coacd(body, replace(config, max_convex_hull=cap)))
+    return raw
+
+
 def decompose(mesh: trimesh.Trimesh, config: DecompositionConfig | None = None) -> tuple[np.ndarray, ...]:
     """Convex hulls of ``mesh`` (mesh frame), each with <= ``config.max_hull_vertices`` vertices.
 
+    A mesh of separate bodies (no more than ``config.max_convex_hull``) is decomposed body by body.
     Cached as .npz under ``cache_dir("hulls")``, keyed by the mesh arrays and the config.
     """
     config = config or DecompositionConfig()
-    path = cache_dir("hulls") / f"{_cache_key(mesh_hash(mesh), config)}.npz"
+    bodies = _bodies(mesh)
+    path = cache_dir("hulls") / f"{_cache_key(mesh_hash(mesh), config, len(bodies))}.npz"
     if path.exists():
         try:
             with np.load(path) as data:
@@ -455,7 +585,14 @@ def decompose(mesh: trimesh.Trimesh, config: DecompositionConfig | None = None) 
     if config.convex_shortcut and mesh.is_convex:
         raw = [np.asarray(mesh.vertices, dtype=np.float64)]
     else:
-        raw = _run_coacd(mesh, config)
+        target = mesh
+        if config.max_faces is not None and len(mesh.faces) > config.max_faces:
+            target = _decimate(mesh, "mesh", config.max_faces, strict=False)
+            bodies = _bodies(target)
+        if 1 < len(bodies) <= config.max_convex_hull:
+            raw = _decompose_bodies(bodies, config)
+        else:
+            raw = _run_coacd(target, config)
     hulls = []
     for points in raw:
         if len(points) < 4:
@@ -477,6 +614,162 @@ def decompose(mesh: trimesh.Trimesh, config: DecompositionConfig | None = None) 
     return tuple(hulls)
 
 
+# Probe rays per side of the grid :func:`hull_quality` casts from each of the six axis directions.
+_PROBE_GRID = 32
+# Surface points :func:`hull_quality` checks for a hull near them, and how near (fraction of the
+# mesh's largest extent) counts as covered.
+_SURFACE_SAMPLES = 2048
+_COVER_TOL = 0.02
+_MIN_FREE = 0.02
+
+
+@dataclass(frozen=True)
+class HullQuality:
+    """How well the convex hulls stand for the mesh they were made from (:func:`hull_quality`).
+
+    ``excess`` and ``missing`` need no closed surface, so they stand in for ``volume_ratio`` on
+    open meshes.
+    """
+
+    n_hulls: int
+    #: Volume of the union of the hulls over the mesh's volume; None when the mesh is not closed.
+    volume_ratio: float | None
+    #: The worst of six axis views (probe rays on a grid over the bounding box): the part of the free
+    #: space in front of the mesh that hulls fill. ~1 when hulls fill a cup seen from above; ~0 when
+    #: every cavity stays open.
+    excess: float
+    #: The fraction of the mesh's surface (area-weighted samples) farther than 2% of its largest
+    #: extent from every hull: parts the hulls lost.
+    missing: float
+
+
+def _hull_intervals(
+    hulls: tuple[np.ndarray, ...], equations: list[np.ndarray], origins: np.ndarray, axis: int, sign: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Entry and exit ray parameters (H, R) of the rays ``origins + t * sign * e_axis`` through each hull
+    (inf where a ray misses it); only the rays over a hull's bounding box are tested against it."""
+    enter = np.full((len(equations), len(origins)), np.inf)
+    leave = np.full((len(equations), len(origins)), np.inf)
+    across = [k for k in range(3) if k != axis]
+    for i, (points, eq) in enumerate(zip(hulls, equations, strict=True)):
+        lo, hi = points[:, across].min(axis=0), points[:, across].max(axis=0)
+        rays = np.flatnonzero(((origins[:, across] >= lo) & (origins[:, across] <= hi)).all(axis=1))
+        if len(rays) == 0:
+            continue
+        num = -(origins[rays] @ eq[:, :3].T + eq[:, 3])  # (R, P): a point is inside where n.p + d <= 0
+        den = sign * eq[:, axis]  # (P,)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = num / den
+        first = np.where(den < 0, t, -np.inf).max(axis=1)
+        last = np.where(den > 0, t, np.inf).min(axis=1)
+        outside = ((den == 0) & (num < 0)).any(axis=1)
+        hit = (first <= last) & ~outside & (last >= 0)
+        enter[i, rays[hit]] = np.maximum(first[hit], 0.0)
+        leave[i, rays[hit]] = last[hit]
+    return enter, leave
+
+
+def _probe_origins(bounds: np.ndarray, axis: int, sign: float, n: int, margin: float) -> tuple:
+    """Ray origins (n*n, 3) on a grid ``margin`` outside the bounding box, and the direction, for one view."""
+    lo, hi = bounds
+    a, b = [k for k in range(3) if k != axis]
+    ua = lo[a] + (np.arange(n) + 0.5) * (hi[a] - lo[a]) / n
+    ub = lo[b] + (np.arange(n) + 0.5) * (hi[b] - lo[b]) / n
+    ga, gb = np.meshgrid(ua, ub, indexing="ij")
+    origins = np.empty((n * n, 3))
+    origins[:, a], origins[:, b] = ga.ravel(), gb.ravel()
+    origins[:, axis] = lo[axis] - margin if sign > 0 else hi[axis] + margin
+    direction = np.zeros(3)
+    direction[axis] = sign
+    return origins, direction
+
+
+def _union_length(enter: np.ndarray, leave: np.ndarray) -> np.ndarray:
+    """Per ray, the length of the union of the [enter, leave] intervals (inputs (H, R), inf where missed)."""
+    order = np.argsort(enter, axis=0)
+    start = np.take_along_axis(enter, order, axis=0)
+    end = np.take_along_axis(leave, order, axis=0)
+    hit = np.isfinite(start) & (end > start)
+    start, end = np.where(hit, start, 0.0), np.where(hit, end, 0.0)
+    reach = np.maximum.accumulate(end, axis=0)
+    before = np.vstack([np.full((1, start.shape[1]), -np.inf), reach[:-1]])
+    return np.maximum(0.0, end - np.maximum(start, before)).sum(axis=0)
+
+
+def _axis_depths(mesh: trimesh.Trimesh, bounds: np.ndarray, axis: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Nearest and farthest mesh coordinate along ``axis`` on the rays of the n x n grid of
+    :func:`_probe_origins` (NaN where a ray misses), by rasterising the triangles onto the grid."""
+    a, b = [k for k in range(3) if k != axis]
+    lo, hi = bounds
+    step = np.array([(hi[a] - lo[a]) / n, (hi[b] - lo[b]) / n])
+    tri = np.asarray(mesh.triangles, dtype=np.float64)
+    uv = (tri[:, :, [a, b]] - np.array([lo[a], lo[b]])) / step - 0.5  # grid units: cell i is centred at i
+    first = np.clip(np.ceil(uv.min(axis=1)), 0, n - 1).astype(np.int64)
+    last = np.clip(np.floor(uv.max(axis=1)), 0, n - 1).astype(np.int64)
+    span = np.maximum(last - first + 1, 0)
+    span[(uv.max(axis=1) < 0).any(axis=1) | (uv.min(axis=1) > n - 1).any(axis=1)] = 0
+    count = span[:, 0] * span[:, 1]
+    near = np.full(n * n, np.inf)
+    far = np.full(n * n, -np.inf)
+    chunk = np.cumsum(count) // 2_000_000  # bounded memory for meshes of large triangles
+    for c in np.unique(chunk):
+        sel = np.flatnonzero((chunk == c) & (count > 0))
+        t = np.repeat(sel, count[sel])
+        k = np.arange(len(t)) - np.repeat(np.cumsum(count[sel]) - count[sel], count[sel])
+        i = first[t, 0] + k // span[t, 1]
+        j = first[t, 1] + k % span[t, 1]
+        p0, p1, p2 = uv[t, 0], uv[t, 1], uv[t, 2]
+        e1, e2 = p1 - p0, p2 - p0
+        det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+        q = np.column_stack([i, j]) - p0
+        flat = det == 0  # a triangle seen edge-on covers no cell
+        det[flat] = 1.0
+        w1 = (q[:, 0] * e2[:, 1] - q[:, 1] * e2[:, 0]) / det
+        w2 = (e1[:, 0] * q[:, 1] - e1[:, 1] * q[:, 0]) / det
+        inside = ~flat & (w1 >= -1e-9) & (w2 >= -1e-9) & (w1 + w2 <= 1 + 1e-9)
+        z = tri[t, 0, axis] + w1 * (tri[t, 1, axis] - tri[t, 0, axis]) + w2 * (tri[t, 2, axis] - tri[t, 0, axis])
+        cell = (i * n + j)[inside]
+        np.minimum.at(near, cell, z[inside])
+        np.maximum.at(far, cell, z[inside])
+    missed = ~np.isfinite(near)
+    near[missed], far[missed] = np.nan, np.nan
+    return near, far
+
+
+def hull_quality(mesh: trimesh.Trimesh, hulls: tuple[np.ndarray, ...]) -> HullQuality:
+    """Volume ratio, excess (filled cavities) and missing surface of ``hulls`` against ``mesh`` (:class:`HullQuality`)."""
+    equations = [ConvexHull(h).equations for h in hulls]
+    bounds = np.asarray(mesh.bounds, dtype=np.float64)
+    extents = np.ptp(bounds, axis=0)
+    margin = 0.01 * float(extents.max())
+    excess = 0.0
+    for axis in range(3):
+        near, far = _axis_depths(mesh, bounds, axis, _PROBE_GRID)
+        length = margin + float(extents[axis])
+        for sign, depth in ((1.0, near - (bounds[0, axis] - margin)), (-1.0, (bounds[1, axis] + margin) - far)):
+            t_mesh = np.where(np.isnan(depth), length, np.minimum(depth, length))
+            # a view the mesh fills (a box seen face-on) has next to no free space: a sliver of hull
+            # in it is no filled cavity, so the free space counts as at least 2% of the view's box
+            free = max(float((t_mesh - margin).sum()), _MIN_FREE * len(t_mesh) * float(extents[axis]))
+            origins, _ = _probe_origins(bounds, axis, sign, _PROBE_GRID, margin)
+            enter, leave = _hull_intervals(hulls, equations, origins, axis, sign)
+            front = _union_length(np.clip(enter, margin, t_mesh), np.clip(leave, margin, t_mesh))
+            excess = max(excess, float(front.sum()) / free)
+    points = trimesh.sample.sample_surface(mesh, _SURFACE_SAMPLES, seed=0)[0]
+    outside = np.full(len(points), np.inf)
+    for eq in equations:
+        outside = np.minimum(outside, (points @ eq[:, :3].T + eq[:, 3]).max(axis=1))
+    missing = float((outside > _COVER_TOL * float(extents.max())).mean())
+    volume_ratio = None
+    if mesh.is_volume:
+        n = 2 * _PROBE_GRID
+        origins, _ = _probe_origins(bounds, 2, 1.0, n, margin)
+        enter, leave = _hull_intervals(hulls, equations, origins, 2, 1.0)
+        cell = float(extents[0] * extents[1]) / (n * n)
+        volume_ratio = float(_union_length(enter, leave).sum() * cell / mesh.volume)
+    return HullQuality(n_hulls=len(hulls), volume_ratio=volume_ratio, excess=excess, missing=missing)
+
+
 def _mass_properties(mesh: trimesh.Trimesh, hulls: tuple[np.ndarray, ...]) -> tuple[float, np.ndarray]:
     """Volume and centre of mass: the mesh's own when it encloses a volume, else the hulls'."""
     if mesh.is_volume:
@@ -490,6 +783,59 @@ def _mass_properties(mesh: trimesh.Trimesh, hulls: tuple[np.ndarray, ...]) -> tu
     return float(vols_arr.sum()), (np.asarray(centres) * vols_arr[:, None]).sum(0) / vols_arr.sum()
 
 
+def decomposition_for(mesh: trimesh.Trimesh) -> DecompositionConfig:
+    """The decomposition settings :func:`object_from_mesh` uses for ``mesh`` when given none.
+
+    Meshes of at most :data:`DENSE_FACES` faces get the defaults. Denser ones (scans, CAD
+    exports) get :data:`DENSE_DECOMPOSITION`: CoACD sees them cut to 3,000 faces, with a coarser
+    concavity threshold (0.07) and half the MCTS iterations (15). On the real-mesh set's eight
+    dense closed meshes (8k-66k faces) that took CoACD from 5-60 s of CPU to 2.4-10 s, with the
+    same hull count (22-32 of 32), volume ratio within 6% and excess within 0.02
+    (``benchmarks/coacd_time.py``). Fewer hulls (16) were slower (more merging) and filled more
+    of the cavities (excess +0.03-0.07); CoACD's ``resolution`` at 250 changed neither time nor
+    hulls. CoACD scales every mesh to a unit box, so an object's size in metres changes neither.
+    The quality guard of :func:`object_from_mesh` redoes hulls from these settings with the
+    defaults where they fail it.
+    """
+    return DecompositionConfig() if len(mesh.faces) <= DENSE_FACES else DENSE_DECOMPOSITION
+
+
+def _guard_score(quality: HullQuality) -> float:
+    """How far the worse of excess and missing is toward its limit (> 1: the guard fails)."""
+    return max(quality.excess / MAX_EXCESS, quality.missing / MAX_MISSING)
+
+
+def _guarded_hulls(
+    mesh: trimesh.Trimesh, decomposition: DecompositionConfig | None
+) -> tuple[tuple[np.ndarray, ...], list[str]]:
+    """Hulls of ``mesh`` and notes on their quality.
+
+    Hulls made with :func:`decomposition_for`'s faster settings that fail the guard (more than
+    :data:`MAX_EXCESS` excess or :data:`MAX_MISSING` missing, :class:`HullQuality`) are made again
+    with the defaults, and the better set is kept; hulls that still fail are noted.
+    """
+    config = decomposition or decomposition_for(mesh)
+    hulls = decompose(mesh, config)
+    quality = hull_quality(mesh, hulls)
+    notes = []
+    if _guard_score(quality) > 1.0 and decomposition is None and config != DecompositionConfig():
+        again = decompose(mesh, DecompositionConfig())
+        again_quality = hull_quality(mesh, again)
+        if _guard_score(again_quality) < _guard_score(quality):
+            notes.append(
+                f"hulls made again with the default settings: the faster ones' excess {quality.excess:.2f}, "
+                f"missing {quality.missing:.2f}"
+            )
+            hulls, quality = again, again_quality
+    if _guard_score(quality) > 1.0:
+        notes.append(
+            f"hull quality below the guard ({quality.n_hulls} hulls): they fill {quality.excess:.0%} of the free space "
+            f"seen along an axis (limit {MAX_EXCESS:.0%}: a cavity may be closed) and leave {quality.missing:.0%} "
+            f"of the surface uncovered (limit {MAX_MISSING:.0%}); pass a DecompositionConfig with a lower threshold"
+        )
+    return hulls, notes
+
+
 def object_from_mesh(
     mesh: trimesh.Trimesh,
     *,
@@ -498,13 +844,19 @@ def object_from_mesh(
     decomposition: DecompositionConfig | None = None,
     source: str = "",
 ) -> RailObject:
-    """Repair, decompose and measure an in-memory mesh (metres, z up)."""
+    """Repair, decompose and measure an in-memory mesh (metres, z up).
+
+    ``decomposition`` None: :func:`decomposition_for` the mesh, with the quality guard
+    (:func:`hull_quality`; what it did or found is in :func:`mesh_notes`).
+    """
     if not (np.isfinite(density) and density > 0):
         raise ConfigError(f"density must be a positive finite number in kg/m^3, got {density}")
     if not name:
         raise ConfigError("name must be a non-empty string")
     mesh = repair_mesh(mesh, label=source or name)
-    hulls = decompose(mesh, decomposition)
+    hulls, notes = _guarded_hulls(mesh, decomposition)
+    if notes:
+        mesh.metadata[_NOTES_KEY] = mesh_notes(mesh) + notes
     volume, com = _mass_properties(mesh, hulls)
     obb_dims = np.sort(np.asarray(mesh.bounding_box_oriented.primitive.extents, dtype=np.float64))[::-1]
     return RailObject(

@@ -343,7 +343,7 @@ def test_mesh_over_the_face_budget_is_decimated_and_keeps_a_cups_cavity(monkeypa
     cup = fine_cup()
     mesh = objects.repair_mesh(cup)
     assert len(mesh.faces) <= 1000
-    assert objects.mesh_notes(mesh) == ["decimated from 4,096 to 1,000 faces (face budget 1,000)"]
+    assert objects.mesh_notes(mesh) == [f"decimated from 4,096 to {len(mesh.faces):,} faces (face budget 1,000)"]
     assert mesh.is_volume and mesh.volume == pytest.approx(cup.volume, rel=0.05)
     np.testing.assert_allclose(mesh.bounds, cup.bounds, atol=5e-4)
     cavity = [[0, 0, 0.04], [0.015, 0.0, 0.07], [0, 0, 0.0075]]
@@ -404,3 +404,216 @@ def test_file_over_the_size_limit_is_refused(tmp_path: Path, monkeypatch: pytest
     monkeypatch.setattr(objects.trimesh, "load", lambda *a, **k: pytest.fail("refused files are not parsed"))
     with pytest.raises(MeshError, match=r"big.obj: is 1.2 MiB, over the 1 MiB limit"):
         load_mesh(path)
+
+
+def noisy_sphere() -> trimesh.Trimesh:
+    """A closed 5 cm sphere of 5,120 faces with 1 mm noise: quadric decimation leaves it with holes."""
+    sphere = trimesh.creation.icosphere(subdivisions=4, radius=0.05)
+    sphere.vertices += np.random.default_rng(0).normal(0.0, 0.001, sphere.vertices.shape)
+    return sphere
+
+
+def test_decimation_keeps_a_closed_mesh_closed(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(objects, "FACE_BUDGET", 2000)
+    sphere = noisy_sphere()
+    quadric = sphere.simplify_quadric_decimation(face_count=2000)
+    assert not trimesh.Trimesh(quadric.vertices, quadric.faces).is_volume  # what fast-simplification gives
+    mesh = objects.repair_mesh(sphere)
+    assert len(mesh.faces) <= 2000 and mesh.is_volume
+    assert mesh.volume == pytest.approx(sphere.volume, rel=0.03)
+
+
+# ---- hull quality ------------------------------------------------------------------------
+
+
+def test_hull_quality_of_exact_hulls() -> None:
+    crate = box((0.1, 0.2, 0.3))
+    quality = objects.hull_quality(crate, (np.asarray(crate.vertices),))
+    assert quality.n_hulls == 1 and quality.volume_ratio == pytest.approx(1.0, abs=0.01)
+    assert quality.excess == pytest.approx(0.0, abs=1e-9) and quality.missing == 0.0
+
+
+def test_hull_quality_sees_a_filled_cavity_and_a_lost_part() -> None:
+    cup = objects.repair_mesh(small_cup())
+    filled = objects.hull_quality(cup, (np.asarray(cup.vertices),))  # one hull: the cup holds nothing
+    assert filled.excess > 0.5 and filled.volume_ratio > 2.0 and filled.missing == 0.0
+    bottom = objects.hull_quality(cup, (cup.vertices[cup.vertices[:, 2] < 0.01],))  # the walls are lost
+    assert bottom.missing > 0.5 and bottom.volume_ratio < 0.5 and bottom.excess < 0.01
+
+
+def test_hull_quality_of_an_open_mesh() -> None:
+    bin_ = box((0.1, 0.1, 0.1))
+    bin_.update_faces(bin_.face_normals[:, 2] < 0.5)  # no top: a single-surface bin
+    filled = objects.hull_quality(bin_, (np.asarray(bin_.vertices),))
+    assert filled.volume_ratio is None and filled.missing == 0.0
+    assert filled.excess == pytest.approx(1.0, abs=0.01)  # seen from above, the one hull fills the whole bin
+    walls = []
+    for axis in range(3):
+        for side in (-0.05, 0.05):
+            if axis == 2 and side > 0:
+                continue  # the open top
+            # 1 mm walls inside the surface, thinner than the probe grid's half cell (1.6 mm)
+            slab = box(np.where(np.arange(3) == axis, 0.001, 0.1))
+            slab.apply_translation(np.where(np.arange(3) == axis, side - np.sign(side) * 0.0005, 0.0))
+            walls.append(np.asarray(slab.vertices))
+    kept = objects.hull_quality(bin_, tuple(walls))
+    assert kept.excess < 0.05 and kept.missing == 0.0
+
+
+def test_hull_quality_of_the_decomposed_cup(cup_object) -> None:
+    quality = objects.hull_quality(cup_object.mesh, cup_object.hulls)
+    assert quality.n_hulls == len(cup_object.hulls)
+    # TINY's coarse hulls bulge into the cup (its droplet test still passes: tests/test_mjcf.py)
+    assert quality.excess < objects.MAX_EXCESS and quality.missing < 0.05 and 0.9 < quality.volume_ratio < 2.0
+
+
+def test_axis_depths_match_ray_casting() -> None:
+    mesh = objects.repair_mesh(small_cup())
+    bounds = np.asarray(mesh.bounds)
+    intersector = trimesh.ray.ray_triangle.RayMeshIntersector(mesh)
+    for axis in range(3):
+        near, far = objects._axis_depths(mesh, bounds, axis, 16)
+        for sign, depth in ((1.0, near), (-1.0, far)):
+            origins, direction = objects._probe_origins(bounds, axis, sign, 16, 0.01)
+            locations, rays, _ = intersector.intersects_location(
+                origins, np.tile(direction, (len(origins), 1)), multiple_hits=False
+            )
+            expected = np.full(len(origins), np.nan)
+            expected[rays] = locations[:, axis]
+            np.testing.assert_allclose(depth, expected, atol=1e-9)
+
+
+# ---- separate bodies -----------------------------------------------------------------------
+
+
+def _spy_coacd(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> list[tuple[int, int]]:
+    """Replace CoACD by each input's convex hull (with a cache of its own, so no other test reads those
+    hulls); returns the (faces, max_convex_hull) of every call."""
+    monkeypatch.setenv("RAIL_MJ_CACHE", str(tmp_path))
+    calls: list[tuple[int, int]] = []
+
+    def fake(mesh, config):
+        calls.append((len(mesh.faces), config.max_convex_hull))
+        return [np.asarray(mesh.vertices)]
+
+    monkeypatch.setattr(objects, "_run_coacd", fake)
+    return calls
+
+
+def test_overlapping_convex_bodies_are_their_own_hulls(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    # a teddy made of overlapping convex pieces: CoACD on them together ran out of memory
+    calls = _spy_coacd(monkeypatch, tmp_path)
+    pieces = [trimesh.creation.icosphere(subdivisions=1, radius=0.03) for _ in range(3)]
+    for i, piece in enumerate(pieces):
+        piece.apply_translation([0.04 * i, 0.0, 0.0])
+    teddy = objects.repair_mesh(trimesh.util.concatenate(pieces))
+    hulls = decompose(teddy)
+    assert calls == [] and len(hulls) == 3
+
+
+def test_concave_bodies_share_the_hull_cap(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    calls = _spy_coacd(monkeypatch, tmp_path)
+    crate = box((0.04, 0.04, 0.04))
+    crate.apply_translation([0.2, 0.0, 0.0])
+    mesh = objects.repair_mesh(trimesh.util.concatenate([small_cup(), crate]))
+    hulls = decompose(mesh, DecompositionConfig(max_convex_hull=8))
+    assert calls == [(96, 7)]  # the cup alone goes to CoACD, with what the box leaves of the cap
+    assert len(hulls) == 2
+
+
+def test_a_single_body_goes_to_coacd_whole(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    calls = _spy_coacd(monkeypatch, tmp_path)
+    decompose(objects.repair_mesh(small_cup()))
+    assert calls == [(96, DecompositionConfig().max_convex_hull)]
+
+
+def test_cache_keys_of_single_bodies_did_not_change() -> None:
+    # the keys the procedural dataset's hulls were cached under before max_faces and the body split
+    digest = "0" * 64
+    assert objects._cache_key(digest, DecompositionConfig(), 1) == (
+        "82496c24c8cd318b41f73c1c3be66c6a99dbf1b53977774f4711195a0da23847"
+    )
+    assert objects._cache_key(digest, TINY, 1) == "0e91cd61c40fff7a6e1f455d28148e6602525719d7bf1085a32811bf2604c5bd"
+    assert objects._cache_key(digest, DecompositionConfig(), 2) != objects._cache_key(digest, DecompositionConfig(), 1)
+    assert objects._cache_key(digest, DecompositionConfig(max_faces=4000), 1) != (
+        objects._cache_key(digest, DecompositionConfig(), 1)
+    )
+
+
+# ---- a smaller mesh for CoACD --------------------------------------------------------------
+
+
+def test_max_faces_decimates_for_coacd_only(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    monkeypatch.setenv("RAIL_MJ_CACHE", str(tmp_path))
+    seen: list[trimesh.Trimesh] = []
+    monkeypatch.setattr(objects, "_run_coacd", lambda mesh, config: seen.append(mesh) or [np.asarray(mesh.vertices)])
+    mesh = objects.repair_mesh(noisy_sphere())
+    mesh.vertices[0] *= 0.5  # a dent, so the sphere is not convex and goes to CoACD
+    decompose(mesh, DecompositionConfig(max_faces=2000))
+    (coacd_mesh,) = seen
+    assert len(coacd_mesh.faces) <= 2000 and coacd_mesh.is_volume  # still closed: CoACD does not remesh it
+    assert objects._preprocess_mode(coacd_mesh, DecompositionConfig()) == "off"
+    assert len(mesh.faces) == 5120
+
+
+def test_max_faces_is_checked() -> None:
+    with pytest.raises(ConfigError, match="max_faces must be None or >= 500"):
+        DecompositionConfig(max_faces=100)
+
+
+# ---- settings by mesh density, and the quality guard ----------------------------------------
+
+
+def test_dense_meshes_get_the_faster_settings() -> None:
+    assert objects.decomposition_for(objects.repair_mesh(small_cup())) == DecompositionConfig()
+    dense = objects.repair_mesh(noisy_sphere())
+    assert len(dense.faces) > objects.DENSE_FACES
+    assert objects.decomposition_for(dense) == objects.DENSE_DECOMPOSITION
+    assert objects.DENSE_DECOMPOSITION.max_faces < objects.DENSE_FACES
+
+
+def test_meshes_up_to_the_dense_limit_keep_the_defaults() -> None:
+    # the procedural dataset's meshes stay within rail_mj.dataset.MAX_FACES: their hulls must not change
+    from rail_mj.dataset import MAX_FACES
+
+    assert MAX_FACES <= objects.DENSE_FACES
+    sphere = trimesh.creation.icosphere(subdivisions=4)  # 5,120 faces
+    at_limit = trimesh.Trimesh(sphere.vertices, sphere.faces[: objects.DENSE_FACES], process=False)
+    assert objects.decomposition_for(at_limit) == DecompositionConfig()
+
+
+def _fake_coacd(monkeypatch: pytest.MonkeyPatch, tmp_path: Path, good: tuple[np.ndarray, ...]) -> list[float]:
+    """CoACD stand-in: one hull filling the cup for the dense settings, ``good`` for the others."""
+    monkeypatch.setenv("RAIL_MJ_CACHE", str(tmp_path))
+    thresholds: list[float] = []
+
+    def fake(mesh, config):
+        thresholds.append(config.threshold)
+        return [np.asarray(mesh.vertices)] if config == objects.DENSE_DECOMPOSITION else [np.asarray(h) for h in good]
+
+    monkeypatch.setattr(objects, "_run_coacd", fake)
+    return thresholds
+
+
+def test_guard_redoes_failing_fast_hulls_with_the_defaults(
+    cup_object, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    thresholds = _fake_coacd(monkeypatch, tmp_path, cup_object.hulls)
+    monkeypatch.setattr(objects, "DENSE_FACES", 50)  # the 96-face cup counts as dense
+    obj = object_from_mesh(small_cup(), name="cup")
+    assert thresholds == [objects.DENSE_DECOMPOSITION.threshold, DecompositionConfig().threshold]
+    assert len(obj.hulls) == len(cup_object.hulls)
+    (note,) = objects.mesh_notes(obj.mesh)
+    assert note.startswith("hulls made again with the default settings: the faster ones' excess 0.6")
+
+
+def test_guard_notes_hulls_that_fail_it(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    thresholds = _fake_coacd(monkeypatch, tmp_path, (np.asarray(small_cup().vertices),))
+    obj = object_from_mesh(small_cup(), name="cup", decomposition=TINY)  # given settings are not redone
+    assert thresholds == [TINY.threshold] and len(obj.hulls) == 1
+    (note,) = objects.mesh_notes(obj.mesh)
+    assert note.startswith("hull quality below the guard (1 hulls): they fill 6") and "a cavity may be closed" in note
+
+
+def test_guard_passes_good_hulls_without_a_note(cup_object) -> None:
+    assert objects.mesh_notes(cup_object.mesh) == []
