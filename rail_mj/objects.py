@@ -11,7 +11,7 @@ fast-simplification) before any step whose cost grows faster than the face count
 :data:`MAX_FILE_BYTES` are refused at once.
 
 Decomposition: a mesh of separate bodies is decomposed body by body; meshes over
-:data:`DENSE_FACES` faces and open meshes get faster CoACD settings (:func:`decomposition_for`); every object's
+:data:`DENSE_FACES` faces get faster CoACD settings (:func:`decomposition_for`); every object's
 hulls pass a quality guard (:func:`hull_quality`: volume ratio, cavities kept open, surface
 covered) in :func:`object_from_mesh`.
 """
@@ -45,7 +45,7 @@ __all__ = [
     "MAX_FACES",
     "MAX_FILE_BYTES",
     "DENSE_FACES",
-    "FAST_DECOMPOSITION",
+    "DENSE_DECOMPOSITION",
     "MAX_EXCESS",
     "MAX_MISSING",
     "DecompositionConfig",
@@ -84,9 +84,9 @@ MAX_FILE_BYTES = 256 * 2**20
 # manifold3d's simplification gives up (quadric decimation takes over) past this tolerance, a fraction
 # of the largest extent: beyond it the surface may move more than CoACD's own concavity tolerance.
 _MAX_SIMPLIFY_TOLERANCE = 0.02
-#: Meshes with more faces are dense (scans, CAD exports): :func:`decomposition_for` gives them, and
-#: open meshes, faster settings. The procedural dataset's meshes are closed and stay at or under it
-#: (``rail_mj.dataset.MAX_FACES``), so their hulls and cache keys are those of the defaults.
+#: Meshes with more faces are dense (scans, CAD exports): :func:`decomposition_for` gives them faster
+#: settings. The procedural dataset stays at or under it (``rail_mj.dataset.MAX_FACES``), so its hulls
+#: and their cache keys are those of the defaults.
 DENSE_FACES = 5_000
 #: The quality guard (:func:`object_from_mesh`): most of :attr:`HullQuality.excess` and
 #: :attr:`HullQuality.missing` that hulls may have. The procedural dataset's default hulls reach
@@ -156,8 +156,8 @@ class DecompositionConfig:
             raise ConfigError(f"max_faces must be None or >= {_MIN_COACD_FACES}, got {self.max_faces}")
 
 
-#: :func:`decomposition_for` dense (more than :data:`DENSE_FACES` faces) and open meshes.
-FAST_DECOMPOSITION = DecompositionConfig(threshold=0.07, mcts_iterations=15, max_faces=3_000)
+#: :func:`decomposition_for` meshes of more than :data:`DENSE_FACES` faces.
+DENSE_DECOMPOSITION = DecompositionConfig(threshold=0.07, mcts_iterations=15, max_faces=3_000)
 
 
 def _fail(label: str, problem: str) -> MeshError:
@@ -528,28 +528,15 @@ def _run_coacd(mesh: trimesh.Trimesh, config: DecompositionConfig) -> list[np.nd
 
 
 def _bodies(mesh: trimesh.Trimesh) -> list[trimesh.Trimesh]:
-    """The parts :func:`decompose` decomposes one by one: each closed body (a connected piece, faces
-    joined by shared edges, that encloses a volume) alone, in the order of their first face, and
-    all open pieces together last, since open pieces often close a volume only together (a bottle's
-    wall, cap and bottom exported as three surfaces): on their own each was remeshed into a shell."""
+    """The mesh's connected pieces (faces joined by shared edges), in the order of their first face."""
     labels = trimesh.graph.connected_component_labels(mesh.face_adjacency, node_count=len(mesh.faces))
     _, first = np.unique(labels, return_index=True)
-    closed, open_faces = [], []
+    pieces = []
     for label in labels[np.sort(first)]:
-        faces = mesh.faces[labels == label]
-        piece = trimesh.Trimesh(mesh.vertices, faces, process=False)
+        piece = trimesh.Trimesh(mesh.vertices, mesh.faces[labels == label], process=False)
         piece.remove_unreferenced_vertices()
-        if piece.is_volume:
-            closed.append(piece)
-        else:
-            open_faces.append(faces)
-    if not open_faces:
-        return closed
-    if not closed:
-        return [mesh]
-    rest = trimesh.Trimesh(mesh.vertices, np.vstack(open_faces), process=False)
-    rest.remove_unreferenced_vertices()
-    return [*closed, rest]
+        pieces.append(piece)
+    return pieces
 
 
 def _point_hull_volume(points: np.ndarray) -> float:
@@ -583,8 +570,7 @@ def _decompose_bodies(bodies: list[trimesh.Trimesh], config: DecompositionConfig
 def decompose(mesh: trimesh.Trimesh, config: DecompositionConfig | None = None) -> tuple[np.ndarray, ...]:
     """Convex hulls of ``mesh`` (mesh frame), each with <= ``config.max_hull_vertices`` vertices.
 
-    A mesh of separate closed bodies (no more than ``config.max_convex_hull``, its open pieces
-    counting as one) is decomposed body by body (:func:`_bodies`).
+    A mesh of separate bodies (no more than ``config.max_convex_hull``) is decomposed body by body.
     Cached as .npz under ``cache_dir("hulls")``, keyed by the mesh arrays and the config.
     """
     config = config or DecompositionConfig()
@@ -800,21 +786,18 @@ def _mass_properties(mesh: trimesh.Trimesh, hulls: tuple[np.ndarray, ...]) -> tu
 def decomposition_for(mesh: trimesh.Trimesh) -> DecompositionConfig:
     """The decomposition settings :func:`object_from_mesh` uses for ``mesh`` when given none.
 
-    Closed meshes of at most :data:`DENSE_FACES` faces (the procedural dataset's kind) get the
-    defaults. Denser ones (scans, CAD exports) and open ones (which CoACD remeshes first) get
-    :data:`FAST_DECOMPOSITION`: CoACD sees them cut to 3,000 faces, with a coarser concavity
-    threshold (0.07) and half the MCTS iterations (15). On the real-mesh set's eight dense closed
-    meshes (8k-66k faces) that took CoACD from 5-60 s of CPU to 2.4-10 s with the same hull count
-    (22-32 of 32), volume ratio within 6% and excess within 0.02; on six open ones from 0.6-22 s
-    to 0.1-13 s, excess within 0.06 (``benchmarks/coacd_time.py``). A 16-hull cap was slower (more
-    merging) and filled more of the cavities (excess +0.03-0.07); CoACD's ``resolution`` at 250
-    changed neither time nor hulls; CoACD scales every mesh to a unit box, so the object's size in
-    metres changes neither. The quality guard of :func:`object_from_mesh` redoes hulls from these
-    settings with the defaults where they fail it.
+    Meshes of at most :data:`DENSE_FACES` faces get the defaults. Denser ones (scans, CAD
+    exports) get :data:`DENSE_DECOMPOSITION`: CoACD sees them cut to 3,000 faces, with a coarser
+    concavity threshold (0.07) and half the MCTS iterations (15). On the real-mesh set's eight
+    dense closed meshes (8k-66k faces) that took CoACD from 5-60 s of CPU to 2.4-10 s, with the
+    same hull count (22-32 of 32), volume ratio within 6% and excess within 0.02
+    (``benchmarks/coacd_time.py``). Fewer hulls (16) were slower (more merging) and filled more
+    of the cavities (excess +0.03-0.07); CoACD's ``resolution`` at 250 changed neither time nor
+    hulls. CoACD scales every mesh to a unit box, so an object's size in metres changes neither.
+    The quality guard of :func:`object_from_mesh` redoes hulls from these settings with the
+    defaults where they fail it.
     """
-    if len(mesh.faces) <= DENSE_FACES and mesh.is_volume:
-        return DecompositionConfig()
-    return FAST_DECOMPOSITION
+    return DecompositionConfig() if len(mesh.faces) <= DENSE_FACES else DENSE_DECOMPOSITION
 
 
 def _guard_score(quality: HullQuality) -> float:

@@ -564,15 +564,12 @@ def test_max_faces_is_checked() -> None:
 # ---- settings by mesh density, and the quality guard ----------------------------------------
 
 
-def test_dense_and_open_meshes_get_the_faster_settings() -> None:
+def test_dense_meshes_get_the_faster_settings() -> None:
     assert objects.decomposition_for(objects.repair_mesh(small_cup())) == DecompositionConfig()
     dense = objects.repair_mesh(noisy_sphere())
     assert len(dense.faces) > objects.DENSE_FACES
-    assert objects.decomposition_for(dense) == objects.FAST_DECOMPOSITION
-    assert objects.FAST_DECOMPOSITION.max_faces < objects.DENSE_FACES
-    open_box = box()
-    open_box.update_faces(open_box.face_normals[:, 2] < 0.5)
-    assert objects.decomposition_for(open_box) == objects.FAST_DECOMPOSITION
+    assert objects.decomposition_for(dense) == objects.DENSE_DECOMPOSITION
+    assert objects.DENSE_DECOMPOSITION.max_faces < objects.DENSE_FACES
 
 
 def test_meshes_up_to_the_dense_limit_keep_the_defaults() -> None:
@@ -580,8 +577,8 @@ def test_meshes_up_to_the_dense_limit_keep_the_defaults() -> None:
     from rail_mj.dataset import MAX_FACES
 
     assert MAX_FACES <= objects.DENSE_FACES
-    at_limit = trimesh.creation.cylinder(0.05, 0.1, sections=objects.DENSE_FACES // 4)  # closed, 4 faces a section
-    assert len(at_limit.faces) <= objects.DENSE_FACES and at_limit.is_volume
+    sphere = trimesh.creation.icosphere(subdivisions=4)  # 5,120 faces
+    at_limit = trimesh.Trimesh(sphere.vertices, sphere.faces[: objects.DENSE_FACES], process=False)
     assert objects.decomposition_for(at_limit) == DecompositionConfig()
 
 
@@ -592,7 +589,7 @@ def _fake_coacd(monkeypatch: pytest.MonkeyPatch, tmp_path: Path, good: tuple[np.
 
     def fake(mesh, config):
         thresholds.append(config.threshold)
-        return [np.asarray(mesh.vertices)] if config == objects.FAST_DECOMPOSITION else [np.asarray(h) for h in good]
+        return [np.asarray(mesh.vertices)] if config == objects.DENSE_DECOMPOSITION else [np.asarray(h) for h in good]
 
     monkeypatch.setattr(objects, "_run_coacd", fake)
     return thresholds
@@ -604,7 +601,7 @@ def test_guard_redoes_failing_fast_hulls_with_the_defaults(
     thresholds = _fake_coacd(monkeypatch, tmp_path, cup_object.hulls)
     monkeypatch.setattr(objects, "DENSE_FACES", 50)  # the 96-face cup counts as dense
     obj = object_from_mesh(small_cup(), name="cup")
-    assert thresholds == [objects.FAST_DECOMPOSITION.threshold, DecompositionConfig().threshold]
+    assert thresholds == [objects.DENSE_DECOMPOSITION.threshold, DecompositionConfig().threshold]
     assert len(obj.hulls) == len(cup_object.hulls)
     (note,) = objects.mesh_notes(obj.mesh)
     assert note.startswith("hulls made again with the default settings: the faster ones' excess 0.6")
@@ -620,22 +617,3 @@ def test_guard_notes_hulls_that_fail_it(monkeypatch: pytest.MonkeyPatch, tmp_pat
 
 def test_guard_passes_good_hulls_without_a_note(cup_object) -> None:
     assert objects.mesh_notes(cup_object.mesh) == []
-
-
-def test_open_pieces_are_decomposed_together(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
-    # a can exported as three surfaces (wall, lid, bottom) that meet without sharing vertices: only
-    # together do they close a volume (on its own the 88-face wall of a bottle was remeshed into 28 hulls)
-    calls = _spy_coacd(monkeypatch, tmp_path)
-    can = trimesh.creation.cylinder(0.03, 0.1, sections=16)
-    caps = np.abs(can.face_normals[:, 2]) > 0.5
-    wall = trimesh.Trimesh(can.vertices, can.faces[~caps])
-    lid, bottom = (
-        trimesh.Trimesh(can.vertices * [1, 1, 1 + 1e-5], can.faces[caps & (can.face_normals[:, 2] * s > 0)])
-        for s in (1, -1)
-    )
-    mesh = objects.repair_mesh(trimesh.util.concatenate([wall, lid, bottom]))
-    assert len(objects._bodies(mesh)) == 1 and mesh.body_count == 3
-    decompose(mesh)
-    assert calls == [(len(mesh.faces), DecompositionConfig().max_convex_hull)]
-    with_crate = objects.repair_mesh(trimesh.util.concatenate([mesh, box((0.02, 0.02, 0.02))]))
-    assert [b.is_volume for b in objects._bodies(with_crate)] == [True, False]  # the crate, then the can's pieces
