@@ -208,7 +208,10 @@ def _verified(
 
 
 def _cache_path(obj: RailObject, params: dict) -> Path:
-    key = json.dumps({"mesh": obj.mesh_hash, "version": _CACHE_VERSION, **params}, sort_keys=True)
+    # the poses come from the hulls, which change with the decomposition settings under an unchanged mesh
+    hulls = hashlib.sha256(b"".join(np.ascontiguousarray(h, dtype=np.float64).tobytes() for h in obj.hulls))
+    key = json.dumps({"mesh": obj.mesh_hash, "hulls": hulls.hexdigest(), "version": _CACHE_VERSION, **params},
+                     sort_keys=True)
     return cache_dir("stable_poses") / f"{hashlib.sha256(key.encode()).hexdigest()[:32]}.json"
 
 

@@ -106,6 +106,15 @@ def test_results_are_cached_on_disk(box, tmp_path, monkeypatch):
     np.testing.assert_allclose(again[0].quat, first[0].quat)
 
 
+def test_other_hulls_under_the_same_mesh_are_not_served_cached_poses(box, tmp_path, monkeypatch):
+    monkeypatch.setenv("RAIL_MJ_CACHE", str(tmp_path))
+    find_stable_poses(box, n_drops=16, seed=3)
+    # same mesh hash, other decomposition (e.g. new CoACD settings): its poses must be computed afresh
+    flat = trimesh.creation.box(extents=[0.1, 0.06, 0.01]).vertices
+    find_stable_poses(_object("box", [flat]), n_drops=16, seed=3)
+    assert len(list((tmp_path / "stable_poses").glob("*.json"))) == 2
+
+
 def test_bad_arguments_say_what_is_valid(box):
     with pytest.raises(ConfigError, match="n_drops >= 1"):
         find_stable_poses(box, n_drops=0)
