@@ -33,13 +33,6 @@ from rail_mj.paths import CACHE_ENV
 VERDICT = ("predicted", "correct", "pose_correct", "pose_correct_without_analyzer", "error")
 
 
-def _cases(out: Path) -> dict[str, dict]:
-    cases = {}
-    for raw in (out / "results.jsonl").read_text().splitlines():
-        line = json.loads(raw)
-        line["result"].pop("timings")
-        cases[line["key"]] = line
-    return cases
 
 
 def _run(dataset: Path, out: Path, affordances: list[str], cache: Path, **execution) -> float:
@@ -114,7 +107,7 @@ def main() -> int:
                   f"{n_cases / with_start:.2f} | {m['ratio_with_start']:.2f} | |")
 
     folders = {"workers=1": "workers1", "workers=2": "workers2", "ray (2 CPUs)": "ray"}
-    results = {mode: _cases(base / folders[mode]) for mode in modes}
+    results = {mode: rail_eval.cases_without_timings(base / folders[mode]) for mode in modes}
     reference = results["workers=1"]
     verdicts = {mode: {k: [ln[f] for f in VERDICT] for k, ln in r.items()} for mode, r in results.items()}
     same_verdicts = all(v == verdicts["workers=1"] for v in verdicts.values())

@@ -64,7 +64,8 @@ from rail_mj.results import AffordanceResult, PoseInfo
 from rail_mj.runfiles import atomic_write_text, folder_lock
 
 __all__ = [
-    "POSE_TOLERANCE_DEG", "PLAN_FILE", "EvalConfig", "run_eval", "merge_runs", "parse_shard", "summarize", "main",
+    "POSE_TOLERANCE_DEG", "PLAN_FILE", "EvalConfig", "run_eval", "merge_runs", "parse_shard", "summarize",
+    "cases_without_timings", "main",
 ]
 
 POSE_TOLERANCE_DEG = 20.0
@@ -322,6 +323,17 @@ def _dataset(cfg: EvalConfig, out: Path, affordances: list[str] | None) -> tuple
             "(see `python -m rail_mj.dataset --help`) or 'procedural'"
         )
     return root, read_labels(root)
+
+
+def cases_without_timings(out: Path) -> dict[str, dict]:
+    """Each case's line in ``out/results.jsonl`` by key, without its timings: the one part that differs
+    between two runs of the same cases (serial, parallel, Ray, merged shards)."""
+    cases = {}
+    for raw in (Path(out) / "results.jsonl").read_text().splitlines():
+        line = json.loads(raw)
+        line["result"].pop("timings")
+        cases[line["key"]] = line
+    return cases
 
 
 def parse_shard(text: str) -> tuple[int, int]:

@@ -20,6 +20,7 @@ import pytest
 import trimesh
 
 from rail_mj import eval as rail_eval
+from rail_mj.eval import cases_without_timings as _cases
 from rail_mj import llm
 from rail_mj.errors import ConfigError
 from rail_mj.imagination import ImaginationConfig, get_backend, imagine
@@ -60,14 +61,6 @@ def serial_run(cache, tmp_path_factory) -> Path:
     return out
 
 
-def _cases(out: Path) -> dict[str, dict]:
-    """Each key's line without its timings, the one part that differs between runs."""
-    cases = {}
-    for raw in (out / "results.jsonl").read_text().splitlines():
-        line = json.loads(raw)
-        line["result"].pop("timings")
-        cases[line["key"]] = line
-    return cases
 
 
 def _summary(out: Path) -> dict:

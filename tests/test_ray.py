@@ -14,6 +14,7 @@ import pytest
 import trimesh
 
 from rail_mj import eval as rail_eval
+from rail_mj.eval import cases_without_timings as _cases
 from rail_mj.paths import CACHE_ENV
 from rail_mj.pipeline import RunConfig, classify
 
@@ -57,13 +58,6 @@ def _cfg() -> rail_eval.EvalConfig:
                                 backend="native", n_drops=8, render=False)
 
 
-def _cases(out: Path) -> dict[str, dict]:
-    cases = {}
-    for raw in (out / "results.jsonl").read_text().splitlines():
-        line = json.loads(raw)
-        line["result"].pop("timings")
-        cases[line["key"]] = line
-    return cases
 
 
 def _summary(out: Path) -> dict:
