@@ -11,6 +11,7 @@ alone is not a failure.
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import sys
 from collections.abc import Sequence
@@ -94,6 +95,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--provider", default="auto", help="auto | offline | anthropic")
     p.add_argument("--backend", default="auto", help="auto | native | mjx")
     p.add_argument("--json", action="store_true", help="print the results as JSON lines")
+    p.add_argument("--explain", action="store_true",
+                   help="show why: every stable pose (probability, up axis, box size, envelope), each plan's score "
+                        "in it, the analyser's rules that fired, and the verdict; with --json under \"explain\"")
     p.add_argument("--render", type=_picture_path, metavar="PNG",
                    help="write a captioned picture of the functional pose (else the best-scoring one) with the agents")
     p.add_argument("--contact-sheet", type=_picture_path, metavar="PNG",
@@ -102,6 +106,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                    help="draw the original mesh in the pictures instead of its CoACD hulls")
     args = p.parse_args(argv)
 
+    from rail_mj.explain import explain, format_explanation
     from rail_mj.pipeline import ObjectInput, classify
 
     try:
@@ -116,7 +121,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             if r.error:
                 print(f"error: {r.object}: {r.requested!r}: {r.error}", file=sys.stderr)
             if args.json:
-                print(r.model_dump_json())
+                print(json.dumps({**r.model_dump(mode="json"), "explain": explain(r).model_dump(mode="json")})
+                      if args.explain else r.model_dump_json())
+            elif args.explain:
+                print(format_explanation(explain(r)))
             elif not r.error:
                 print(_describe(r))
         if args.render or args.contact_sheet:

@@ -1,0 +1,124 @@
+"""Why a result came out as it did: every stable pose, each plan's score in it, the rules that fired, the verdict.
+
+Built from an :class:`~rail_mj.results.AffordanceResult` alone (its stable poses, score grid and analyser
+reasons) plus the registry row's pose envelope, so any stored result (an eval's ``results.jsonl`` line too)
+can be explained after the fact. ``python -m rail_mj MESH -a NAME --explain`` prints :func:`format_explanation`;
+with ``--json`` the result line carries :func:`explain` under ``"explain"``.
+"""
+
+from __future__ import annotations
+
+import re
+
+from pydantic import BaseModel, Field
+
+from rail_mj.affordances.registry import get
+from rail_mj.errors import UnknownAffordanceError
+from rail_mj.results import AffordanceResult
+
+__all__ = ["PoseExplanation", "Explanation", "explain", "format_explanation", "up_axis"]
+
+_POSE_REASON = re.compile(r"^pose (\d+): (.*)$", re.DOTALL)
+#: An up vector within this many degrees' cosine of a mesh axis is named after it.
+_AXIS_COS = 0.985
+
+
+class PoseExplanation(BaseModel):
+    """One stable pose and what happened in it."""
+
+    index: int
+    probability: float
+    up: str = Field(description="the mesh axis that points up in this pose (+z, -y, ...), or the vector")
+    up_in_mesh_frame: list[float]
+    box_size_m: list[float] = Field(description="full extents of the pose's box, x y z (z up), m")
+    envelope: str = Field(description="'fits', or which pose-envelope size is outside its range")
+    scores: dict[str, float] = Field(description="plan -> score (> 0 succeeded; -1 also when not imagined)")
+    analyzer: str = Field(description="the Functional Pose Analyzer's reasons for this pose, '' when none")
+    functional: bool = Field(description="whether this is the functional pose")
+
+
+class Explanation(BaseModel):
+    """Why one (object, affordance) got its verdict."""
+
+    object: str
+    requested: str
+    affordance: str
+    verdict: str
+    dims_fit: bool | None
+    functional_pose: int | None
+    best_plan: str | None
+    poses: list[PoseExplanation]
+    reasons: list[str] = Field(description="the analyser's reasons that belong to no single pose (the verdict's)")
+    error: str | None = None
+
+
+def up_axis(up: list[float]) -> str:
+    """The name of the mesh axis a unit vector lies along (``+z``, ``-x``), else the vector rounded."""
+    for i, axis in enumerate("xyz"):
+        if abs(up[i]) >= _AXIS_COS:
+            return f"{'+' if up[i] > 0 else '-'}{axis}"
+    return "[" + ", ".join(f"{v:.2f}" for v in up) + "]"
+
+
+def _envelope(affordance: str, half: list[float]) -> str:
+    try:
+        aff = get(affordance)
+    except UnknownAffordanceError:
+        return "no registered envelope"
+    fits, why = aff.pose_fits(half)
+    return "fits" if fits else why
+
+
+def explain(r: AffordanceResult) -> Explanation:
+    """The structured explanation of one result."""
+    per_pose: dict[int, list[str]] = {}
+    general: list[str] = []
+    for reason in r.analyzer_reasons:
+        m = _POSE_REASON.match(reason)
+        if m:
+            per_pose.setdefault(int(m.group(1)), []).append(m.group(2))
+        else:
+            general.append(reason)
+    best = r.functional_pose.index if r.functional_pose is not None else None
+    poses = []
+    for p in r.stable_poses:
+        row = r.scores[p.index] if p.index < len(r.scores) else []
+        poses.append(PoseExplanation(
+            index=p.index, probability=p.probability, up=up_axis(p.up_in_mesh_frame),
+            up_in_mesh_frame=[round(v, 4) for v in p.up_in_mesh_frame],
+            box_size_m=[round(2.0 * v, 4) for v in p.half_extents],
+            envelope=_envelope(r.affordance, p.half_extents),
+            scores={name: round(s, 4) for name, s in zip(r.plans, row, strict=False)},
+            analyzer="; ".join(per_pose.get(p.index, [])), functional=p.index == best,
+        ))
+    if r.error:
+        verdict = "failed"
+    elif r.functional:
+        verdict = "functional"
+    else:
+        verdict = "not functional"
+    return Explanation(object=r.object, requested=r.requested, affordance=r.affordance, verdict=verdict,
+                       dims_fit=r.dims_fit, functional_pose=best,
+                       best_plan=r.best_plan.name if r.best_plan is not None else None,
+                       poses=poses, reasons=general, error=r.error)
+
+
+def format_explanation(e: Explanation) -> str:
+    """The explanation as text for people: one block per stable pose, then the verdict."""
+    lines = [f"{e.object}: {e.requested!r} (imagined as {e.affordance!r})"]
+    if e.dims_fit is False:
+        lines.append("  dimension check: failed, nothing was imagined")
+    for p in e.poses:
+        mark = "  <- functional pose" if p.functional else ""
+        size = " x ".join(f"{v:.3f}" for v in p.box_size_m)
+        lines.append(f"  pose {p.index}: p={p.probability:.2f}, up {p.up}, box {size} m{mark}")
+        lines.append(f"    envelope: {p.envelope}")
+        if p.scores:
+            lines.append("    scores: " + ", ".join(f"{k} {v:+.2f}" for k, v in p.scores.items()))
+        if p.analyzer:
+            lines.append(f"    analyser: {p.analyzer}")
+    for reason in e.reasons:
+        lines.append(f"  rule: {reason}")
+    tail = f" in pose {e.functional_pose} with plan {e.best_plan!r}" if e.functional_pose is not None else ""
+    lines.append(f"  verdict: {e.verdict}{tail}" + (f" ({e.error})" if e.error else ""))
+    return "\n".join(lines)

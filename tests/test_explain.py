@@ -1,0 +1,75 @@
+"""``python -m rail_mj MESH -a NAME --explain``: every stable pose, each plan's score, the rules, the verdict."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+import trimesh
+
+from rail_mj.__main__ import main as rail_main
+from rail_mj.explain import explain, format_explanation, up_axis
+from rail_mj.results import AffordanceResult, PoseInfo
+
+
+@pytest.fixture(autouse=True)
+def _cache(tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("RAIL_MJ_CACHE", str(tmp_path_factory.getbasetemp() / "cache"))
+
+
+@pytest.fixture
+def block(tmp_path: Path) -> Path:
+    """A 20 x 16 x 3 cm block (a closed flat box of a plate's size): one convex hull, several stable faces."""
+    path = tmp_path / "block.stl"
+    trimesh.creation.box(extents=(0.2, 0.16, 0.03)).export(path)
+    return path
+
+
+def _pose(i: int, up: list[float], half: list[float], p: float) -> PoseInfo:
+    return PoseInfo(index=i, pos=[0, 0, 0], quat=[1, 0, 0, 0], probability=p, half_extents=half,
+                    up_in_mesh_frame=up)
+
+
+def test_explain_splits_the_reasons_by_pose_and_names_the_envelope() -> None:
+    r = AffordanceResult(
+        object="o", affordance="cup", requested="mug", dims_fit=True,
+        stable_poses=[_pose(0, [0, 0, 1], [0.04, 0.04, 0.05], 0.7), _pose(1, [0, -1, 0], [0.08, 0.05, 0.02], 0.3)],
+        plans=["above", "above_front"], scores=[[0.4, -1.0], [-1.0, -1.0]],
+        analyzer_reasons=["pose 0: above: 90% of droplets rest inside", "no other pose"],
+    )
+    e = explain(r)
+    assert [p.up for p in e.poses] == ["+z", "-y"]
+    assert e.poses[0].box_size_m == [0.08, 0.08, 0.1] and e.poses[0].envelope == "fits"
+    assert e.poses[1].envelope == "in this pose its height is 0.040; a cup has 0.06-0.16"
+    assert e.poses[0].scores == {"above": 0.4, "above_front": -1.0}
+    assert e.poses[0].analyzer == "above: 90% of droplets rest inside" and e.poses[1].analyzer == ""
+    assert e.reasons == ["no other pose"] and e.verdict == "not functional"
+    text = format_explanation(e)
+    assert "pose 1: p=0.30, up -y" in text and "rule: no other pose" in text
+
+
+def test_up_axis_names_an_axis_or_prints_the_vector() -> None:
+    assert up_axis([0.0, 0.0, -1.0]) == "-z"
+    assert up_axis([0.6, 0.0, 0.8]) == "[0.60, 0.00, 0.80]"
+
+
+def test_cli_explain_prints_every_pose_scores_rules_and_verdict(block: Path, capsys) -> None:
+    assert rail_main([str(block), "-a", "plate", "--explain", "--provider", "offline"]) == 0
+    out = capsys.readouterr().out
+    assert "'plate'" in out and "verdict: " in out
+    assert out.count("  pose ") >= 2 and "envelope: " in out and "scores: above " in out
+    assert "analyser: " in out or "rule: " in out
+
+
+def test_cli_explain_json_carries_the_same_as_structured_data(block: Path, capsys) -> None:
+    assert rail_main([str(block), "-a", "plate", "--explain", "--json", "--provider", "offline"]) == 0
+    line = json.loads(capsys.readouterr().out)
+    e = line["explain"]
+    assert e["verdict"] in ("functional", "not functional") and e["verdict"] == (
+        "functional" if line["functional"] else "not functional")
+    assert len(e["poses"]) == len(line["stable_poses"]) >= 2
+    for pose, info in zip(e["poses"], line["stable_poses"], strict=True):
+        assert pose["index"] == info["index"] and pose["probability"] == info["probability"]
+        assert set(pose["scores"]) == set(line["plans"])
+        assert pose["up"] in ("+x", "-x", "+y", "-y", "+z", "-z")
