@@ -18,18 +18,21 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from rail_mj import llm
+from rail_mj.affordances import request_scale
 from rail_mj.errors import ConfigError, RailError
 from rail_mj.imagination import imagine, resolve_backend
 from rail_mj.llm.schemas import ImaginationProfile
 from rail_mj.objects import load_object, mesh_notes
 from rail_mj.results import AffordanceResult, PlanInfo, PoseInfo
 from rail_mj.scoring import ScoringFunction, compile_scoring
-from rail_mj.stable_poses import find_stable_poses
+from rail_mj.stable_poses import find_stable_poses, pose_from_up
 from rail_mj.types import RailObject, StablePose, StablePoses
 
-__all__ = ["RunConfig", "ObjectInput", "Pipeline", "classify"]
+__all__ = ["PoseMode", "RunConfig", "ObjectInput", "Pipeline", "classify", "as_placed_pose"]
 
 ProgressCallback = Callable[[int, int, AffordanceResult], None]
+#: ``stable``: imagine every stable pose found by dropping the object; ``as_placed``: only the pose it stands in.
+PoseMode = Literal["stable", "as_placed"]
 
 
 class RunConfig(BaseModel):
@@ -50,6 +53,11 @@ class RunConfig(BaseModel):
     min_pose_probability: float = Field(
         0.0, ge=0, lt=1, description="stable poses rarer than this are not imagined"
     )
+    pose: PoseMode = Field("stable", description="stable: search the stable poses; as_placed: the object's "
+                                                 "pose as it stands (mesh frame z up, on the ground)")
+    agent: str | None = Field(None, description="the request's agent (doll, apple, ...): a figure scales every "
+                                                "real-world size of the affordance (rail_mj.affordances."
+                                                "request_scale)")
 
 
 class ObjectInput(BaseModel):
@@ -74,6 +82,12 @@ def _check_names(affordances: Sequence[str]) -> None:
                 f"affordance names must be non-empty text, got {a!r}; the offline library knows: {known} "
                 "(an LLM provider also imagines other named uses)"
             )
+
+
+def as_placed_pose(obj: RailObject) -> StablePoses:
+    """The object's pose as it stands, as the one stable pose (probability 1): its mesh frame's z up, resting on
+    the ground, turned about z only so that its footprint's box lies on the task frame's axes."""
+    return StablePoses(poses=(pose_from_up(obj, np.array([0.0, 0.0, 1.0]), 1.0),), n_drops=0, n_unsettled=0)
 
 
 def _pose_info(i: int, pose: StablePose) -> PoseInfo:
@@ -124,16 +138,18 @@ class Pipeline:
         return load_object(item.path, units=item.units, up=item.up, name=item.name)
 
     def stable_poses(self, obj: RailObject) -> StablePoses:
+        if self.config.pose == "as_placed":
+            return as_placed_pose(obj)
         return find_stable_poses(obj, n_drops=self.config.n_drops, seed=self.config.seed)
 
     # ---- per-affordance work --------------------------------------------------------
     def profile(self, affordance: str, obb_dims: Sequence[float]) -> ImaginationProfile:
         """A profile for this affordance, reused for objects of similar size and for every spelling
         of the name that the provider resolves alike ("mug" and "cup" share one)."""
-        task = llm.task_description(affordance, obb_dims, self.provider)
+        task = llm.task_description(affordance, obb_dims, self.provider, scale=request_scale(self.config.agent))
         b = math.log1p(self.config.profile_bin)
         # lower case: a novel name (an LLM provider's) is kept as written, in any case
-        key = (task.affordance.lower(), *(round(math.log(max(d, 1e-4)) / b) for d in task.obb_dims))
+        key = (task.affordance.lower(), task.scale, *(round(math.log(max(d, 1e-4)) / b) for d in task.obb_dims))
         if key not in self._profiles:
             self._profiles[key] = llm.task_profile(task, self.provider)
         return self._profiles[key]
@@ -273,11 +289,19 @@ def classify(
     backend: str = "auto",
     progress: bool | ProgressCallback = True,
     config: RunConfig | None = None,
+    pose: PoseMode | None = None,
+    agent: str | None = None,
     workers: int | None = None,
     executor: str = "local",
     ray_address: str | None = None,
 ) -> list[AffordanceResult]:
     """Classify every object for every requested affordance; results object-major, in input order.
+
+    ``pose="as_placed"`` skips the stable-pose search: each object is imagined in the pose it stands in (its
+    mesh frame's z up, on the ground), the paper's real-robot test, and the result's best plan is the one in that
+    pose. ``agent`` is the request's agent ("doll" for "put the doll on the chair"): a figure scales the
+    affordance's sizes, dimension check, envelope and agent to its own (a doll's chair). Both default to the
+    ``config``'s (``stable``, no agent).
 
     ``progress`` is ``True`` for a progress bar, ``False`` for none, or a callback
     ``(done, total, result)`` called after each (object, affordance), as objects finish.
@@ -292,7 +316,14 @@ def classify(
     from rail_mj.parallel import object_task, run_tasks
 
     _check_names(affordances)
-    cfg = (config or RunConfig()).model_copy(update={"provider": provider, "backend": backend})
+    update = {"provider": provider, "backend": backend}
+    if pose is not None:
+        if pose not in ("stable", "as_placed"):
+            raise ConfigError(f"unknown pose mode {pose!r}; valid: stable, as_placed")
+        update["pose"] = pose
+    if agent is not None:
+        update["agent"] = agent
+    cfg = RunConfig.model_validate({**(config or RunConfig()).model_dump(), **update})
     pipe = Pipeline(cfg)
     pipe.check_affordances(affordances)
     task_cfg = cfg.model_copy(update={"provider": pipe.provider_name, "backend": pipe.backend})

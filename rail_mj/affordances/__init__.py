@@ -9,20 +9,26 @@ from __future__ import annotations
 
 from rail_mj.affordances.envelope import ANY, Envelope, Range
 from rail_mj.affordances.registry import (
+    FIGURE_HEIGHTS,
     LIQUID_RADIUS,
     PAPER_AFFORDANCES,
+    PERSON_HEIGHT,
     REGISTRY,
     Affordance,
     Droplets,
     KindName,
+    for_request,
     get,
     known_affordances,
     label_key,
     normalize,
+    request_scale,
 )
 
 __all__ = [
     "ANY",
+    "FIGURE_HEIGHTS",
+    "PERSON_HEIGHT",
     "Envelope",
     "Range",
     "LIQUID_RADIUS",
@@ -35,4 +41,6 @@ __all__ = [
     "known_affordances",
     "label_key",
     "normalize",
+    "for_request",
+    "request_scale",
 ]

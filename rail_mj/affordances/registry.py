@@ -16,11 +16,11 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Literal
 
 from rail_mj.affordances.envelope import Envelope, Range
-from rail_mj.errors import UnknownAffordanceError
+from rail_mj.errors import ConfigError, UnknownAffordanceError
 
 __all__ = [
     "KindName",
@@ -33,6 +33,10 @@ __all__ = [
     "get",
     "normalize",
     "label_key",
+    "PERSON_HEIGHT",
+    "FIGURE_HEIGHTS",
+    "request_scale",
+    "for_request",
 ]
 
 KindName = Literal["container", "seat", "lie", "surface", "dish", "storage"]
@@ -68,6 +72,8 @@ class Affordance:
     aliases: tuple[str, ...] = ()
     paper: bool = False  # one of the paper's eight
     droplets: Droplets = Droplets()  # container kind only
+    #: size of the agent the row is for relative to the person its sizes are for (:meth:`scaled`; 1 = a person's)
+    scale: float = 1.0
 
     @property
     def key(self) -> str:
@@ -85,6 +91,26 @@ class Affordance:
             return True, ""
         name, value, (lo, hi) = bad
         return False, f"in this pose its {name} is {value:.3f}; a {self.name} has {lo:g}-{hi:g}"
+
+    def scaled(self, factor: float) -> Affordance:
+        """The row for an agent ``factor`` times the size of the one it is for ("put the doll on the chair": a
+        chair for a doll). The dimension check and the envelope's lengths (height, width, length, rest) scale
+        together and ``scale`` records the product; the aspect ratio stays, and so do the droplets (water is
+        water at any scale)."""
+        if isinstance(factor, bool) or not isinstance(factor, (int, float)) or not (math.isfinite(factor)
+                                                                                    and factor > 0):
+            raise ConfigError(f"an agent scale must be a positive finite number; got {factor!r}")
+        if factor == 1:
+            return self
+
+        def times(r: Range) -> Range:
+            return r[0] * factor, r[1] * factor
+
+        env = self.envelope
+        envelope = Envelope(height=times(env.height), width=times(env.width), length=times(env.length),
+                            aspect=env.aspect, rest=times(env.rest))
+        return replace(self, largest=times(self.largest), smallest=times(self.smallest), envelope=envelope,
+                       scale=self.scale * factor)
 
 
 def _rows() -> tuple[Affordance, ...]:
@@ -208,3 +234,40 @@ def label_key(name: str) -> str:
     spaces, underscores and hyphens as one underscore (labels may name uses outside the registry)."""
     found = _find(name)
     return found.key if found is not None else _spelling(name).replace(" ", "_")
+
+
+#: A person's height (m): the registry's sizes are those of things a person uses.
+PERSON_HEIGHT = 1.7
+
+#: Heights (m) of the figures a request may name as its agent. A figure uses furniture, dishes and vessels made
+#: at its own scale, so a doll's chair is a chair scaled by 0.3 / 1.7. Any other agent is an item a person
+#: carries (an apple, a pen, a book, water) and keeps a person's scale.
+FIGURE_HEIGHTS: dict[str, float] = {
+    "person": PERSON_HEIGHT, "man": 1.75, "woman": 1.65, "child": 1.1, "kid": 1.1, "baby": 0.6,
+    "doll": 0.3, "teddy": 0.3, "teddy bear": 0.3, "action figure": 0.15, "figurine": 0.1,
+}
+
+
+def _figure(agent: str) -> str | None:
+    key = _spelling(agent)
+    key = re.sub(r"^(the|a|an|my|this|that|some)\s+", "", key)
+    candidates = [key, key[:-1] if key.endswith("s") else key, re.sub(r"(wo)?men$", r"\1man", key)]
+    if key.endswith("ies"):
+        candidates.append(key[:-3] + "y")  # teddies
+    if key.endswith("children"):
+        candidates.append(key[:-3])
+    return next((c for c in candidates if c in FIGURE_HEIGHTS), None)
+
+
+def request_scale(agent: str | None) -> float:
+    """Size of a request's agent relative to a person's: a figure's height / :data:`PERSON_HEIGHT` (a doll
+    0.18), 1 for every other agent (an item a person carries) and for none."""
+    if agent is None:
+        return 1.0
+    figure = _figure(agent)
+    return 1.0 if figure is None else FIGURE_HEIGHTS[figure] / PERSON_HEIGHT
+
+
+def for_request(name: str, agent: str | None) -> Affordance:
+    """The row of ``name`` (see :func:`get`) scaled to the request's agent (:func:`request_scale`)."""
+    return get(name).scaled(request_scale(agent))

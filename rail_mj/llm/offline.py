@@ -27,6 +27,8 @@ from rail_mj.llm.schemas import (
     MotionPlans,
     PlanTrajectory,
     PoseVerdict,
+    Request,
+    RequestText,
     ScoringCode,
     TaskDescription,
     Trajectories,
@@ -42,12 +44,18 @@ __all__ = [
     "offline_trajectories",
     "offline_scoring",
     "offline_functional_poses",
+    "offline_request",
 ]
+
+
+def _row(task: TaskDescription) -> Affordance:
+    """The task's registry row at the task's agent scale (a doll's chair: every size × 0.18)."""
+    return get(task.affordance).scaled(task.scale)
 
 
 def _resolve(task: TaskDescription) -> tuple[Affordance, kinds.Kind, kinds.AgentShape]:
     """The task's registry row, its kind and the kind's agent scaled to the object."""
-    aff = get(task.affordance)
+    aff = _row(task)
     kind = kinds.kind_of(aff)
     return aff, kind, kind.agent(aff, list(task.obb_dims))
 
@@ -59,7 +67,7 @@ def _log_distance(aff: Affordance, dims: Sequence[float]) -> float:
 
 def offline_analysis(task: TaskDescription) -> AffordanceAnalysis:
     """Stage 1: size check against real-world ranges (alternative from the same kind), IBD and outline."""
-    aff = get(task.affordance)
+    aff = _row(task)
     kind = kinds.kind_of(aff)
     dims = list(task.obb_dims)
     fits = aff.dims_fit(dims)
@@ -70,7 +78,8 @@ def offline_analysis(task: TaskDescription) -> AffordanceAnalysis:
     if fits:
         reason = f"The object ({sizes}) fits: {ranges}."
     else:
-        fitting = [a for a in REGISTRY.values() if a.kind == aff.kind and a.name != aff.name and a.dims_fit(dims)]
+        fitting = [a for a in (r.scaled(task.scale) for r in REGISTRY.values())
+                   if a.kind == aff.kind and a.name != aff.name and a.dims_fit(dims)]
         if fitting:
             alternative = min(fitting, key=lambda a: (not a.paper, _log_distance(a, dims))).name
         reason = (f"The object ({sizes}) does not fit: {ranges}. "
@@ -129,7 +138,7 @@ def offline_functional_poses(request: FunctionalPoseRequest) -> FunctionalPoseVe
     agents not mostly on the ground).
     """
     try:
-        aff: Affordance | None = get(request.affordance)
+        aff: Affordance | None = get(request.affordance).scaled(request.scale)
     except UnknownAffordanceError:
         aff = None
     kind = kinds.kind_of(aff) if aff is not None else None
@@ -165,3 +174,10 @@ def offline_functional_poses(request: FunctionalPoseRequest) -> FunctionalPoseVe
     return FunctionalPoseVerdict(poses=verdicts, best_pose=best[4], best_plan=best[5],
                                  reason=f"pose {best[4]} works with the most plans ({best[1]}); plan {best[5]!r} "
                                         f"has its best accepted score ({best[2]:.3f})")
+
+
+def offline_request(request: RequestText) -> Request:
+    """The request parser by rules (:func:`rail_mj.robot.request.parse_words`)."""
+    from rail_mj.robot.request import parse_words  # here: the robot package loads MuJoCo and the Panda's modules
+
+    return parse_words(request.text)

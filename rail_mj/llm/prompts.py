@@ -22,6 +22,8 @@ from rail_mj.llm.schemas import (
     LayoutRequest,
     MotionPlans,
     PlannerRequest,
+    Request,
+    RequestText,
     ScoringCode,
     ScoringRequest,
     TaskDescription,
@@ -33,13 +35,15 @@ from rail_mj.types import SCORING_ARGS
 __all__ = ["StageSpec", "PROMPT_VERSION", "STAGES", "system_prompt", "user_prompt", "repair_prompt"]
 
 PROMPT_VERSION: dict[str, str] = {
-    "affordance_analyzer": "1",
-    "agent_model": "1",
-    "agent_configuration": "1",
-    "motion_planner": "1",
-    "trajectory": "1",
-    "scoring": "1",
+    # 2: the task carries the request's agent scale (its examples show it)
+    "affordance_analyzer": "2",
+    "agent_model": "2",
+    "agent_configuration": "2",
+    "motion_planner": "2",
+    "trajectory": "2",
+    "scoring": "2",
     "functional_pose": "2",
+    "request_parser": "1",
 }
 
 
@@ -111,6 +115,11 @@ at an implausible height, and a container through which agents poured at its cen
 beneath it: it leaks), give a reason, the best \
 accepted plan of the pose, and the best (pose, plan) overall (null when none is accepted). One verdict per pose, in \
 the same order."""),
+        StageSpec("request_parser", Request, """You are the Request Parser of a robot that places things. Given a \
+sentence asking it to put an agent in or on an object ("put the apple in the bowl", "place the doll on the toy \
+chair"), answer the agent (what is placed: singular, lower case, no article), the affordance the object must have \
+for it (singular, lower case: its registered name, e.g. "pen holder" for "pencil cup"), and the preposition: "in" \
+for in / into / inside, "on" for on / onto / on top of. Keep "text" equal to the sentence as given."""),
     )
 }
 
@@ -120,10 +129,16 @@ _EXAMPLE_TASKS = (
     TaskDescription(affordance="chair", obb_dims=[0.9, 0.5, 0.48]),
 )
 
+#: Sentences whose offline parses are the request parser's few-shot examples.
+_EXAMPLE_REQUESTS = ("put the apple in the bowl", "Place the dolls onto the chairs.")
+
 
 @cache
 def _examples(stage: str) -> tuple[tuple[str, str], ...]:
     """(request JSON, answer JSON) pairs of the offline library for one stage."""
+    if stage == "request_parser":
+        return tuple((RequestText(text=t).model_dump_json(), offline.offline_request(RequestText(text=t))
+                      .model_dump_json()) for t in _EXAMPLE_REQUESTS)
     pairs = []
     for task in _EXAMPLE_TASKS:
         analysis = offline.offline_analysis(task)

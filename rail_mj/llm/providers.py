@@ -15,6 +15,7 @@ from rail_mj.llm.schemas import (
     FunctionalPoseRequest,
     LayoutRequest,
     PlannerRequest,
+    RequestText,
     ScoringRequest,
     TrajectoryRequest,
 )
@@ -59,6 +60,8 @@ class OfflineProvider(Provider):
             result = offline.offline_scoring(request.task)
         elif isinstance(request, FunctionalPoseRequest):
             result = offline.offline_functional_poses(request)
+        elif isinstance(request, RequestText):
+            result = offline.offline_request(request)
         else:
             raise ConfigError(f"the offline provider has no answer for a {type(request).__name__}")
         try:

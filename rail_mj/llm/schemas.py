@@ -11,7 +11,7 @@ therefore serves every stable pose of the object.
 
 from __future__ import annotations
 
-from typing import Annotated
+from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -40,6 +40,9 @@ __all__ = [
     "PoseVerdict",
     "FunctionalPoseVerdict",
     "ImaginationProfile",
+    "Preposition",
+    "RequestText",
+    "Request",
 ]
 
 Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
@@ -50,11 +53,18 @@ class _Model(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
 
+#: Agent scale: the request's agent against a person (rail_mj.affordances.request_scale; a doll 0.18).
+Scale = Annotated[float, Field(gt=0, le=10, description="size of the agent the object is for, relative to a "
+                                                        "person's (a doll: 0.18); every real-world size of the "
+                                                        "affordance scales by it")]
+
+
 class TaskDescription(_Model):
     """d_task: the requested affordance and the object's OBB extents (m, sorted descending)."""
 
     affordance: str
     obb_dims: Vec3
+    scale: Scale = 1.0
 
 
 class AnalyzerRequest(_Model):
@@ -230,6 +240,7 @@ class FunctionalPoseRequest(_Model):
     affordance: str
     expected_outcome: str
     poses: list[PoseCandidates]
+    scale: Scale = 1.0
 
 
 class PoseVerdict(_Model):
@@ -257,6 +268,7 @@ class ImaginationProfile(_Model):
     obb_dims: Vec3
     provider: str
     model: str
+    scale: Scale = 1.0
     prompt_versions: dict[str, str]
     analysis: AffordanceAnalysis
     agent: AgentModel
@@ -264,3 +276,22 @@ class ImaginationProfile(_Model):
     plans: MotionPlans
     trajectories: Trajectories
     scoring: ScoringCode
+
+
+Preposition = Literal["in", "on"]
+
+
+class RequestText(_Model):
+    """Input of the request parser: what a person asked the robot, e.g. "put the apple in the bowl"."""
+
+    text: str = Field(min_length=1, max_length=500)
+
+
+class Request(_Model):
+    """Output of the request parser: the agent to place and the affordance the object must have for it."""
+
+    text: str = Field(description="the sentence as given")
+    agent: str = Field(min_length=1, description="what is placed, singular, without article (apple, doll, water)")
+    affordance: str = Field(min_length=1, description="the use asked of the object, singular (bowl, chair, pen "
+                                                      "holder)")
+    preposition: Preposition = Field(description="in (in, into, inside) or on (on, onto, on top of)")

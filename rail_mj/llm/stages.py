@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from rail_mj.errors import ConfigError
+from rail_mj.errors import ConfigError, UnknownAffordanceError
 from rail_mj.llm.checks import (
     InvalidAnswerError,
     agent_geometry,
@@ -46,6 +46,8 @@ from rail_mj.llm.schemas import (
     PlannerRequest,
     PlanTrajectory,
     PoseCandidates,
+    Request,
+    RequestText,
     ResultSummary,
     ScoringCode,
     ScoringRequest,
@@ -70,6 +72,7 @@ __all__ = [
     "agent_setup",
     "result_summary",
     "functional_pose_request",
+    "parse_request_text",
 ]
 
 ProviderLike = str | Provider
@@ -140,16 +143,39 @@ def analyze_functional_poses(request: FunctionalPoseRequest,
     return _provider(provider).answer(STAGES["functional_pose"], request, lambda v: check_verdict(v, request))
 
 
-def task_description(affordance: str, obb_dims: Sequence[float] | np.ndarray, provider: Provider) -> TaskDescription:
+def parse_request_text(request: RequestText, provider: ProviderLike = "offline") -> Request:
+    """The request parser: the agent, the affordance and the preposition of a sentence like "put the apple in
+    the bowl". The answer's affordance is the name ``provider`` resolves (the registry's canonical name; an LLM
+    provider may also name a novel use), its agent is non-empty, its text the sentence as given."""
+    prov = _provider(provider)
+
+    def check(answer: Request) -> None:
+        if answer.text != request.text:
+            raise InvalidAnswerError(f"text must be the sentence as given, {request.text!r}; got {answer.text!r}")
+        if not answer.agent.strip():
+            raise InvalidAnswerError("agent must name what is placed (e.g. apple, doll, water)")
+        try:
+            name = prov.affordance_name(answer.affordance)
+        except UnknownAffordanceError as exc:
+            raise InvalidAnswerError(str(exc)) from exc
+        if name != answer.affordance:
+            raise InvalidAnswerError(f"affordance must be the canonical name {name!r}; got {answer.affordance!r}")
+
+    return prov.answer(STAGES["request_parser"], request, check)
+
+
+def task_description(affordance: str, obb_dims: Sequence[float] | np.ndarray, provider: Provider, *,
+                     scale: float = 1.0) -> TaskDescription:
     """The task every stage request of a profile carries: the name as ``provider`` resolves it (the
-    registry's canonical name when known; see :meth:`Provider.affordance_name`), dims sorted descending.
+    registry's canonical name when known; see :meth:`Provider.affordance_name`), dims sorted descending,
+    and the request's agent ``scale`` (a doll's chair: 0.18; :func:`rail_mj.affordances.request_scale`).
 
     The one place a requested name becomes the name the stages see.
     """
     dims = sorted((float(d) for d in np.asarray(obb_dims, dtype=float).ravel()), reverse=True)
     if len(dims) != 3 or not all(np.isfinite(dims)) or dims[-1] <= 0:
         raise ConfigError(f"obb_dims must be three positive finite extents in metres; got {list(obb_dims)}")
-    return TaskDescription(affordance=provider.affordance_name(affordance), obb_dims=dims)
+    return TaskDescription(affordance=provider.affordance_name(affordance), obb_dims=dims, scale=scale)
 
 
 def task_profile(task: TaskDescription, provider: Provider, *,
@@ -167,6 +193,7 @@ def task_profile(task: TaskDescription, provider: Provider, *,
                                provider)
     return ImaginationProfile(
         affordance=task.affordance, obb_dims=list(task.obb_dims), provider=provider.name, model=provider.model,
+        scale=task.scale,
         prompt_versions={k: v for k, v in PROMPT_VERSION.items() if k != "functional_pose"},
         analysis=analysis, agent=agent, layout=layout, plans=plans, trajectories=trajectories, scoring=scoring,
     )
@@ -291,5 +318,6 @@ def functional_pose_request(
     if not pose_candidates:
         return None
     return FunctionalPoseRequest(
-        affordance=profile.affordance, expected_outcome=profile.analysis.expected_outcome, poses=pose_candidates
+        affordance=profile.affordance, expected_outcome=profile.analysis.expected_outcome, poses=pose_candidates,
+        scale=profile.scale,
     )

@@ -5,6 +5,7 @@ from __future__ import annotations
 from rail_mj.robot.control import RobotConfig
 from rail_mj.robot.executor import DriveResult, ExecutionResult, ForceEvent, ScoringFunction, build_scene, drive, execute
 from rail_mj.robot.model import fetch_panda, load_panda_spec, panda_dir
+from rail_mj.robot.request import Request, parse_request
 
 __all__ = [
     "RobotConfig",
@@ -18,4 +19,6 @@ __all__ = [
     "fetch_panda",
     "load_panda_spec",
     "panda_dir",
+    "Request",
+    "parse_request",
 ]

@@ -91,12 +91,13 @@ def _parts(kind: str, rng: np.random.Generator) -> list[np.ndarray]:
     if kind == "plate":
         r = u(0.08, 0.1)
         return [_disk_hull(r, 0, 0.008)] + _ring_walls(r - 0.004, 0.004, 0, 0.018, n=24)
+    # furniture at a doll's scale (0.3 m: rail_mj.affordances.FIGURE_HEIGHTS), for requests whose agent is a doll
     if kind == "table":
-        return _legged(u(0.08, 0.1), u(0.06, 0.08), u(0.08, 0.1), 0.01, 0.012)
+        return _legged(u(0.08, 0.1), u(0.07, 0.09), u(0.11, 0.14), 0.01, 0.012)
     if kind == "stool":
         return _legged(u(0.05, 0.06), u(0.05, 0.06), u(0.07, 0.09), 0.01, 0.01)
     if kind == "chair":
-        parts = _legged(u(0.05, 0.06), u(0.05, 0.06), u(0.06, 0.08), 0.01, 0.01)
+        parts = _legged(u(0.05, 0.06), u(0.05, 0.06), u(0.075, 0.09), 0.01, 0.01)
         seat = parts[0]
         hx, top = float(seat[:, 0].max()), float(seat[:, 2].max())
         hy = float(seat[:, 1].max())

@@ -25,11 +25,12 @@ class Lie(Lowering):
     target = "the lying surface"
 
     def agent(self, aff: Affordance, dims: Sequence[float]) -> AgentShape:
-        k = min(1.2, max(0.7, dims[0] / 2.0))
-        return box_agent("torso", (0.25 * k, 0.175 * k, _HALF_Z))
+        # the lying figure's size (the row's agent scale: a doll's torso on a doll's bed)
+        k = min(1.2, max(0.7, dims[0] / (2.0 * aff.scale))) * aff.scale
+        return box_agent("torso", (0.25 * k, 0.175 * k, _HALF_Z * aff.scale))
 
     def scoring(self, aff: Affordance, shape: AgentShape) -> ScoringCode:
         return rest_scoring(aff, shape, *rest_bounds(aff), 15, 15, f"level {rest_words(aff)}")
 
     def window(self, aff: Affordance) -> tuple[float, float]:
-        return rest_window(aff, _HALF_Z)
+        return rest_window(aff, _HALF_Z * aff.scale)

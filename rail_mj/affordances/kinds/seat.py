@@ -43,7 +43,8 @@ class Seat(Kind):
                         "touching the ground, and the {name} does not tip over.")
 
     def agent(self, aff: Affordance, dims: Sequence[float]) -> AgentShape:
-        return box_agent("pelvis", _HALF)
+        # the sitter's size: a doll's pelvis on a doll's chair (the row's agent scale)
+        return box_agent("pelvis", tuple(v * aff.scale for v in _HALF))
 
     def plans(self, shape: AgentShape) -> list[MotionPlan]:
         plans = [MotionPlan(name="above", description="Start with the pelvis above the object's centre; lower it "
@@ -56,7 +57,8 @@ class Seat(Kind):
 
     def via_poses(self, plan: str, shape: AgentShape, layout: AgentLayout) -> list[ViaPose]:
         gap = clearance(shape)
-        above_seat = _ABOVE_SEAT + shape.radius + 0.05  # the pelvis included
+        scale = shape.half_z / _HALF[2]  # the sitter's size against a person's
+        above_seat = scale * _ABOVE_SEAT + shape.radius + 0.05 * scale  # the pelvis included
         bottom = shape.half_z + 0.02
         if plan == "above":
             return [via((0, 0, 1), (0, 0, shape.radius + gap)), via((0, 0, -1), (0, 0, bottom))]
@@ -69,4 +71,4 @@ class Seat(Kind):
         return rest_scoring(aff, shape, *rest_bounds(aff), 15, 15, f"upright {rest_words(aff)}")
 
     def accept(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float]) -> tuple[bool, str]:
-        return rest_accept(c, h, rest_window(aff, _HALF[2]), 15)
+        return rest_accept(c, h, rest_window(aff, _HALF[2] * aff.scale), 15)
