@@ -60,7 +60,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "EXECUTORS", "ObjectTask", "object_task", "cpu_count", "plan_workers", "check_executor", "run_object",
-    "run_tasks", "serve",
+    "largest_first", "run_tasks", "serve",
 ]
 
 EXECUTORS = ("local", "ray")
@@ -174,11 +174,34 @@ def run_tasks(
     """
     check_executor(executor, ray_address, workers)
     if executor == "ray":
-        return _ray_tasks(tasks, ray_address, workers)
+        return _ray_tasks(largest_first(tasks), ray_address, workers)
     n, threads = plan_workers(workers, len(tasks))
     if n == 1:
         return ((t, _decode(t, run_object(t))) for t in tasks)
-    return _local_tasks(tasks, n, threads)
+    return _local_tasks(largest_first(tasks), n, threads)
+
+
+def _size(item: Any) -> int:
+    """A task's expected cost: the mesh's bytes on disk (CoACD and the stable poses grow with the mesh), or its
+    array bytes for an in-memory object; 0 when unknown."""
+    from rail_mj.pipeline import ObjectInput
+    from rail_mj.types import RailObject
+
+    if isinstance(item, RailObject):
+        return int(item.mesh.vertices.nbytes + item.mesh.faces.nbytes)
+    path = item.path if isinstance(item, ObjectInput) else item
+    if not isinstance(path, (str, Path)):  # another path-like runs its own code: only in the worker, never here
+        return 0
+    try:
+        return os.stat(path).st_size
+    except (OSError, ValueError):
+        return 0
+
+
+def largest_first(tasks: Sequence[ObjectTask]) -> list[ObjectTask]:
+    """The tasks, largest mesh first (ties in input order): with workers pulling from one queue, a large mesh
+    started last would run alone while the other workers sit idle."""
+    return sorted(tasks, key=lambda t: -_size(t.item))
 
 
 # ---- local worker processes -----------------------------------------------------------------------------

@@ -26,7 +26,7 @@ from rail_mj.errors import ConfigError
 from rail_mj.imagination import ImaginationConfig, get_backend, imagine
 from rail_mj.imagination.config import THREADS_ENV
 from rail_mj.objects import load_object
-from rail_mj.parallel import object_task, plan_workers, run_tasks
+from rail_mj.parallel import largest_first, object_task, plan_workers, run_tasks
 from rail_mj.paths import CACHE_ENV
 from rail_mj.pipeline import ObjectInput, RunConfig, classify
 from rail_mj.stable_poses import find_stable_poses
@@ -227,6 +227,15 @@ def test_workers_do_not_load_the_anthropic_sdk_or_jax(cache, tmp_path):
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=GUARD_S, cwd=REPO)
     assert out.stdout.splitlines() == ['{"results": ', "[]"], out.stderr
+
+
+def test_largest_meshes_are_dispatched_first(tmp_path):
+    sizes = {"a.obj": 10, "b.obj": 300, "c.obj": 10, "d.obj": 2000}
+    for name, n in sizes.items():
+        (tmp_path / name).write_bytes(b"v 0 0 0\n" * n)
+    items = [ObjectInput(path=str(tmp_path / n)) for n in sizes] + [str(tmp_path / "missing.obj")]
+    tasks = [object_task(i, item, [AFFORDANCE], RunConfig()) for i, item in enumerate(items)]
+    assert [t.index for t in largest_first(tasks)] == [3, 1, 0, 2, 4]
 
 
 def test_run_tasks_checks_its_options():
