@@ -38,6 +38,11 @@ def main(argv: list[str] | None = None) -> int:
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--fetch", action="store_true", help="download and verify the Menagerie Panda into the cache")
     parser.add_argument("--demo", action="store_true", help="execute imagined interactions with the Panda")
+    parser.add_argument("--experiment", action="store_true",
+                        help="the paper's robot experiment: request -> wrist-camera scan -> imagination as placed "
+                             "(scan and true mesh) -> Panda execution -> judge; resumable (JSONL next to --json)")
+    parser.add_argument("--no-scan", action="store_true",
+                        help="--experiment without the scan: imagine on the true mesh (and say so)")
     parser.add_argument("--affordance", action="append", choices=sorted(DEMO_AFFORDANCES),
                         help="repeatable; default: all")
     parser.add_argument("--trials", type=_positive(int), default=4, help="objects per affordance")
@@ -50,8 +55,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--video", "--render", dest="video", type=Path,
                         help="folder for an mp4 of each affordance's first trial (AFFORDANCE_OBJECT.mp4)")
     args = parser.parse_args(argv)
-    if not (args.fetch or args.demo):
-        parser.error("give --fetch and/or --demo")
+    if not (args.fetch or args.demo or args.experiment):
+        parser.error("give --fetch, --demo and/or --experiment")
     try:
         if args.fetch:
             print(f"Panda model downloaded and verified in {fetch_panda()}")
@@ -62,6 +67,22 @@ def main(argv: list[str] | None = None) -> int:
                   f"{summary['n_affordances']} affordances; peak hand contact force "
                   f"{summary['max_peak_force']:.1f} N (limit {summary['force_limit']:.1f} N), "
                   f"{summary['n_force_events']} force-limit events")
+        if args.experiment:
+            from rail_mj.robot.experiment import format_table, run_experiment
+
+            summary = run_experiment(scan=not args.no_scan, json_path=args.json, video=args.video,
+                                     config=RobotConfig(force_limit=args.force_limit))
+            print(format_table(summary["rows"]))
+            agree = summary["verdict_agreement"]
+            scan_s = summary["scan_seconds_mean"]
+            print(f"{summary['n_tasks']} tasks, {summary['n_affordances']} affordances "
+                  f"({summary['n_beyond_paper']} beyond the paper's eight); success {summary['success_rate']:.1%}; "
+                  f"scan/true verdict agreement {'-' if agree is None else f'{agree:.1%}'}; peak hand force "
+                  f"{summary['max_peak_force']:.1f} N = {summary['peak_over_limit']:.2f} x limit; "
+                  f"{summary['n_force_events']} force-limit events; scan + fusion "
+                  f"{'-' if scan_s is None else f'{scan_s:.1f} s'} per object")
+            if summary["scan_note"]:
+                print(summary["scan_note"])
     except (RailError, KeyboardInterrupt) as exc:
         return report_error(exc)
     return EXIT_OK

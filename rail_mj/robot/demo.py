@@ -25,9 +25,10 @@ from rail_mj.errors import ConfigError
 from rail_mj.objects import mesh_hash
 from rail_mj.robot.control import RobotConfig
 from rail_mj.robot.executor import ExecutionResult, ScoringFunction, execute
+from rail_mj.robot.request import parse_request
 from rail_mj.types import Outcomes, RailObject, StablePose
 
-__all__ = ["DEMO_AFFORDANCES", "DemoCase", "make_object", "upright_pose", "plan_offline", "case_from_result",
+__all__ = ["OBJECT_KINDS", "DEMO_AFFORDANCES", "DEMO_REQUESTS", "DemoCase", "make_object", "upright_pose", "plan_offline", "case_from_result",
            "imagined_case", "run_demo"]
 
 _BALL = ('<mujoco><worldbody><body name="ball"><geom type="sphere" size="{r}" density="{rho}" '
@@ -102,7 +103,28 @@ def _parts(kind: str, rng: np.random.Generator) -> list[np.ndarray]:
         hx, top = float(seat[:, 0].max()), float(seat[:, 2].max())
         hy = float(seat[:, 1].max())
         return parts + [_box_hull([-hx, hy - 0.01, top], [hx, hy, top + u(0.06, 0.08)])]
-    raise ConfigError(f"unknown demo object {kind!r}; known: {', '.join(DEMO_AFFORDANCES)}")
+    if kind == "trash_bin":  # a real waste-paper bin, the tallest object the wrist camera's workspace takes
+        r, h = u(0.1, 0.115), u(0.3, 0.32)
+        return [_disk_hull(r + 0.006, 0, 0.008)] + _ring_walls(r, 0.006, 0, h)
+    if kind == "bathtub":  # a doll's
+        hx, hy, h = u(0.12, 0.14), u(0.06, 0.07), u(0.07, 0.09)
+        return [_box_hull([-hx, -hy, 0], [hx, hy, 0.008])] + _square_walls(hx, hy, 0.008, 0, h)
+    if kind == "bench":  # a doll's
+        return _legged(u(0.1, 0.12), u(0.035, 0.045), u(0.075, 0.09), 0.01, 0.01)
+    if kind == "bed":  # a doll's: a mattress on four legs and a headboard
+        hx, hy = u(0.15, 0.17), u(0.07, 0.08)
+        parts = _legged(hx, hy, u(0.05, 0.06), 0.02, 0.015)
+        return parts + [_box_hull([-hx, -hy, 0], [-hx + 0.012, hy, u(0.1, 0.12)])]
+    if kind in ("shelf", "cupboard"):
+        # a doll's, open at the front (-y), a board at a third of the height. The hand holds the item from above,
+        # so the shelf is open at the top and the cupboard tall enough for the hand to pass under its top
+        hx, hy, t = u(0.1, 0.12), u(0.05, 0.06), 0.008
+        h = u(0.18, 0.22) if kind == "shelf" else u(0.32, 0.34)
+        parts = [_box_hull([-hx, -hy, 0], [hx, hy, t]), _box_hull([-hx, hy - t, 0], [hx, hy, h]),
+                 _box_hull([-hx, -hy, 0], [-hx + t, hy, h]), _box_hull([hx - t, -hy, 0], [hx, hy, h]),
+                 _box_hull([-hx, -hy, h / 3 - t / 2], [hx, hy, h / 3 + t / 2])]
+        return parts if kind == "shelf" else parts + [_box_hull([-hx, -hy, h - t], [hx, hy, h])]
+    raise ConfigError(f"unknown demo object {kind!r}; known: {', '.join(OBJECT_KINDS)}")
 
 
 def make_object(kind: str, seed: int = 0, density: float = 600.0) -> RailObject:
@@ -153,10 +175,23 @@ def _demo(name: str) -> tuple[str, str, ScoringFunction]:
     return aff.key, "block", _on_object
 
 
+#: What :func:`make_object` builds: table-top objects at real size, furniture at a doll's.
+OBJECT_KINDS = ("cup", "bowl", "vase", "pen_holder", "pot", "basket", "tray", "plate", "trash_bin", "table", "stool",
+                "chair", "bench", "bed", "bathtub", "shelf", "cupboard")
+
 #: registry key -> (object kind, agent kind, scoring), for the affordances :func:`make_object` builds at table-top size
 DEMO_AFFORDANCES: dict[str, tuple[str, str, ScoringFunction]] = {
     get(name).key: _demo(name)
     for name in ("cup", "bowl", "vase", "pen holder", "pot", "basket", "tray", "plate", "table", "stool", "chair")
+}
+
+
+#: The request each demo affordance's trials answer: its agent sets the scale (a doll's furniture).
+DEMO_REQUESTS: dict[str, str] = {
+    "cup": "pour the water into the cup", "bowl": "put the apple in the bowl", "vase": "put the water in the vase",
+    "pen_holder": "put the pen in the pen holder", "pot": "put the soil in the pot",
+    "basket": "put the apple in the basket", "tray": "put the food on the tray", "plate": "put the food on the plate",
+    "table": "put the doll on the table", "stool": "put the doll on the stool", "chair": "put the doll on the chair",
 }
 
 
@@ -207,11 +242,14 @@ def plan_offline(obj: RailObject, affordance: str) -> DemoCase:
     return DemoCase(obj.name, affordance, True, pose, np.asarray(via, float), fragment, scoring)
 
 
-def imagined_case(obj: RailObject, affordance: str, backend: str = "auto") -> DemoCase | None:
-    """Classify the object for the affordance with the offline provider; the executable result or None."""
+def imagined_case(obj: RailObject, affordance: str, backend: str = "auto", *, agent: str | None = None
+                  ) -> DemoCase | None:
+    """Classify the object for the affordance with the offline provider, at the scale of the request's ``agent``;
+    the executable result or None."""
     from rail_mj.pipeline import classify
 
-    return case_from_result(classify([obj], [affordance], provider="offline", backend=backend, progress=False)[0])
+    return case_from_result(classify([obj], [affordance], provider="offline", backend=backend, progress=False,
+                                     agent=agent, workers=1)[0])
 
 
 def run_demo(affordances: list[str] | None = None, trials: int = 4, *, config: RobotConfig | None = None,
@@ -231,7 +269,8 @@ def run_demo(affordances: list[str] | None = None, trials: int = 4, *, config: R
         for seed in range(trials):
             obj = make_object(DEMO_AFFORDANCES[name][0], seed)
             t0 = time.perf_counter()
-            case = plan_offline(obj, name) if planner == "scripted" else imagined_case(obj, name)
+            agent = parse_request(DEMO_REQUESTS[name]).agent
+            case = plan_offline(obj, name) if planner == "scripted" else imagined_case(obj, name, agent=agent)
             if case is None:
                 rows.append({"object": obj.name, "affordance": name, "success": False, "score": -1.0,
                              "peak_force": 0.0, "force_events": [], "message": "imagination found no functional pose",
