@@ -204,8 +204,10 @@ def _read_rows(path: Path) -> dict[str, dict]:
 
 
 def _append(path: Path, row: dict) -> None:
+    # a line torn by a kill has no newline: end it, so this row starts a line of its own
+    torn = path.exists() and path.stat().st_size > 0 and not path.read_bytes().endswith(b"\n")
     with path.open("a") as f:
-        f.write(json.dumps(row) + "\n")
+        f.write(("\n" if torn else "") + json.dumps(row) + "\n")
         f.flush()
         os.fsync(f.fileno())
 

@@ -1,0 +1,61 @@
+"""The robot experiment: its task list, its figures, resuming a run, and (slow) one whole task."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from rail_mj.affordances import PAPER_AFFORDANCES
+from rail_mj.robot.experiment import TASKS, Task, format_table, run_experiment, run_task, summarize
+from rail_mj.robot.request import parse_request
+
+
+def test_tasks_cover_the_registry_beyond_the_papers_eight():
+    names = [t.name for t in TASKS]
+    assert len(names) == len(set(names)) >= 18
+    affordances = {parse_request(t.request).affordance for t in TASKS}
+    assert len(affordances) >= 15
+    assert len(affordances - set(PAPER_AFFORDANCES)) >= 9
+
+
+def _row(name: str, success: bool, agree: bool | None, peak: float) -> dict:
+    return {"task": name, "request": "put the doll on the chair", "affordance": "chair", "executed": True,
+            "success": success, "agree": agree, "peak_force": peak, "force_limit": 15.0, "force_events": 1,
+            "true": {"functional": True}, "scan": None if agree is None else {"functional": agree, "seconds": 4.0,
+                                                                              "chamfer_m": 0.002},
+            "seconds": {"parse": 0.001, "execute": 3.0}}
+
+
+def test_summary_figures():
+    rows = [_row("a", True, True, 12.0), _row("b", False, False, 18.0)]
+    s = summarize(rows, scan=True, scan_note=None)
+    assert s["success_rate"] == 0.5 and s["verdict_agreement"] == 0.5 and s["n_compared"] == 2
+    assert s["peak_over_limit"] == pytest.approx(1.2) and s["n_force_events"] == 2
+    assert s["scan_seconds_mean"] == 4.0 and s["chamfer_mm_mean"] == pytest.approx(2.0)
+    table = format_table(rows)
+    assert "18.0/15.0" in table and table.count("\n") == 3
+
+
+def test_a_resumed_run_keeps_finished_rows(tmp_path, monkeypatch):
+    done = _row("kept", True, None, 10.0)
+    (tmp_path / "summary.jsonl").write_text(json.dumps(done) + "\n{torn")
+    ran = []
+
+    def fake(task, **kw):
+        ran.append(task.name)
+        return _row(task.name, True, None, 1.0)
+
+    monkeypatch.setattr("rail_mj.robot.experiment.run_task", fake)
+    tasks = (Task("kept", "demo:cup", 0, "put the water in the cup"), Task("new", "demo:cup", 1, "put water in the cup"))
+    s = run_experiment(tasks=tasks, scan=False, json_path=tmp_path / "summary.json", progress=None)
+    assert ran == ["new"] and s["n_tasks"] == 2
+    assert [json.loads(x)["task"] for x in (tmp_path / "summary.jsonl").read_text().splitlines()[-1:]] == ["new"]
+    assert json.loads((tmp_path / "summary.json").read_text())["success_rate"] == 1.0
+
+
+@pytest.mark.slow
+def test_one_whole_task_doll_on_stool():
+    row = run_task(Task("doll_stool", "demo:stool", 1, "put the doll on the stool"), scan=False)
+    assert row["agent"] == "doll" and row["affordance"] == "stool" and row["true"]["functional"]
+    assert row["executed"] and row["success"] and row["peak_force"] <= 1.2 * row["force_limit"]
