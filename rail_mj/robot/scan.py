@@ -1,0 +1,695 @@
+"""A simulated wrist-camera scan: the Panda moves a hand-mounted depth camera around the object, the depth
+images are fused into a TSDF (Open3D), the table plane is removed, the largest cluster is the object, and
+its surface is extracted as a mesh in the world frame (metres, z up), resting where the object stands.
+
+This is the paper's real-robot perception (12 wrist-camera poses, TSDF fusion, the object cropped from the
+scene cloud). The scene is the executor's (``rail_mj.robot.executor.build_scene``): the object stands in a
+stable pose on the table at ``RobotConfig.object_xy``. The camera sees the object's true mesh (a render-only
+geom); the robot's links are rendered too (they can occlude) and masked out with a segmentation render.
+
+The view plan knows only the workspace (where objects are put down in front of the robot), not the object:
+look-at targets sit above the workspace centre on two rings, so an unseen object is scanned the same way.
+Each view is reached by IK (``rail_mj.robot.control.solve_ik``) for a site at the camera; the arm is placed at
+the solution and the camera pose used for fusion is read from the model. An unreachable view, or one where
+the arm would touch the table or the object, is skipped and named in ``ScanResult.skipped``.
+
+Open3D is the optional extra ``[scan]`` (``pip install -e '.[scan]'``); it is imported only when a scan runs.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from types import ModuleType
+
+import mujoco
+import numpy as np
+import trimesh
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+from scipy.spatial import cKDTree
+
+from rail_mj.errors import ConfigError, RobotError
+from rail_mj.robot.control import HOME_QPOS, ArmIndex, RobotConfig, solve_ik
+from rail_mj.robot.model import load_panda_spec
+from rail_mj.types import RailObject, StablePose
+
+__all__ = [
+    "CAMERA_NAME",
+    "CAMERA_SITE",
+    "CAMERA_POS_IN_HAND",
+    "INSTALL_HINT",
+    "MESH_FORMATS",
+    "ScanError",
+    "ScanConfig",
+    "PlannedView",
+    "ScanView",
+    "ScanResult",
+    "ScanScene",
+    "build_scan_scene",
+    "plan_views",
+    "render_views",
+    "noisy_depth",
+    "fuse_views",
+    "scan_object",
+    "chamfer_distance",
+    "save_scan",
+    "true_mesh_world",
+]
+
+#: The wrist camera (an MJCF camera on the hand body) and the IK site at the same frame.
+CAMERA_NAME = "wrist_camera"
+CAMERA_SITE = "wrist_camera_site"
+#: Where the camera sits on the hand, hand frame: beside the hand (off the fingers' slide axis y), a little
+#: behind the fingertips, looking along the gripper (+z of the hand), like a depth camera on a Panda mount.
+CAMERA_POS_IN_HAND = (0.07, 0.0, 0.04)
+#: MuJoCo cameras look along their -z with +y up: this turns the camera's -z onto the hand's +z.
+_CAMERA_QUAT_IN_HAND = (0.0, 1.0, 0.0, 0.0)
+INSTALL_HINT = "pip install -e '.[scan]'  (installs open3d-cpu)"
+#: Mesh formats :func:`save_scan` writes; all are formats :func:`rail_mj.objects.load_mesh` reads.
+MESH_FORMATS = (".obj", ".ply", ".stl", ".off", ".glb")
+_ROBOT_ROOT = "link0"
+#: Voxels per block edge of the TSDF grid; the fused box reaches this far below the table top, m.
+_BLOCK_RESOLUTION = 8
+_BELOW_TABLE = 0.05
+
+
+class ScanError(RobotError):
+    """A scan could not be made: open3d missing, too few reachable views, or nothing seen."""
+
+
+class ScanConfig(BaseModel):
+    """How the wrist-camera scan is made and fused (SI units, angles in degrees)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    n_views: int = Field(12, ge=1, le=64, description="planned camera poses")
+    min_views: int = Field(6, ge=1, description="fewest reachable views a scan needs")
+    width: int = Field(320, ge=16, le=2048, description="depth image width, px")
+    height: int = Field(240, ge=16, le=2048, description="depth image height, px")
+    fovy: float = Field(58.0, gt=5, lt=150, description="vertical field of view (a RealSense D435's depth: 58)")
+    distance: float = Field(0.33, gt=0.05, le=1.5, description="camera to look-at target, m")
+    elevations: tuple[float, ...] = Field((35.0, 60.0), min_length=1,
+                                          description="view elevations above the table, cycled over the views")
+    elevation_step: float = Field(10.0, ge=0, description="fallback: how much steeper to try an unreachable view")
+    fallback_distance: float = Field(0.8, gt=0.3, le=1.0,
+                                     description="fallback: the closer distance tried last, × distance")
+    arm_clearance: float = Field(0.01, ge=0, description="closest the arm may come to the object at a view, m")
+    target_height: float = Field(0.07, ge=0, description="look-at target above the table top, m")
+    workspace_half: tuple[float, float, float] = Field(
+        (0.2, 0.2, 0.35), description="the fused region: half x, half y and height above the table, m")
+    depth_min: float = Field(0.07, gt=0, description="the sensor's nearest valid depth, m")
+    depth_max: float = Field(1.2, gt=0, description="farthest depth fused, m")
+    voxel_size: float = Field(0.0025, ge=0.0005, le=0.02, description="TSDF voxel edge, m")
+    sdf_trunc: float = Field(4.0, ge=1.0, le=10.0, description="TSDF truncation, in voxels")
+    min_observations: int = Field(1, ge=1, description="fewest views that must have fused a voxel of the surface")
+    depth_noise: float = Field(0.0, ge=0, le=0.05,
+                               description="Gaussian depth noise, standard deviation per metre of depth")
+    dropout: float = Field(0.0, ge=0, lt=1, description="fraction of valid pixels lost at random")
+    edge_dropout: float = Field(0.0, ge=0, le=1,
+                                description="chance a pixel next to a depth discontinuity is lost")
+    edge_jump: float = Field(0.01, gt=0, description="depth step between neighbours counted as an edge, m")
+    plane_distance: float = Field(0.004, gt=0, description="RANSAC inlier distance for the table plane, m")
+    cluster_eps: float = Field(0.01, gt=0, description="DBSCAN neighbourhood radius, m")
+    carve: bool = Field(True, description="remove surface a view saw through (the TSDF's fattened edges)")
+    close_bottom: bool = Field(True, description="cap the open outline where the object meets the table")
+    chamfer_points: int = Field(20000, ge=100, description="points sampled on each mesh for the Chamfer distance")
+    seed: int = 0
+    robot: RobotConfig = Field(default_factory=RobotConfig, description="table and object placement")
+
+    @model_validator(mode="after")
+    def _check(self) -> "ScanConfig":
+        if self.min_views > self.n_views:
+            raise ValueError(f"min_views ({self.min_views}) must be at most n_views ({self.n_views})")
+        if self.depth_min >= self.depth_max:
+            raise ValueError(f"depth_min ({self.depth_min}) must be below depth_max ({self.depth_max})")
+        if any(not 5.0 <= e <= 90.0 for e in self.elevations):
+            raise ValueError(f"elevations must lie in [5, 90] degrees, got {self.elevations}")
+        return self
+
+    @property
+    def fovx(self) -> float:
+        """Horizontal field of view, degrees (square pixels)."""
+        return math.degrees(2 * math.atan(math.tan(math.radians(self.fovy) / 2) * self.width / self.height))
+
+    def intrinsics(self) -> tuple[float, float, float, float]:
+        """Pinhole (fx, fy, cx, cy) of the rendered images, px."""
+        f = self.height / 2 / math.tan(math.radians(self.fovy) / 2)
+        return f, f, (self.width - 1) / 2, (self.height - 1) / 2
+
+
+@dataclass(frozen=True)
+class ScanView:
+    """One planned camera pose and, once reached, the pose the model puts the camera in."""
+
+    index: int
+    eye: np.ndarray  # (3,) planned camera position, world
+    target: np.ndarray  # (3,) look-at point, world
+    cam_to_world: np.ndarray  # (4, 4) camera pose read from the model (OpenCV axes: x right, y down, z forward)
+    qpos: np.ndarray  # (7,) arm joints
+
+
+@dataclass(frozen=True)
+class ScanResult:
+    """A fused, segmented scan of one object."""
+
+    mesh: trimesh.Trimesh  # world frame, metres, z up, resting on the table
+    chamfer_m: float  # symmetric Chamfer distance to the true mesh (mean of both directions), m; nan unknown
+    seconds: dict[str, float]  # plan (IK), render, fuse, extract (and chamfer)
+    n_views: int  # views fused
+    skipped: tuple[str, ...]  # why each planned view was not used
+    table_z: float  # fitted table plane height under the object, m
+    views: tuple[ScanView, ...]
+    notes: tuple[str, ...] = ()
+
+    @property
+    def scan_seconds(self) -> float:
+        """Time of the scan itself: planning, rendering, fusion and extraction (not the Chamfer check)."""
+        return sum(self.seconds.get(k, 0.0) for k in ("plan", "render", "fuse", "extract"))
+
+    def to_dict(self) -> dict:
+        """JSON-ready summary (no mesh)."""
+        return {
+            "chamfer_mm": None if math.isnan(self.chamfer_m) else 1000 * self.chamfer_m,
+            "seconds": self.seconds,
+            "scan_seconds": self.scan_seconds,
+            "n_views": self.n_views,
+            "skipped": list(self.skipped),
+            "table_z": self.table_z,
+            "faces": int(len(self.mesh.faces)),
+            "extents": np.asarray(self.mesh.extents).tolist(),
+            "notes": list(self.notes),
+        }
+
+
+@dataclass(frozen=True)
+class ScanScene:
+    """The compiled scan scene: Panda with the wrist camera, table, floor and the object's true mesh."""
+
+    model: mujoco.MjModel
+    arm: ArmIndex
+    camera: int
+    robot_geoms: np.ndarray  # (ngeom,) bool: geoms of the Panda (masked out of the depth)
+    scene_geoms: np.ndarray  # (ngeom,) bool: table, floor and object (what the robot must not touch)
+    table_top: float  # m
+    workspace_centre: np.ndarray  # (3,) on the table top, m
+
+
+def _open3d() -> ModuleType:
+    try:
+        import open3d  # noqa: PLC0415 - an optional extra, imported only when a scan runs
+    except ImportError as exc:
+        raise ScanError(f"the scan needs open3d, an optional extra: {INSTALL_HINT} ({exc})") from exc
+    return open3d
+
+
+def true_mesh_world(obj: RailObject, pose: StablePose, robot: RobotConfig | None = None) -> trimesh.Trimesh:
+    """The object's mesh placed as the robot scene places it: stable pose, shifted onto the table."""
+    robot = robot or RobotConfig()
+    transform = np.eye(4)
+    rot = np.empty(9)
+    mujoco.mju_quat2Mat(rot, np.asarray(pose.quat, dtype=np.float64))
+    transform[:3, :3] = rot.reshape(3, 3)
+    transform[:3, 3] = np.asarray(pose.pos, dtype=float) + np.array([*robot.object_xy, robot.table_height])
+    mesh = trimesh.Trimesh(np.asarray(obj.mesh.vertices, dtype=np.float64), np.asarray(obj.mesh.faces), process=False)
+    mesh.apply_transform(transform)
+    return mesh
+
+
+def build_scan_scene(obj: RailObject, pose: StablePose, config: ScanConfig) -> ScanScene:
+    """Compile the Panda (collision meshes as its visible body) with the wrist camera, the table and the object.
+
+    The table and floor are the executor's (same size and place); the object is its true mesh, render-only,
+    placed like the executor places it (stable pose + the table's offset).
+    """
+    robot = config.robot
+    spec = load_panda_spec(visual=False)
+    hand = spec.body("hand")
+    hand.add_camera(name=CAMERA_NAME, pos=list(CAMERA_POS_IN_HAND), quat=list(_CAMERA_QUAT_IN_HAND),
+                    fovy=config.fovy)
+    hand.add_site(name=CAMERA_SITE, pos=list(CAMERA_POS_IN_HAND), quat=list(_CAMERA_QUAT_IN_HAND))
+    tx, ty = robot.object_xy
+    th = robot.table_height
+    sx, sy = robot.table_half_size
+    spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[2, 2, 0.05])
+    spec.worldbody.add_geom(name="table", type=mujoco.mjtGeom.mjGEOM_BOX, size=[sx, sy, th / 2], pos=[tx, ty, th / 2])
+    world = true_mesh_world(obj, pose, robot)
+    mesh = spec.add_mesh(name="scan_object")
+    mesh.uservert = np.asarray(world.vertices, dtype=np.float64).ravel().tolist()
+    mesh.userface = np.asarray(world.faces, dtype=np.int32).ravel().tolist()
+    # the shell inertia is defined for open and thin meshes too; a static render-only geom needs no volume
+    mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
+    spec.worldbody.add_geom(name="scan_object", type=mujoco.mjtGeom.mjGEOM_MESH, meshname="scan_object",
+                            contype=0, conaffinity=0, group=0)
+    spec.visual.global_.offwidth = max(spec.visual.global_.offwidth, config.width)
+    spec.visual.global_.offheight = max(spec.visual.global_.offheight, config.height)
+    try:
+        model = spec.compile()
+    except Exception as exc:  # MuJoCo compile errors (ValueError or mujoco.FatalError)
+        raise ScanError(f"scan scene for {obj.name!r} does not compile: {exc}") from exc
+    # the object mesh is render-only; collisions of the arm are checked against it separately
+    root = model.body_rootid[model.geom_bodyid]
+    robot_geoms = root == model.body(_ROBOT_ROOT).id
+    # near and far clip in metres (MuJoCo scales them by the model's extent)
+    model.vis.map.znear = 0.01 / model.stat.extent
+    model.vis.map.zfar = 2 * config.depth_max / model.stat.extent
+    return ScanScene(
+        model=model,
+        arm=ArmIndex.of(model, CAMERA_SITE),
+        camera=model.camera(CAMERA_NAME).id,
+        robot_geoms=robot_geoms,
+        scene_geoms=~robot_geoms,
+        table_top=th,
+        workspace_centre=np.array([tx, ty, th]),
+    )
+
+
+def _look_at_quat(eye: np.ndarray, target: np.ndarray, roll: float) -> np.ndarray:
+    """MuJoCo camera orientation (looks along -z, +y up) at ``eye`` facing ``target``, rolled about the view axis."""
+    forward = target - eye
+    forward = forward / np.linalg.norm(forward)
+    helper = np.array([0.0, 0.0, 1.0]) if abs(forward[2]) < 0.99 else np.array([1.0, 0.0, 0.0])
+    right = np.cross(forward, helper)
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    c, s = math.cos(roll), math.sin(roll)
+    right, up = c * right + s * up, -s * right + c * up
+    mat = np.stack([right, up, -forward], axis=1)  # columns: camera x, y, z in the world
+    quat = np.empty(4)
+    mujoco.mju_mat2Quat(quat, mat.ravel())
+    return quat
+
+
+@dataclass(frozen=True)
+class PlannedView:
+    """One planned view: the look-at target and the camera directions to try, first choice first."""
+
+    index: int
+    target: np.ndarray  # (3,) world
+    eyes: tuple[np.ndarray, ...]  # (3,) camera positions, world: the planned one, then the fallbacks
+
+
+def _eye(target: np.ndarray, distance: float, azimuth: float, elevation: float) -> np.ndarray:
+    return target + distance * np.array([math.cos(elevation) * math.cos(azimuth),
+                                         math.cos(elevation) * math.sin(azimuth), math.sin(elevation)])
+
+
+def plan_views(config: ScanConfig, workspace_centre: np.ndarray) -> list[PlannedView]:
+    """The views: azimuths evenly spaced round the workspace centre, elevations cycled, one target.
+
+    The first view faces the object from the robot's side; the order goes round the object so the arm
+    moves between neighbouring poses. The far side is at the edge of the Panda's reach, so each view
+    carries fallbacks: steeper (``elevation_step`` at a time, up to 85 degrees), then closer
+    (``fallback_distance`` × the distance) at the same elevations.
+    """
+    target = np.asarray(workspace_centre, dtype=float) + np.array([0.0, 0.0, config.target_height])
+    views = []
+    for k in range(config.n_views):
+        azimuth = math.pi + 2 * math.pi * k / config.n_views  # pi: between the robot base and the object
+        elevation = config.elevations[k % len(config.elevations)]
+        steps = [elevation + config.elevation_step * i
+                 for i in range(int((85.0 - elevation) // config.elevation_step) + 1)] if config.elevation_step else [elevation]
+        eyes = [_eye(target, d, azimuth, math.radians(e))
+                for d in (config.distance, config.fallback_distance * config.distance) for e in steps]
+        views.append(PlannedView(index=k, target=target, eyes=tuple(eyes)))
+    return views
+
+
+#: Rolls about the viewing axis tried in turn until the IK reaches the pose: the image's roll is free.
+_ROLLS = (0.0, math.pi / 2, -math.pi / 2, math.pi)
+
+
+def _touches_scene(scene: ScanScene, data: mujoco.MjData, world: trimesh.Trimesh, tree: cKDTree,
+                   clearance: float) -> str:
+    """Why the arm at ``data.qpos`` may not be there ('' if it may): a contact with the table or floor, or a
+    robot geom within ``clearance`` of the object's surface (sampled)."""
+    model = scene.model
+    mujoco.mj_forward(model, data)
+    for i in range(data.ncon):
+        g1, g2 = data.contact.geom[i]
+        if scene.robot_geoms[g1] != scene.robot_geoms[g2]:
+            other = g2 if scene.robot_geoms[g1] else g1
+            return f"the arm touches {model.geom(other).name or 'the scene'}"
+    # the object is render-only, so test the robot's geoms' bounding spheres against its surface points
+    robot = np.flatnonzero(scene.robot_geoms)
+    centres = data.geom_xpos[robot]
+    radii = model.geom_rbound[robot]
+    dist, _ = tree.query(centres)
+    close = dist < radii + clearance
+    if close.any():
+        # bounding spheres are loose: check the close geoms' oriented boxes point-wise
+        for g in robot[close]:
+            idx = tree.query_ball_point(data.geom_xpos[g], model.geom_rbound[g] + clearance)
+            if not idx:
+                continue
+            pts = world[idx] - data.geom_xpos[g]
+            local = pts @ data.geom_xmat[g].reshape(3, 3)
+            aabb = model.geom_aabb[g]
+            if np.any(np.all(np.abs(local - aabb[:3]) <= aabb[3:] + clearance, axis=1)):
+                return "the arm would touch the object"
+    return ""
+
+
+def _reach_views(scene: ScanScene, planned: list[PlannedView], surface: np.ndarray, config: ScanConfig
+                 ) -> tuple[list[ScanView], list[str], list[str]]:
+    """Reach each planned view by IK (its fallbacks in turn); returns the views, the skipped and the moved ones."""
+    model = scene.model
+    data = mujoco.MjData(model)
+    tree = cKDTree(surface)
+    robot = config.robot
+    views: list[ScanView] = []
+    skipped: list[str] = []
+    moved: list[str] = []
+    q_prev = HOME_QPOS.copy()
+    for plan in planned:
+        why = "the IK did not reach it"
+        best = math.inf
+        reached = None
+        for n_eye, eye in enumerate(plan.eyes):
+            for roll in _ROLLS:
+                quat = _look_at_quat(eye, plan.target, roll)
+                # from the last view's joints first: the arm moves to a neighbouring pose
+                for q0 in (q_prev, HOME_QPOS):
+                    q, res_p, res_r = solve_ik(model, data, scene.arm, eye, quat, q0)
+                    best = min(best, res_p)
+                    if res_p > robot.ik_pos_tol or res_r > robot.ik_rot_tol:
+                        continue
+                    data.qpos[:] = 0
+                    data.qpos[scene.arm.qpos] = q
+                    blocked = _touches_scene(scene, data, surface, tree, config.arm_clearance)
+                    if blocked:
+                        why = blocked
+                        continue
+                    reached = q
+                    break
+                if reached is not None:
+                    break
+            if reached is not None:
+                if n_eye:
+                    moved.append(f"view {plan.index} moved to its fallback {n_eye} "
+                                 f"(eye {np.round(eye, 3).tolist()}): the planned pose is out of reach")
+                break
+        if reached is None:
+            skipped.append(f"view {plan.index} (eye {np.round(plan.eyes[0], 3).tolist()}, {len(plan.eyes)} "
+                           f"poses tried): {why}"
+                           + (f" (best position residual {1000 * best:.0f} mm)" if why.startswith("the IK") else ""))
+            continue
+        # the arm is placed at the solution; the camera pose is the model's, not the planned one
+        data.qpos[:] = 0
+        data.qpos[scene.arm.qpos] = reached
+        mujoco.mj_kinematics(model, data)
+        cam = np.eye(4)
+        cam[:3, :3] = data.cam_xmat[scene.camera].reshape(3, 3) @ np.diag([1.0, -1.0, -1.0])  # MuJoCo -> OpenCV
+        cam[:3, 3] = data.cam_xpos[scene.camera]
+        views.append(ScanView(index=plan.index, eye=eye, target=plan.target, cam_to_world=cam, qpos=reached.copy()))
+        q_prev = reached
+    return views, skipped, moved
+
+
+def render_views(scene: ScanScene, views: list[ScanView], config: ScanConfig) -> list[np.ndarray]:
+    """Depth images (m, 0 = no return) from the wrist camera at each view, the robot's own pixels masked out."""
+    model = scene.model
+    data = mujoco.MjData(model)
+    option = mujoco.MjvOption()
+    option.geomgroup[:] = 0
+    option.geomgroup[0] = option.geomgroup[3] = 1  # the scene, and the Panda's collision meshes
+    depths = []
+    # software GL: shadows and multisampling cost time and change no depth
+    model.light_castshadow[:] = False
+    model.vis.quality.offsamples = 0
+    try:
+        renderer = mujoco.Renderer(model, config.height, config.width)
+    except Exception as exc:  # no GL context (set MUJOCO_GL=egl or osmesa headless)
+        raise ScanError(f"cannot open a MuJoCo renderer ({exc}); headless, set MUJOCO_GL=egl") from exc
+    with renderer:
+        # one pass per mode over all views: switching modes costs more than the render itself in software GL
+        for mode in ("depth", "segmentation"):
+            getattr(renderer, f"enable_{mode}_rendering")()
+            for i, view in enumerate(views):
+                data.qpos[:] = 0
+                data.qpos[scene.arm.qpos] = view.qpos
+                mujoco.mj_kinematics(model, data)
+                mujoco.mj_camlight(model, data)
+                renderer.update_scene(data, camera=scene.camera, scene_option=option)
+                image = renderer.render()
+                if mode == "depth":
+                    depths.append(image.astype(np.float32))
+                    continue
+                geom, kind = image[..., 0], image[..., 1]
+                is_geom = kind == int(mujoco.mjtObj.mjOBJ_GEOM)  # an int: comparing to the enum goes element by element in Python
+                robot = np.zeros(geom.shape, dtype=bool)
+                robot[is_geom] = scene.robot_geoms[geom[is_geom]]
+                depth = depths[i]
+                depth[robot | ~is_geom] = 0.0
+                depth[(depth < config.depth_min) | (depth > config.depth_max)] = 0.0
+            getattr(renderer, f"disable_{mode}_rendering")()
+    return depths
+
+
+def noisy_depth(depth: np.ndarray, config: ScanConfig, rng: np.random.Generator) -> np.ndarray:
+    """The sensor model: distance-proportional Gaussian noise, random pixel dropout, dropout at depth edges."""
+    out = depth.astype(np.float32).copy()
+    valid = out > 0
+    if config.edge_dropout > 0:
+        # a step to a neighbour (or to a missing return) larger than edge_jump marks both pixels as an edge
+        pad = np.pad(out, 1, mode="edge")
+        edge = np.zeros(out.shape, dtype=bool)
+        for dy, dx in ((0, 1), (2, 1), (1, 0), (1, 2)):
+            edge |= np.abs(pad[dy:dy + out.shape[0], dx:dx + out.shape[1]] - out) > config.edge_jump
+        out[valid & edge & (rng.random(out.shape) < config.edge_dropout)] = 0.0
+    if config.dropout > 0:
+        out[rng.random(out.shape) < config.dropout] = 0.0
+    if config.depth_noise > 0:
+        keep = out > 0
+        out[keep] += (rng.standard_normal(int(keep.sum())) * config.depth_noise * out[keep]).astype(np.float32)
+    return out
+
+
+def fuse_views(depths: list[np.ndarray], views: list[ScanView], config: ScanConfig, workspace_centre: np.ndarray):
+    """Integrate the depth images into a TSDF voxel-block grid (Open3D's ``VoxelBlockGrid``); returns the grid.
+
+    Pixels whose points fall outside the workspace box are dropped first: the fused region is where objects
+    are put down, not the whole room, and its size bounds the grid's blocks.
+    """
+    o3d = _open3d()
+    o3c = o3d.core
+    fx, fy, cx, cy = config.intrinsics()
+    # Open3D's integration truncates the projected pixel coordinate (static_cast<int>) instead of rounding it:
+    # half a pixel on the principal point makes that the nearest pixel (without it the table fuses 0.5 mm low)
+    intrinsic = o3c.Tensor(np.array([[fx, 0, cx + 0.5], [0, fy, cy + 0.5], [0, 0, 1]]), o3c.float64)
+    half = np.asarray(config.workspace_half, dtype=float)
+    lo = workspace_centre + np.array([-half[0], -half[1], -_BELOW_TABLE])
+    hi = workspace_centre + half
+    block = _BLOCK_RESOLUTION * config.voxel_size
+    blocks = int(np.prod(np.ceil((hi - lo) / block) + 2))
+    grid = o3d.t.geometry.VoxelBlockGrid(
+        attr_names=("tsdf", "weight"), attr_dtypes=(o3c.float32, o3c.float32), attr_channels=((1), (1)),
+        voxel_size=config.voxel_size, block_resolution=_BLOCK_RESOLUTION, block_count=blocks,
+        device=o3c.Device("CPU:0"))
+    u, v = np.meshgrid(np.arange(config.width), np.arange(config.height))
+    rays = np.stack([(u - cx) / fx, (v - cy) / fy, np.ones(u.shape)], axis=-1)
+    for depth, view in zip(depths, views, strict=True):
+        pts = (rays * depth[..., None]) @ view.cam_to_world[:3, :3].T + view.cam_to_world[:3, 3]
+        inside = np.all((pts >= lo) & (pts <= hi), axis=-1)
+        image = o3d.t.geometry.Image(o3c.Tensor(np.where(inside, depth, 0.0).astype(np.float32)))
+        extrinsic = o3c.Tensor(np.linalg.inv(view.cam_to_world), o3c.float64)
+        coords = grid.compute_unique_block_coordinates(image, intrinsic, extrinsic, 1.0, config.depth_max,
+                                                       config.sdf_trunc)
+        grid.integrate(coords, image, intrinsic, extrinsic, 1.0, config.depth_max, config.sdf_trunc)
+    return grid
+
+
+def _cap_bottom(mesh: trimesh.Trimesh, table_z: float, band: float) -> trimesh.Trimesh:
+    """Snap the open outline near the table to the table height and close each loop with a fan.
+
+    The object's underside is never seen (it stands on the table): a flat cap where it meets the table is
+    what the object rests on. Each connected run of boundary edges near the table is capped from its
+    centroid, with triangles wound against the adjacent faces so the normals stay consistent.
+    """
+    edges = mesh.edges  # (3F, 2) directed, in face order
+    key = np.sort(edges, axis=1)
+    _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    boundary = edges[counts[inverse.ravel()] == 1]
+    if len(boundary) == 0:
+        return mesh
+    vertices = np.asarray(mesh.vertices).copy()
+    low = vertices[:, 2] < table_z + band
+    boundary = boundary[low[boundary].all(axis=1)]
+    if len(boundary) < 3:
+        return mesh
+    ring = np.unique(boundary)
+    vertices[ring, 2] = table_z
+    faces = [np.asarray(mesh.faces)]
+    for component in trimesh.graph.connected_components(boundary, min_len=3):
+        members = np.isin(boundary, component).all(axis=1)
+        loop = boundary[members]
+        centre = len(vertices)
+        vertices = np.vstack([vertices, vertices[np.unique(loop)].mean(axis=0)])
+        faces.append(np.column_stack([loop[:, 1], loop[:, 0], np.full(len(loop), centre)]))
+    return trimesh.Trimesh(vertices, np.vstack(faces), process=True)
+
+
+def _carve(mesh: trimesh.Trimesh, depths: list[np.ndarray], views: list[ScanView], config: ScanConfig
+           ) -> tuple[trimesh.Trimesh, int]:
+    """Remove surface that some view saw through: free-space carving of the TSDF's edge artefacts.
+
+    The projective TSDF fattens convex edges: voxels just past an edge, hidden behind the top face from one
+    side, are fused as inside. A camera on the other side sees the table far behind them. A vertex goes when
+    a view's depth at its pixel, and at every neighbour (3 × 3, so a silhouette's pixel steps and lost pixels
+    never carve), lies beyond it by more than the margin (two voxels, or three noise deviations).
+    """
+    from scipy.ndimage import minimum_filter  # noqa: PLC0415 - scipy's image module, only here
+
+    fx, fy, cx, cy = config.intrinsics()
+    vertices = np.asarray(mesh.vertices)
+    free = np.zeros(len(vertices), dtype=bool)
+    for depth, view in zip(depths, views, strict=True):
+        world_to_cam = np.linalg.inv(view.cam_to_world)
+        pc = vertices @ world_to_cam[:3, :3].T + world_to_cam[:3, 3]
+        z = pc[:, 2]
+        ahead = z > 1e-6
+        u = np.full(len(z), -1)
+        v = np.full(len(z), -1)
+        u[ahead] = np.rint(fx * pc[ahead, 0] / z[ahead] + cx).astype(int)
+        v[ahead] = np.rint(fy * pc[ahead, 1] / z[ahead] + cy).astype(int)
+        inside = ahead & (u >= 0) & (u < config.width) & (v >= 0) & (v < config.height)
+        seen = minimum_filter(depth, size=3, mode="constant", cval=0.0)
+        margin = np.maximum(2 * config.voxel_size, 3 * config.depth_noise * z[inside])
+        free[np.flatnonzero(inside)[seen[v[inside], u[inside]] > z[inside] + margin]] = True
+    if not free.any():
+        return mesh, 0
+    keep = ~free[np.asarray(mesh.faces)].any(axis=1)
+    carved = mesh.submesh([np.flatnonzero(keep)], append=True) if keep.any() else mesh
+    return carved, int(free.sum())
+
+
+def _extract(volume, depths: list[np.ndarray], views: list[ScanView], config: ScanConfig, table_top: float,
+             workspace_centre: np.ndarray) -> tuple[trimesh.Trimesh, float, list[str]]:
+    """Table plane (RANSAC) out, largest cluster (DBSCAN) in, the TSDF mesh cropped to the cluster's box.
+
+    Open3D keeps voxels whose weight (views fused) is strictly above its threshold: hence ``- 0.5``.
+    """
+    o3d = _open3d()
+    notes: list[str] = []
+    cloud = volume.extract_point_cloud(weight_threshold=config.min_observations - 0.5).to_legacy()
+    if len(cloud.points) < 50:
+        raise ScanError(f"the scan saw nothing: {len(cloud.points)} surface points in the workspace "
+                        f"(half size {config.workspace_half} m at {np.round(workspace_centre, 3).tolist()})")
+    cloud = cloud.voxel_down_sample(2 * config.voxel_size)
+    o3d.utility.random.seed(config.seed)  # RANSAC draws from Open3D's global generator
+    plane, inliers = cloud.segment_plane(distance_threshold=config.plane_distance, ransac_n=3,
+                                         num_iterations=200)
+    a, b, c, d = plane
+    table_z = table_top
+    if abs(c) > 0.95 * math.sqrt(a * a + b * b + c * c):
+        # a horizontal plane: the table; its height under the workspace centre
+        x, y = workspace_centre[:2]
+        table_z = float(-(a * x + b * y + d) / c)
+    else:
+        notes.append(f"the largest plane is not horizontal (normal {np.round(plane[:3], 3).tolist()}); "
+                     f"the table is taken at its known height {table_top:.3f} m")
+        inliers = []
+    pts = np.asarray(cloud.points)
+    keep = np.ones(len(pts), dtype=bool)
+    keep[np.asarray(inliers, dtype=int)] = False
+    keep &= pts[:, 2] > table_z + config.plane_distance
+    rest = cloud.select_by_index(np.flatnonzero(keep).tolist())
+    if len(rest.points) < 20:
+        raise ScanError(f"the scan saw only the table: {len(rest.points)} points above the plane at "
+                        f"z = {table_z:.3f} m; is the object in the workspace at "
+                        f"{np.round(workspace_centre[:2], 3).tolist()}?")
+    labels = np.asarray(rest.cluster_dbscan(eps=config.cluster_eps, min_points=10))
+    if labels.max() < 0:
+        raise ScanError(f"no cluster of at least 10 points within {config.cluster_eps} m above the table")
+    sizes = np.bincount(labels[labels >= 0])
+    largest = int(np.argmax(sizes))
+    obj_pts = np.asarray(rest.points)[labels == largest]
+    if len(sizes) > 1:
+        notes.append(f"{len(sizes)} clusters above the table; kept the largest ({sizes[largest]} of "
+                     f"{int(sizes.sum())} points)")
+    margin = 2 * config.voxel_size
+    lo = obj_pts.min(axis=0) - margin
+    hi = obj_pts.max(axis=0) + margin
+    lo[2] = table_z + config.plane_distance
+    half = np.asarray(config.workspace_half)
+    ws_lo = workspace_centre[:2] - half[:2] + margin
+    ws_hi = workspace_centre[:2] + half[:2] - margin
+    if np.any(lo[:2] < ws_lo) or np.any(hi[:2] > ws_hi) or hi[2] > table_z + half[2] - margin:
+        notes.append("the object reaches the edge of the fused workspace: it may be cut off")
+    o3d_mesh = volume.extract_triangle_mesh(weight_threshold=config.min_observations - 0.5).to_legacy()
+    o3d_mesh = o3d_mesh.crop(o3d.geometry.AxisAlignedBoundingBox(lo, hi))
+    mesh = trimesh.Trimesh(np.asarray(o3d_mesh.vertices), np.asarray(o3d_mesh.triangles), process=True)
+    if len(mesh.faces) == 0:
+        raise ScanError("the TSDF holds no surface inside the object's cluster box")
+    # TSDF fragments (a stray speck of noise) are dropped: keep the pieces near the cluster's points
+    parts = mesh.split(only_watertight=False)
+    if len(parts) > 1:
+        tree = cKDTree(obj_pts)
+        near = [p for p in parts if np.median(tree.query(p.vertices)[0]) < config.cluster_eps]
+        mesh = trimesh.util.concatenate(near or [max(parts, key=lambda p: len(p.faces))])
+    if config.carve:
+        mesh, _ = _carve(mesh, depths, views, config)
+    if config.close_bottom:
+        mesh = _cap_bottom(mesh, table_z, config.plane_distance + 2 * config.voxel_size)
+    return mesh, table_z, notes
+
+
+def chamfer_distance(a: trimesh.Trimesh, b: trimesh.Trimesh, n: int = 20000, seed: int = 0) -> float:
+    """Symmetric Chamfer distance: the mean of (a→b mean nearest distance) and (b→a), surface samples, m."""
+    pa, _ = trimesh.sample.sample_surface(a, n, seed=seed)
+    pb, _ = trimesh.sample.sample_surface(b, n, seed=seed + 1)
+    da, _ = cKDTree(pb).query(pa)
+    db, _ = cKDTree(pa).query(pb)
+    return float((da.mean() + db.mean()) / 2)
+
+
+def scan_object(obj: RailObject, pose: StablePose, config: ScanConfig | None = None) -> ScanResult:
+    """Scan ``obj`` standing in ``pose`` on the robot's table with the wrist camera; fuse, segment, mesh.
+
+    Raises :class:`ScanError` when open3d is missing, when fewer than ``config.min_views`` views are
+    reachable, or when nothing but the table is seen.
+    """
+    config = config or ScanConfig()
+    _open3d()  # fail before any work when the extra is missing
+    seconds: dict[str, float] = {}
+    t0 = time.perf_counter()
+    scene = build_scan_scene(obj, pose, config)
+    world = true_mesh_world(obj, pose, config.robot)
+    surface, _ = trimesh.sample.sample_surface(world, 4000, seed=config.seed)
+    views, skipped, moved = _reach_views(scene, plan_views(config, scene.workspace_centre), np.asarray(surface),
+                                         config)
+    seconds["plan"] = time.perf_counter() - t0
+    if len(views) < config.min_views:
+        raise ScanError(f"only {len(views)} of {config.n_views} scan views are reachable (at least "
+                        f"{config.min_views} needed): " + "; ".join(skipped))
+    t0 = time.perf_counter()
+    rng = np.random.default_rng(config.seed)
+    depths = [noisy_depth(d, config, rng) for d in render_views(scene, views, config)]
+    seconds["render"] = time.perf_counter() - t0
+    if not any((d > 0).any() for d in depths):
+        raise ScanError("the wrist camera saw nothing in any view (every pixel empty or out of range)")
+    t0 = time.perf_counter()
+    volume = fuse_views(depths, views, config, scene.workspace_centre)
+    seconds["fuse"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    mesh, table_z, notes = _extract(volume, depths, views, config, scene.table_top, scene.workspace_centre)
+    seconds["extract"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    chamfer = chamfer_distance(mesh, world, config.chamfer_points, config.seed)
+    seconds["chamfer"] = time.perf_counter() - t0
+    return ScanResult(mesh=mesh, chamfer_m=chamfer, seconds=seconds, n_views=len(views), skipped=tuple(skipped),
+                      table_z=table_z, views=tuple(views), notes=tuple(moved + notes))
+
+
+def save_scan(result: ScanResult | trimesh.Trimesh, path: str | Path) -> Path:
+    """Write the scanned mesh (metres, z up, world frame) where ``rail_mj.objects.load_object(path)`` reads it."""
+    path = Path(path)
+    if path.suffix.lower() not in MESH_FORMATS:
+        raise ConfigError(f"cannot save a scan as {path.suffix or 'no suffix'!r}; use one of {', '.join(MESH_FORMATS)}")
+    mesh = result.mesh if isinstance(result, ScanResult) else result
+    if len(mesh.faces) == 0:
+        raise ScanError(f"the scanned mesh is empty; nothing written to {path}")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    mesh.export(path)
+    return path
