@@ -39,6 +39,7 @@ __all__ = [
     "GROUND_SQUARE_M",
     "ContactSheet",
     "caption",
+    "with_caption",
     "fit_camera",
     "nothing_to_draw",
     "render_result",
@@ -383,7 +384,7 @@ def _wrap(text: str, font, width: int) -> list[str]:
     return lines + ([line] if line else [])
 
 
-def _with_caption(pixels: np.ndarray, lines: Sequence[tuple[str, tuple[int, int, int]]], size: int) -> np.ndarray:
+def with_caption(pixels: np.ndarray, lines: Sequence[tuple[str, tuple[int, int, int]]], size: int) -> np.ndarray:
     """The picture with a caption band under it; each line wraps to the picture's width."""
     from PIL import Image, ImageDraw
 
@@ -487,7 +488,7 @@ def render_result(
     pixels, view = _draw(model, data, body, agents, width, height)
     lines = [(text[0], _FUNCTIONAL_RGB if result.functional else _CAPTION_FG), (text[1], _CAPTION_FG),
              (f"{text[2]}; {_notes(view, len(agents))}", _CAPTION_FG)]
-    return write_image(path, _with_caption(pixels, lines, size=max(12, width // 40)))
+    return write_image(path, with_caption(pixels, lines, size=max(12, width // 40)))
 
 
 def _columns(n: int) -> int:
@@ -550,13 +551,13 @@ def render_contact_sheet(
                  (f"plan {result.plans[j]!r} - score {result.scores[i][j]:.2f}", _CAPTION_FG)]
         if view.translucent:
             lines.append((f"object translucent ({view.hidden} of {len(agents)} agents hidden)", _CAPTION_FG))
-        tiles.append(_with_caption(pixels, lines, size))
+        tiles.append(with_caption(pixels, lines, size))
     cols = _columns(n)
     rows = math.ceil(n / cols)
     cell_h = max(t.shape[0] for t in tiles)
     gap = 6
     sheet_w = cols * tw + (cols + 1) * gap
-    head = _with_caption(np.zeros((0, sheet_w, 3), dtype=np.uint8), [
+    head = with_caption(np.zeros((0, sheet_w, 3), dtype=np.uint8), [
         (_verdict(result), _FUNCTIONAL_RGB if result.functional else _CAPTION_FG),
         (f"every stable pose (most probable first) with its best-scoring plan; "
          f"{_drawn_as(obj, draw_mesh)}; agents in blue; ground squares {100 * GROUND_SQUARE_M:.0f} cm", _CAPTION_FG),

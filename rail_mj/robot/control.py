@@ -1,4 +1,4 @@
-"""Torque-controlled Panda, Cartesian impedance control with force limits, and differential IK.
+"""Torque-controlled Panda, Cartesian impedance control with force limits; IK by mink (``rail_mj.robot.ik``).
 
 The Menagerie Panda drives its joints with position servos. Here the seven arm
 actuators become torque motors whose limits are the model's own ``forcerange``
@@ -10,6 +10,7 @@ robot can never push harder than the configured contact-force limit.
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 from typing import Literal
 
@@ -63,6 +64,10 @@ class RobotConfig(BaseModel):
     settle_speed: float = Field(0.01, gt=0, description="agent/object speed counted as at rest, m/s")
     ik_pos_tol: float = Field(0.005, gt=0, description="IK residual above which a pose is unreachable, m")
     ik_rot_tol: float = Field(0.05, gt=0, description="rad")
+    ik_clearance: float = Field(0.002, ge=0, description="distance IK keeps the hand (links 4-7, fingers) from the "
+                                                       "table and the object, m")
+    ik_step: float = Field(0.02, gt=0, description="IK samples the path between via-poses this finely, m: the "
+                                                "posture the controller keeps follows collision-free solutions")
     table_height: float = Field(0.1, gt=0, description="table top above the floor, m")
     table_half_size: tuple[float, float] = (0.3, 0.45)
     object_xy: tuple[float, float] = Field((0.55, 0.0), description="where the object's task frame sits, m")
@@ -192,24 +197,22 @@ def contact_force(model: mujoco.MjModel, data: mujoco.MjData, geom_mask: np.ndar
     return float(np.linalg.norm(total))
 
 
+#: One mink solver per compiled model and control site, dropped with the model.
+_IK_SOLVERS: weakref.WeakKeyDictionary[mujoco.MjModel, dict] = weakref.WeakKeyDictionary()
+
+
 def solve_ik(model: mujoco.MjModel, data: mujoco.MjData, idx: ArmIndex, pos: np.ndarray, quat: np.ndarray,
              q0: np.ndarray, *, iters: int = 200) -> tuple[np.ndarray, float, float]:
-    """Damped-least-squares IK for the control site within joint limits: (q, pos residual, rot residual)."""
-    q = q0.copy()
-    for _ in range(iters):
-        data.qpos[idx.qpos] = q
-        mujoco.mj_kinematics(model, data)
-        mujoco.mj_comPos(model, data)
-        err = np.concatenate([pos - data.site_xpos[idx.site], quat_error(quat, data.site_xmat[idx.site])])
-        if np.linalg.norm(err[:3]) < 1e-4 and np.linalg.norm(err[3:]) < 1e-3:
-            break
-        J = _jacobian(model, data, idx)
-        pinv = J.T @ np.linalg.inv(J @ J.T + 1e-3 * np.eye(6))
-        # a pull towards the home posture, in the null space, keeps the elbow away from the limits
-        dq = pinv @ err + (np.eye(7) - pinv @ J) @ (0.05 * (HOME_QPOS - q))
-        q = np.clip(q + _clip_norm(dq, 0.3), idx.lo, idx.hi)
-    data.qpos[idx.qpos] = q
+    """IK for the control site by mink (:class:`rail_mj.robot.ik.ArmIK`: joint limits, hand–obstacle collision
+    avoidance), from ``q0`` with the rest of the scene as ``data.qpos`` has it: (q, pos residual m, rot residual
+    rad). ``data`` is left at the solution (qpos and kinematics). The solver is built once per model and site."""
+    from rail_mj.robot.ik import ArmIK  # ik imports this module (HOME_QPOS, ArmIndex, quat_error)
+
+    solvers = _IK_SOLVERS.setdefault(model, {})
+    ik = solvers.get(idx.site)
+    if ik is None:
+        ik = solvers[idx.site] = ArmIK(model, idx)
+    sol = ik.solve(pos, quat, q0, world_qpos=data.qpos, max_iters=iters)
+    data.qpos[idx.qpos] = sol.q
     mujoco.mj_kinematics(model, data)
-    res_p = float(np.linalg.norm(pos - data.site_xpos[idx.site]))
-    res_r = float(np.linalg.norm(quat_error(quat, data.site_xmat[idx.site])))
-    return q, res_p, res_r
+    return sol.q, sol.pos_residual, sol.rot_residual

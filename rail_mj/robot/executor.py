@@ -1,10 +1,15 @@
 """The Panda executes an imagined interaction: place the object, carry the agent, release, judge.
 
 The object rests on a table in its stable pose; the agent (scaled to a graspable
-size) is welded below the fingertips; the via-poses are followed with Cartesian
-impedance control; a contact force above ``RobotConfig.force_limit`` on the
-hand or the held agent stops the motion (hold or retreat) and the agent is
-released there, as the imagination releases agents on first collision. The
+size) is welded below the fingertips; the path through the via-poses is solved by
+mink IK (``rail_mj.robot.ik``: joint limits, the hand kept off the table and the
+object) every ``RobotConfig.ik_step`` and followed with Cartesian impedance
+control whose null-space posture tracks those solutions; a contact force above
+``RobotConfig.force_limit`` on the hand or the held agent stops the motion (hold
+or retreat) and the agent is released there, as the imagination releases agents
+on first collision. A via-pose that only a hand in contact reaches (the plan
+presses the agent onto a surface) is kept as the impedance target, and the force
+limit ends that press. The
 end state is turned into a one-rollout :class:`rail_mj.types.Outcomes` (N = 1,
 the table plays the ground) and scored with the plan's scoring function.
 """
@@ -44,8 +49,8 @@ from rail_mj.robot.control import (
     contact_force,
     impedance_torque,
     make_torque_controlled,
-    solve_ik,
 )
+from rail_mj.robot.ik import ArmIK
 from rail_mj.robot.model import load_panda_spec
 from rail_mj.types import Outcomes, RailObject, StablePose
 
@@ -58,6 +63,7 @@ __all__ = [
     "DriveResult",
     "drive",
     "execute",
+    "caption_lines",
     "VIDEO_SIZE",
     "VIDEO_FPS",
 ]
@@ -102,9 +108,10 @@ class ExecutionResult:
     agent_quat: np.ndarray  # (4,) wxyz, task frame
     object_tilt: float  # rad
     outcomes: Outcomes | None
-    ik_residual: float  # worst IK position residual over the waypoints, m
+    ik_residual: float  # worst IK position residual over the path samples (the hand allowed to touch), m
     agent_scale: float  # factor applied to the agent fragment
     timings: dict[str, float] = field(default_factory=dict)
+    ik_blocked: int = 0  # path samples where IK kept the hand off an obstacle the plan would have it touch
 
     def to_dict(self) -> dict:
         """JSON-ready summary (no arrays of the outcomes)."""
@@ -120,6 +127,7 @@ class ExecutionResult:
             "object_tilt": self.object_tilt,
             "ik_residual": self.ik_residual,
             "agent_scale": self.agent_scale,
+            "ik_blocked": self.ik_blocked,
             "timings": self.timings,
         }
 
@@ -144,6 +152,7 @@ class RobotScene:
     half_extents: np.ndarray  # (3,)
     agent_scale: float
     agent_solref: np.ndarray  # (n_agent_geoms, 2) the composer's (the imagination's) solref, restored at release
+    ik: ArmIK  # the scene's mink solver for the control site
 
 
 def _agent_spec(fragment: str, scale: float) -> mujoco.MjSpec:
@@ -252,9 +261,10 @@ def build_scene(cfg: RobotConfig, *, obj: RailObject | None = None, pose: Stable
         owner[root == objb] = OWNER_OBJECT
     if has_agent:
         owner[root == agent_body] = 0
+    arm = ArmIndex.of(model, "grip")
     return RobotScene(
         model=model,
-        arm=ArmIndex.of(model, "grip"),
+        arm=arm,
         agent_body=agent_body,
         weld=model.equality("hold").id if has_agent else -1,
         agent_qpos=int(model.jnt_qposadr[agent_joint]) if has_agent else -1,
@@ -269,6 +279,7 @@ def build_scene(cfg: RobotConfig, *, obj: RailObject | None = None, pose: Stable
         half_extents=half_extents,
         agent_scale=agent_scale,
         agent_solref=np.tile(physics.solref, (int((owner == 0).sum()), 1)),
+        ik=ArmIK(model, arm, min_distance=cfg.ik_clearance),
     )
 
 
@@ -286,6 +297,8 @@ class _Sim:
         self.events: list[ForceEvent] = []
         self.over = False  # currently above the limit (an event is logged once per crossing)
         self.frames: list[np.ndarray] = []
+        self.frame_info: list[tuple[float, str, float]] = []  # (time s, phase, hand force N) of each frame
+        self.phase = "approach"
         self.camera = camera
         self.renderer = None
         if camera is not None:
@@ -316,6 +329,7 @@ class _Sim:
         if self.renderer is not None and self.steps % self.frame_every == 0:
             self.renderer.update_scene(self.data, camera=self.camera)
             self.frames.append(self.renderer.render().copy())
+            self.frame_info.append((float(self.data.time), self.phase, force))
         return force
 
     def crossed(self, force: float, phase: str, waypoint: int, action: str) -> bool:
@@ -330,7 +344,7 @@ class _Sim:
         return False
 
 
-def _video_camera(scene: RobotScene, sols: list[np.ndarray], targets: list[tuple[np.ndarray, np.ndarray]]
+def _video_camera(scene: RobotScene, sols: np.ndarray, targets: list[tuple[np.ndarray, np.ndarray]]
                   ) -> mujoco.MjvCamera:
     """One fixed camera for the whole video: from the side of the base-to-object line, a little in front,
     fitted to the arm in its home posture and at every IK solution, the agent's path and the object."""
@@ -351,20 +365,32 @@ def _video_camera(scene: RobotScene, sols: list[np.ndarray], targets: list[tuple
                       aspect=VIDEO_SIZE[0] / VIDEO_SIZE[1])
 
 
+def _posture_at(start: np.ndarray, samples: np.ndarray, t: float) -> np.ndarray:
+    """The null-space posture at fraction ``t`` of a segment: linear between the IK solutions sampled evenly
+    along it (``samples[-1]`` at the waypoint), starting from the posture held at the segment's start."""
+    knots = np.vstack([start, samples])
+    x = t * len(samples)
+    i = min(int(x), len(samples) - 1)
+    return knots[i] + (x - i) * (knots[i + 1] - knots[i])
+
+
 def _follow(sim: _Sim, waypoints: list[tuple[np.ndarray, np.ndarray]], postures: list[np.ndarray],
             phase: str, first_index: int) -> bool:
-    """Move through the waypoints; on a force-limit crossing stop (hold/retreat). True if stopped early."""
+    """Move through the waypoints, the posture along each segment following its ``(M, 7)`` IK samples; on a
+    force-limit crossing stop (hold/retreat). True if stopped early."""
     cfg = sim.cfg
+    sim.phase = phase
     speed = cfg.guarded_speed if phase == "trajectory" else cfg.speed
     p0, q0 = sim.site_pose()
-    for k, ((p1, q1), posture) in enumerate(zip(waypoints, postures)):
-        sim.posture = posture
+    for k, ((p1, q1), samples) in enumerate(zip(waypoints, postures)):
+        start = sim.posture.copy()
         dist = float(np.linalg.norm(p1 - p0))
         duration = max(dist / speed, quat_angle(q0, q1) / cfg.angular_speed, cfg.dt)
         n = int(np.ceil(duration / cfg.dt))
         vel = (p1 - p0) / duration
         for i in range(1, n + 1):
             t = i / n
+            sim.posture = _posture_at(start, samples, t)
             force = sim.step(p0 + t * (p1 - p0), slerp(q0, q1, t), vel)
             index = first_index + k if first_index >= 0 else -1
             if sim.crossed(force, phase, index, cfg.on_force_limit):
@@ -386,6 +412,7 @@ def _stop(sim: _Sim, vel: np.ndarray) -> None:
 
 
 def _hold(sim: _Sim, pos: np.ndarray, quat: np.ndarray, seconds: float, phase: str) -> None:
+    sim.phase = phase
     for _ in range(int(np.ceil(seconds / sim.cfg.dt))):
         sim.crossed(sim.step(pos, quat, np.zeros(3)), phase, -1, "none")
 
@@ -410,27 +437,58 @@ def drive(scene: RobotScene, waypoints: np.ndarray, config: RobotConfig | None =
     mujoco.mj_forward(scene.model, sim.data)
     _, quat = sim.site_pose()
     targets = [(np.asarray(p, float), quat) for p in np.atleast_2d(waypoints)]
-    stopped = _follow(sim, targets, [HOME_QPOS] * len(targets), "trajectory", 0)
+    stopped = _follow(sim, targets, [HOME_QPOS[None]] * len(targets), "trajectory", 0)
     if not stopped:
         _hold(sim, *targets[-1], hold, "hold")
     return DriveResult(stopped, sim.peak, tuple(sim.events), sim.site_pose()[0])
 
 
-def _ik_plan(scene: RobotScene, cfg: RobotConfig, targets: list[tuple[np.ndarray, np.ndarray]]
-             ) -> tuple[list[np.ndarray], float, str]:
-    """Joint solutions for every target (chained), the worst residual, and why a target is unreachable."""
-    data = mujoco.MjData(scene.model)
+@dataclass(frozen=True)
+class _IKPlan:
+    """mink solutions along the path: per target the ``(M, 7)`` samples of its segment, or why it fails."""
+
+    postures: list[np.ndarray]
+    worst: float  # m, worst position residual a reachable sample needs (with the hand allowed to touch)
+    blocked: int  # samples only a hand touching an obstacle reaches
+    solves: int
+    message: str  # empty when every target is reachable
+
+
+def _ik_plan(scene: RobotScene, cfg: RobotConfig, start: tuple[np.ndarray, np.ndarray],
+             targets: list[tuple[np.ndarray, np.ndarray]]) -> _IKPlan:
+    """Solve the straight path from ``start`` through every target every ``cfg.ik_step`` (and 0.1 rad), each
+    solve warm-started from the last. A sample the hand can reach only by touching the table or the object
+    keeps the collision-free solution (the posture) and counts as blocked: the impedance target stays the
+    plan's, so the hand presses there until the force limit holds it. Out of reach even so: unreachable."""
     q = HOME_QPOS.copy()
-    sols, worst = [], 0.0
-    for k, (p, quat) in enumerate(targets):
-        q, res_p, res_r = solve_ik(scene.model, data, scene.arm, p, quat, q)
-        worst = max(worst, res_p)
-        if res_p > cfg.ik_pos_tol or res_r > cfg.ik_rot_tol:
-            return sols, worst, (f"waypoint {k} at world {np.round(p, 3).tolist()} is unreachable: IK residual "
-                                 f"{res_p * 1000:.1f} mm / {res_r:.3f} rad (tolerance {cfg.ik_pos_tol * 1000:.1f} mm"
-                                 f" / {cfg.ik_rot_tol} rad)")
-        sols.append(q.copy())
-    return sols, worst, ""
+    postures, worst, blocked, solves = [], 0.0, 0, 0
+    p0, r0 = start
+    for k, (p1, r1) in enumerate(targets):
+        n = max(1, int(np.ceil(np.linalg.norm(p1 - p0) / cfg.ik_step)), int(np.ceil(quat_angle(r0, r1) / 0.1)))
+        samples = []
+        for j in range(1, n + 1):
+            t = j / n
+            p, r = p0 + t * (p1 - p0), slerp(r0, r1, t)
+            sol = scene.ik.solve(p, r, q)
+            solves += 1
+            res_p, res_r = sol.pos_residual, sol.rot_residual
+            if res_p > cfg.ik_pos_tol or res_r > cfg.ik_rot_tol:
+                free = scene.ik.solve(p, r, q, collisions=False)
+                solves += 1
+                res_p, res_r = free.pos_residual, free.rot_residual
+                if res_p > cfg.ik_pos_tol or res_r > cfg.ik_rot_tol:
+                    where = f"waypoint {k}" if j == n else f"the path to waypoint {k}"
+                    return _IKPlan(postures, max(worst, res_p), blocked, solves,
+                                   f"{where} at world {np.round(p, 3).tolist()} is unreachable: IK residual "
+                                   f"{res_p * 1000:.1f} mm / {res_r:.3f} rad (tolerance {cfg.ik_pos_tol * 1000:.1f}"
+                                   f" mm / {cfg.ik_rot_tol} rad)")
+                blocked += 1
+            worst = max(worst, res_p)
+            q = sol.q
+            samples.append(q)
+        postures.append(np.array(samples))
+        p0, r0 = p1, r1
+    return _IKPlan(postures, worst, blocked, solves, "")
 
 
 def _home_grip(scene: RobotScene) -> tuple[np.ndarray, np.ndarray]:
@@ -485,11 +543,13 @@ def _resolve_scoring(scoring: ScoringFunction | str | None) -> ScoringFunction |
 
 def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: np.ndarray,
             scoring: ScoringFunction | str | None, *, config: RobotConfig | None = None,
-            render: Path | None = None) -> ExecutionResult:
+            render: Path | None = None, affordance: str | None = None) -> ExecutionResult:
     """Carry the agent along ``trajectory`` ((K, 7) via-poses of its centre, task frame), release, judge.
 
     ``render`` records the execution: an mp4 when it ends in .mp4, else a folder of PNG frames
-    (:func:`rail_mj.render.write_frames`), seen by one fixed camera that keeps the arm and the agent in view.
+    (:func:`rail_mj.render.write_frames`), seen by one fixed camera that keeps the arm and the agent in view,
+    each frame captioned (:func:`caption_lines`: the object, ``affordance``, the verdict, the peak force
+    against the limit, and the phase and hand force at that frame).
     """
     cfg = config or RobotConfig()
     traj = np.asarray(trajectory, dtype=float)
@@ -514,8 +574,9 @@ def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: 
     # rise (or stay) to the approach height first so the straight approach clears the object
     rise = np.array([home[0][0], home[0][1], max(home[0][2], above[2])])
     targets = [(rise, path[0][1]), (above, path[0][1])] + path
-    sols, worst, why = _ik_plan(scene, cfg, targets)
+    plan = _ik_plan(scene, cfg, home, targets)
     timings["ik"] = time.perf_counter() - t0
+    timings["ik_per_solve"] = timings["ik"] / max(1, plan.solves)
 
     def result(success: bool, score: float, reachable: bool, message: str, sim: _Sim | None,
                outcomes: Outcomes | None) -> ExecutionResult:
@@ -527,13 +588,14 @@ def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: 
             agent_pos=outcomes.agent_pos[0, 0] if outcomes else nan3,
             agent_quat=outcomes.agent_quat[0, 0] if outcomes else np.full(4, np.nan),
             object_tilt=float(outcomes.object_tilt[0]) if outcomes else float("nan"),
-            outcomes=outcomes, ik_residual=worst, agent_scale=scale, timings=timings)
+            outcomes=outcomes, ik_residual=plan.worst, agent_scale=scale, timings=timings, ik_blocked=plan.blocked)
 
-    if why:
-        return result(False, float("nan"), False, why, None, None)
+    if plan.message:
+        return result(False, float("nan"), False, plan.message, None, None)
 
     t0 = time.perf_counter()
-    sim = _Sim(scene, cfg, _video_camera(scene, sols, targets) if render is not None else None)
+    camera = _video_camera(scene, np.vstack(plan.postures), targets) if render is not None else None
+    sim = _Sim(scene, cfg, camera)
     data = sim.data
     data.qpos[scene.arm.qpos] = HOME_QPOS
     mujoco.mj_kinematics(scene.model, data)
@@ -546,9 +608,9 @@ def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: 
 
     _hold(sim, grip_pos, grip_quat, 0.1, "approach")
     n_app = len(targets) - len(path)
-    stopped = _follow(sim, targets[:n_app], sols[:n_app], "approach", -1)
+    stopped = _follow(sim, targets[:n_app], plan.postures[:n_app], "approach", -1)
     if not stopped:
-        stopped = _follow(sim, targets[n_app:], sols[n_app:], "trajectory", 0)
+        stopped = _follow(sim, targets[n_app:], plan.postures[n_app:], "trajectory", 0)
     if not stopped:
         _hold(sim, *path[-1], cfg.hold_time, "hold")
 
@@ -559,9 +621,10 @@ def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: 
     scene.model.geom_solref[scene.agent_geoms] = scene.agent_solref
     sim.gripper = 255.0
     pos, quat = sim.site_pose()
-    _follow(sim, [(pos + np.array([0.0, 0.0, cfg.lift_after_release]), quat)], [sim.posture], "lift", -1)
+    _follow(sim, [(pos + np.array([0.0, 0.0, cfg.lift_after_release]), quat)], [sim.posture[None]], "lift", -1)
 
     pos, quat = sim.site_pose()
+    sim.phase = "settle"
     for _ in range(int(np.ceil(cfg.settle_time / cfg.dt))):
         sim.crossed(sim.step(pos, quat, np.zeros(3)), "settle", -1, "none")
         speed = max(np.linalg.norm(data.qvel[scene.agent_dof:scene.agent_dof + 3]),
@@ -572,16 +635,51 @@ def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: 
     timings["sim_time"] = float(data.time)
 
     outcomes = _outcomes(sim, obj_pos0, obj_quat0)
-    if render is not None:
-        from rail_mj.render import write_frames
-
-        write_frames(sim.frames, Path(render), fps=VIDEO_FPS)
     if score_fn is None:
-        return result(False, float("nan"), True, "executed, not scored", sim, outcomes)
-    t0 = time.perf_counter()
-    scores = np.asarray(score_fn(outcomes), dtype=float).reshape(-1)
-    timings["score"] = time.perf_counter() - t0
-    if scores.shape != (1,):
-        raise RobotError(f"scoring function returned shape {scores.shape}, expected (1,) for one rollout")
-    score = float(scores[0])
-    return result(bool(score > 0), score, True, "executed", sim, outcomes)
+        res = result(False, float("nan"), True, "executed, not scored", sim, outcomes)
+    else:
+        t0 = time.perf_counter()
+        scores = np.asarray(score_fn(outcomes), dtype=float).reshape(-1)
+        timings["score"] = time.perf_counter() - t0
+        if scores.shape != (1,):
+            raise RobotError(f"scoring function returned shape {scores.shape}, expected (1,) for one rollout")
+        score = float(scores[0])
+        res = result(bool(score > 0), score, True, "executed", sim, outcomes)
+    if render is not None:
+        _write_video(sim, Path(render), caption_lines(obj.name, affordance, res), res.success)
+    return res
+
+
+def caption_lines(object_name: str, affordance: str | None, res: ExecutionResult) -> list[str]:
+    """The video caption's fixed lines: object, affordance and verdict; peak force against the limit, force-limit
+    events and what IK did."""
+    asked = f"affordance {affordance!r}" if affordance else "affordance not given"
+    if not res.reachable:
+        verdict = "UNREACHABLE"
+    elif np.isnan(res.score):
+        verdict = "EXECUTED, NOT SCORED"
+    else:
+        verdict = f"{'SUCCESS' if res.success else 'FAILURE'} (score {res.score:+.2f})"
+    held = f"; {res.ik_blocked} path samples kept off an obstacle" if res.ik_blocked else ""
+    return [f"{object_name} - {asked} - {verdict}",
+            f"peak hand force {res.peak_force:.1f} N (limit {res.force_limit:.1f} N, "
+            f"{res.peak_force / res.force_limit:.2f}x) - {len(res.force_events)} force-limit events - "
+            f"IK by mink, worst residual {res.ik_residual * 1000:.2f} mm{held}"]
+
+
+def _write_video(sim: _Sim, path: Path, lines: list[str], success: bool) -> None:
+    """Every frame with the caption under it: the fixed lines, then the frame's time, phase and hand force."""
+    from rail_mj.render import with_caption, write_frames
+
+    limit = sim.cfg.force_limit
+    ok = (30, 150, 60) if success else (190, 40, 30)
+    size = max(10, VIDEO_SIZE[0] // 40)
+    frames = []
+    for pixels, (t, phase, force) in zip(sim.frames, sim.frame_info):
+        live = f"t = {t:5.2f} s - {phase} - hand force {force:5.1f} N" + (" - FORCE LIMIT" if force > limit else "")
+        frames.append(with_caption(pixels, [(lines[0], ok), (lines[1], (20, 20, 20)),
+                                            (live, (190, 40, 30) if force > limit else (20, 20, 20))], size))
+    # a live line that wraps on a narrow frame makes its band taller: an mp4 needs one frame size
+    height = max(f.shape[0] for f in frames)
+    frames = [np.pad(f, ((0, height - f.shape[0]), (0, 0), (0, 0)), mode="edge") for f in frames]
+    write_frames(frames, path, fps=VIDEO_FPS)
