@@ -535,9 +535,9 @@ def _carve(mesh: trimesh.Trimesh, depths: list[np.ndarray], views: list[ScanView
     """Remove surface that some view saw through: free-space carving of the TSDF's edge artefacts.
 
     The projective TSDF fattens convex edges: voxels just past an edge, hidden behind the top face from one
-    side, are fused as inside. A camera on the other side sees the table far behind them. A vertex goes when
-    a view's depth at its pixel, and at every neighbour (3 × 3, so a silhouette's pixel steps and lost pixels
-    never carve), lies beyond it by more than the margin (two voxels, or three noise deviations).
+    side, are fused as inside. A camera on the other side sees the table behind them. A vertex goes when a
+    view has a return at its pixel and every valid return in the 3 × 3 neighbourhood (so a silhouette's pixel
+    steps never carve) lies beyond it by more than the margin: half a voxel plus two noise deviations.
     """
     from scipy.ndimage import minimum_filter  # noqa: PLC0415 - scipy's image module, only here
 
@@ -554,9 +554,12 @@ def _carve(mesh: trimesh.Trimesh, depths: list[np.ndarray], views: list[ScanView
         u[ahead] = np.rint(fx * pc[ahead, 0] / z[ahead] + cx).astype(int)
         v[ahead] = np.rint(fy * pc[ahead, 1] / z[ahead] + cy).astype(int)
         inside = ahead & (u >= 0) & (u < config.width) & (v >= 0) & (v < config.height)
-        seen = minimum_filter(depth, size=3, mode="constant", cval=0.0)
-        margin = np.maximum(2 * config.voxel_size, 3 * config.depth_noise * z[inside])
-        free[np.flatnonzero(inside)[seen[v[inside], u[inside]] > z[inside] + margin]] = True
+        # lost pixels (0) are unknown, not far: the neighbourhood's nearest valid return decides
+        seen = minimum_filter(np.where(depth > 0, depth, np.inf), size=3, mode="nearest")
+        ui, vi, zi = u[inside], v[inside], z[inside]
+        margin = 0.5 * config.voxel_size + 2 * config.depth_noise * zi
+        through = (depth[vi, ui] > 0) & (seen[vi, ui] > zi + margin)
+        free[np.flatnonzero(inside)[through]] = True
     if not free.any():
         return mesh, 0
     keep = ~free[np.asarray(mesh.faces)].any(axis=1)

@@ -1,0 +1,139 @@
+"""The simulated wrist-camera scan: views reached by IK, depth rendering, TSDF fusion, segmentation, errors."""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import pytest
+import trimesh
+
+pytest.importorskip("open3d")  # the [scan] extra
+
+from rail_mj.errors import ConfigError, RailError, RobotError  # noqa: E402
+from rail_mj.objects import load_mesh, mesh_hash  # noqa: E402
+from rail_mj.robot.demo import upright_pose  # noqa: E402
+from rail_mj.robot.scan import (  # noqa: E402
+    CAMERA_NAME,
+    ScanConfig,
+    ScanError,
+    build_scan_scene,
+    noisy_depth,
+    plan_views,
+    render_views,
+    save_scan,
+    scan_object,
+    true_mesh_world,
+)
+from rail_mj.robot.scan import _reach_views  # noqa: E402
+from rail_mj.types import RailObject, StablePose  # noqa: E402
+
+BOX = np.array([0.08, 0.06, 0.10])  # x, y, z: m
+
+
+def _box_object(size: np.ndarray = BOX) -> RailObject:
+    mesh = trimesh.creation.box(extents=size)
+    mesh.apply_translation([0.0, 0.0, size[2] / 2])
+    return RailObject(name="box", mesh=mesh, hulls=(np.asarray(mesh.vertices),), mesh_hash=mesh_hash(mesh),
+                      obb_dims=np.sort(size)[::-1].copy(), com=np.array([0.0, 0.0, size[2] / 2]), mass=0.3,
+                      density=600.0)
+
+
+@pytest.fixture(scope="module")
+def box_scan():
+    obj = _box_object()
+    return obj, scan_object(obj, upright_pose(obj))
+
+
+def test_box_scan_recovers_its_size_where_it_stands(box_scan):
+    obj, result = box_scan
+    cfg = ScanConfig()
+    assert result.n_views >= cfg.min_views
+    assert np.all(np.abs(result.mesh.extents - BOX) < 0.005), result.mesh.extents
+    # world frame, z up, resting on the table top where the object stands (RobotConfig.object_xy)
+    lo, hi = result.mesh.bounds
+    assert abs(result.table_z - cfg.robot.table_height) < 0.001
+    assert abs(lo[2] - cfg.robot.table_height) < 0.001
+    assert np.allclose((lo[:2] + hi[:2]) / 2, cfg.robot.object_xy, atol=0.003)
+    assert result.chamfer_m < 0.002
+    assert set(result.seconds) >= {"plan", "render", "fuse", "extract"}
+
+
+def test_views_are_reached_by_the_arm_and_read_from_the_model():
+    obj = _box_object()
+    cfg = ScanConfig()
+    scene = build_scan_scene(obj, upright_pose(obj), cfg)
+    model = scene.model
+    assert model.body(int(model.cam_bodyid[scene.camera])).name == "hand"  # mounted on the hand
+    assert model.camera(CAMERA_NAME).id == scene.camera
+    surface = np.asarray(true_mesh_world(obj, upright_pose(obj)).sample(2000))
+    views, skipped, _ = _reach_views(scene, plan_views(cfg, scene.workspace_centre), surface, cfg)
+    assert len(views) + len(skipped) == cfg.n_views
+    for view in views:
+        pos, axis = view.cam_to_world[:3, 3], view.cam_to_world[:3, 2]  # OpenCV: z is the optical axis
+        assert np.linalg.norm(pos - view.eye) < cfg.robot.ik_pos_tol
+        # the optical axis passes through the look-at target
+        to_target = view.target - pos
+        assert np.linalg.norm(np.cross(axis, to_target)) / np.linalg.norm(to_target) < 0.02
+    # the arm's own pixels never reach the fusion: a view that sees the arm has them masked to 0 (no return)
+    depths = render_views(scene, views, cfg)
+    assert all(d.shape == (cfg.height, cfg.width) for d in depths)
+    assert all(((d == 0) | ((d >= cfg.depth_min) & (d <= cfg.depth_max))).all() for d in depths)
+
+
+def test_noise_and_dropout_change_the_depth_but_not_the_size():
+    obj = _box_object()
+    # sigma 0.33 mm at the 0.33 m view distance; a tenth of the pixels lost, and half of those at edges
+    cfg = ScanConfig(depth_noise=0.001, dropout=0.1, edge_dropout=0.5, seed=3)
+    scene = build_scan_scene(obj, upright_pose(obj), cfg)
+    surface = np.asarray(true_mesh_world(obj, upright_pose(obj)).sample(2000))
+    views, _, _ = _reach_views(scene, plan_views(cfg, scene.workspace_centre)[:1], surface, cfg)
+    clean = render_views(scene, views, cfg)[0]
+    noisy = noisy_depth(clean, cfg, np.random.default_rng(0))
+    both = (clean > 0) & (noisy > 0)
+    lost = (clean > 0) & (noisy == 0)
+    relative = (noisy[both] - clean[both]) / clean[both]
+    assert 0.0008 < relative.std() < 0.0012  # distance-proportional Gaussian
+    assert 0.1 < lost.sum() / (clean > 0).sum() < 0.25  # random dropout plus the edges
+    assert noisy_depth(clean, ScanConfig(), np.random.default_rng(0)) == pytest.approx(clean)  # off by default
+
+    result = scan_object(obj, upright_pose(obj), cfg)
+    assert np.all(np.abs(result.mesh.extents - BOX) < 0.005), result.mesh.extents
+    assert result.chamfer_m < 0.002
+
+
+def test_scan_saves_a_mesh_the_loader_reads(box_scan, tmp_path):
+    _, result = box_scan
+    path = save_scan(result, tmp_path / "scan.ply")
+    loaded = load_mesh(path)  # metres, z up: the defaults
+    assert np.allclose(loaded.bounds, result.mesh.bounds, atol=1e-5)
+    with pytest.raises(ConfigError, match=r"\.obj"):
+        save_scan(result, tmp_path / "scan.xyz")
+
+
+def test_an_object_out_of_the_workspace_is_not_seen():
+    obj = _box_object()
+    pose = upright_pose(obj)
+    away = StablePose(pos=np.asarray(pose.pos) + [0.0, 0.35, 0.0], quat=pose.quat, probability=1.0,
+                      half_extents=pose.half_extents)
+    with pytest.raises(ScanError, match="saw only the table"):
+        scan_object(obj, away)
+
+
+def test_unreachable_views_are_skipped_and_too_few_fail():
+    obj = _box_object()
+    with pytest.raises(ScanError, match=r"only \d+ of 12 scan views are reachable") as info:
+        scan_object(obj, upright_pose(obj), ScanConfig(distance=1.2, fallback_distance=1.0, elevation_step=0))
+    assert isinstance(info.value, RobotError) and isinstance(info.value, RailError)
+    assert "view 0" in str(info.value)
+
+
+def test_bad_configs_and_a_missing_open3d_are_named(monkeypatch):
+    with pytest.raises(ValueError, match="min_views"):
+        ScanConfig(n_views=4, min_views=6)
+    with pytest.raises(ValueError, match="elevations"):
+        ScanConfig(elevations=(95.0,))
+    monkeypatch.setitem(sys.modules, "open3d", None)  # import open3d now raises ImportError
+    obj = _box_object()
+    with pytest.raises(ScanError, match=r"pip install -e '\.\[scan\]'"):
+        scan_object(obj, upright_pose(obj))
