@@ -102,6 +102,18 @@ def test_noise_and_dropout_change_the_depth_but_not_the_size():
     assert result.chamfer_m < 0.002
 
 
+def test_an_overhang_hiding_the_base_still_rests_on_the_table():
+    # a ball's underside is hidden from every view: the outline closes straight down to where it stands
+    mesh = trimesh.creation.icosphere(subdivisions=3, radius=0.045)
+    mesh.apply_translation([0.0, 0.0, 0.045])
+    obj = RailObject(name="ball", mesh=mesh, hulls=(np.asarray(mesh.vertices),), mesh_hash=mesh_hash(mesh),
+                     obb_dims=np.full(3, 0.09), com=np.array([0.0, 0.0, 0.045]), mass=0.2, density=600.0)
+    result = scan_object(obj, upright_pose(obj))
+    assert abs(result.mesh.bounds[0, 2] - ScanConfig().robot.table_height) < 0.001
+    assert np.all(np.abs(result.mesh.extents - 0.09) < 0.005), result.mesh.extents
+    assert result.chamfer_m < 0.003
+
+
 def test_scan_saves_a_mesh_the_loader_reads(box_scan, tmp_path):
     _, result = box_scan
     path = save_scan(result, tmp_path / "scan.ply")
