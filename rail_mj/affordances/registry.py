@@ -175,6 +175,31 @@ def _rows() -> tuple[Affordance, ...]:
                    (0.5, 2.5), (0.15, 0.8), aliases=("bookshelf",)),
         Affordance("cupboard", "storage", "A cupboard stores items inside an enclosure on level boards, reached "
                    "through an opening at the front.", (0.5, 2.5), (0.3, 1.0), aliases=("cabinet",)),
+        # the bucket's height/width keeps a bowl (at most 0.55) and a tall narrow bin out
+        Affordance("bucket", "container", "A bucket carries water or soil in an open, upward-facing cavity with a "
+                   "flat base, filled from above and keeping its load while standing (opening 15-40 cm across, "
+                   "15-45 cm tall, about as tall as wide).", (0.15, 0.45), (0.14, 0.4), aliases=("pail",),
+                   droplets=_LIQUID,
+                   envelope=Envelope(height=(0.15, 0.45), width=(0.14, 0.4), aspect=(0.6, 2.0))),
+        Affordance("jar", "container", "A jar stores food or liquid in a standing cavity with a wide mouth at the "
+                   "top, filled from above and keeping its contents (5-16 cm across, 7-30 cm tall, at least as "
+                   "tall as wide).", (0.07, 0.3), (0.05, 0.16), aliases=("mason jar", "jam jar"), droplets=_LIQUID,
+                   envelope=Envelope(height=(0.07, 0.3), width=(0.05, 0.16), aspect=(1.0, inf))),
+        Affordance("saucer", "dish", "A saucer holds a cup or a little food on a small, low dish with a shallow "
+                   "well inside a rim (10-18 cm across, 1-3.5 cm tall).", (0.1, 0.18), (0.01, 0.035),
+                   envelope=Envelope(height=(0.01, 0.035), length=(0.1, 0.18))),
+        Affordance("nightstand", "surface", "A nightstand holds a lamp, a book or a glass beside a bed on a level top "
+                   "0.4-0.75 m high, 0.25-0.55 m deep and at most 0.8 m long, lower and smaller than a table.",
+                   (0.35, 0.8), (0.25, 0.55),
+                   aliases=("night stand", "bedside table", "night table", "bedside cabinet"),
+                   envelope=Envelope(height=(0.4, 0.76), width=(0.25, 0.55), length=(0.3, 0.8),
+                                     rest=(0.39, 0.77))),
+        # a surface on the counter: the item rests on its top, a few cm up, with no rim to keep it below
+        Affordance("cutting board", "surface", "A cutting board holds food to be cut on a flat, level, rimless top "
+                   "that lies on the counter (20-60 cm long, 12-40 cm wide, 0.8-5 cm thick).", (0.2, 0.6),
+                   (0.008, 0.05), aliases=("chopping board", "carving board"),
+                   envelope=Envelope(height=(0.008, 0.05), width=(0.12, 0.4), length=(0.2, 0.6),
+                                     rest=(0.008, 0.05))),
     )
 
 

@@ -28,8 +28,8 @@ from rail_mj.robot.executor import ExecutionResult, ScoringFunction, execute
 from rail_mj.robot.request import parse_request
 from rail_mj.types import Outcomes, RailObject, StablePose
 
-__all__ = ["OBJECT_KINDS", "DEMO_AFFORDANCES", "DEMO_REQUESTS", "DemoCase", "make_object", "upright_pose", "plan_offline", "case_from_result",
-           "imagined_case", "run_demo"]
+__all__ = ["OBJECT_KINDS", "DEMO_AFFORDANCES", "DEMO_REQUESTS", "DemoCase", "make_object", "object_from_parts",
+           "upright_pose", "plan_offline", "case_from_result", "imagined_case", "run_demo"]
 
 _BALL = ('<mujoco><worldbody><body name="ball"><geom type="sphere" size="{r}" density="{rho}" '
          'rgba="0.2 0.4 0.9 1"/></body></worldbody></mujoco>')
@@ -85,6 +85,19 @@ def _parts(kind: str, rng: np.random.Generator) -> list[np.ndarray]:
                 "pen_holder": (u(0.03, 0.035), u(0.10, 0.12)), "pot": (u(0.085, 0.1), u(0.12, 0.15)),
                 "bowl": (u(0.06, 0.08), u(0.045, 0.06))}[kind]
         return [_disk_hull(r + 0.005, 0, 0.006)] + _ring_walls(r, 0.005, 0, h)
+    if kind == "bucket":  # a small one: a real bucket, short enough for the hand to reach over its rim
+        r, h = u(0.09, 0.1), u(0.18, 0.21)
+        return [_disk_hull(r + 0.006, 0, 0.008)] + _ring_walls(r, 0.006, 0, h)
+    if kind == "jar":  # a body, a shoulder and a wide mouth (the neck's opening is 0.8 of the body's)
+        r, h = u(0.04, 0.045), u(0.12, 0.14)
+        neck, wall, body = 0.8 * r, 0.004, h - 0.02
+        return ([_disk_hull(r + wall, 0, 0.006)] + _ring_walls(r, wall, 0, body)
+                + _ring_walls(neck, r - neck + wall, body - 0.005, body) + _ring_walls(neck, wall, body, h))
+    if kind == "saucer":  # a small plate: a flat well inside a low rim
+        r = u(0.065, 0.075)
+        return [_disk_hull(r, 0, 0.006)] + _ring_walls(r - 0.005, 0.005, 0, u(0.014, 0.018), n=24)
+    if kind == "cutting_board":  # a rimless slab on the counter
+        return [_box_hull([-u(0.13, 0.15), -u(0.09, 0.1), 0], [u(0.13, 0.15), u(0.09, 0.1), u(0.015, 0.02)])]
     if kind in ("basket", "tray"):
         hx, hy, h = (u(0.1, 0.12), u(0.08, 0.1), u(0.08, 0.12)) if kind == "basket" else \
             (u(0.09, 0.11), u(0.07, 0.09), u(0.02, 0.03))
@@ -111,6 +124,11 @@ def _parts(kind: str, rng: np.random.Generator) -> list[np.ndarray]:
         return [_box_hull([-hx, -hy, 0], [hx, hy, 0.008])] + _square_walls(hx, hy, 0.008, 0, h)
     if kind == "bench":  # a doll's
         return _legged(u(0.1, 0.12), u(0.035, 0.045), u(0.075, 0.09), 0.01, 0.01)
+    if kind == "nightstand":  # a doll's: a closed cabinet on four short legs under a top board
+        hx, hy, h, foot, t = u(0.045, 0.05), u(0.035, 0.04), u(0.09, 0.11), 0.012, 0.008
+        legs = _legged(hx, hy, foot + 0.001, 0.001, 0.008)[1:]
+        return legs + [_box_hull([-hx + 0.003, -hy + 0.003, foot], [hx - 0.003, hy - 0.003, h - t]),
+                        _box_hull([-hx, -hy, h - t], [hx, hy, h])]
     if kind == "bed":  # a doll's: a mattress on four legs and a headboard
         hx, hy = u(0.15, 0.17), u(0.07, 0.08)
         parts = _legged(hx, hy, u(0.05, 0.06), 0.02, 0.015)
@@ -127,15 +145,21 @@ def _parts(kind: str, rng: np.random.Generator) -> list[np.ndarray]:
     raise ConfigError(f"unknown demo object {kind!r}; known: {', '.join(OBJECT_KINDS)}")
 
 
-def make_object(kind: str, seed: int = 0, density: float = 600.0) -> RailObject:
-    """A table-top object of ``kind`` built from convex parts (mesh frame: upright, base at z = 0)."""
-    hulls = tuple(_parts(kind, np.random.default_rng(seed)))
+def object_from_parts(name: str, hulls: list[np.ndarray] | tuple[np.ndarray, ...], density: float = 600.0
+                      ) -> RailObject:
+    """An object whose convex parts are given (vertex arrays; mesh frame as given): its hulls are the parts."""
+    hulls = tuple(np.asarray(h, float) for h in hulls)
     mesh = trimesh.util.concatenate([trimesh.convex.convex_hull(h) for h in hulls])
     volume = float(sum(trimesh.convex.convex_hull(h).volume for h in hulls))
     # content hash: stable poses are cached by it, so a resized demo object must not reuse old ones
-    return RailObject(name=f"{kind}_{seed}", mesh=mesh, hulls=hulls, mesh_hash=mesh_hash(mesh),
+    return RailObject(name=name, mesh=mesh, hulls=hulls, mesh_hash=mesh_hash(mesh),
                       obb_dims=np.sort(mesh.extents)[::-1].copy(), com=np.asarray(mesh.center_mass, float),
                       mass=volume * density, density=density)
+
+
+def make_object(kind: str, seed: int = 0, density: float = 600.0) -> RailObject:
+    """A table-top object of ``kind`` built from convex parts (mesh frame: upright, base at z = 0)."""
+    return object_from_parts(f"{kind}_{seed}", _parts(kind, np.random.default_rng(seed)), density)
 
 
 def upright_pose(obj: RailObject) -> StablePose:
@@ -176,8 +200,9 @@ def _demo(name: str) -> tuple[str, str, ScoringFunction]:
 
 
 #: What :func:`make_object` builds: table-top objects at real size, furniture at a doll's.
-OBJECT_KINDS = ("cup", "bowl", "vase", "pen_holder", "pot", "basket", "tray", "plate", "trash_bin", "table", "stool",
-                "chair", "bench", "bed", "bathtub", "shelf", "cupboard")
+OBJECT_KINDS = ("cup", "bowl", "vase", "pen_holder", "pot", "basket", "tray", "plate", "trash_bin", "bucket", "jar",
+                "saucer", "cutting_board", "table", "stool", "chair", "bench", "bed", "bathtub", "shelf", "cupboard",
+                "nightstand")
 
 #: registry key -> (object kind, agent kind, scoring), for the affordances :func:`make_object` builds at table-top size
 DEMO_AFFORDANCES: dict[str, tuple[str, str, ScoringFunction]] = {

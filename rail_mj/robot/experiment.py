@@ -53,7 +53,7 @@ class Task:
     scale: float = 1.0  # for shapes builders: their real-world mesh scaled to the robot's table
 
 
-#: 20 objects, 17 affordances (9 beyond the paper's eight: every other row of the registry).
+#: 25 objects, 22 affordances (14 beyond the paper's eight: every other row of the registry).
 TASKS: tuple[Task, ...] = (
     Task("mug", "shapes:cup", 1, "pour the water into the mug"),
     Task("cup", "demo:cup", 2, "put the water in the cup"),
@@ -75,6 +75,11 @@ TASKS: tuple[Task, ...] = (
     Task("pot", "demo:pot", 1, "put the soil in the pot"),
     Task("trash_bin", "demo:trash_bin", 1, "put the paper in the trash bin"),
     Task("pen_holder", "demo:pen_holder", 1, "put the pen in the pen holder"),
+    Task("bucket", "demo:bucket", 1, "pour the water into the bucket"),
+    Task("jar", "demo:jar", 1, "put the water in the jar"),
+    Task("saucer", "demo:saucer", 1, "put the cup on the saucer"),
+    Task("doll_nightstand", "demo:nightstand", 1, "put the doll on the nightstand"),
+    Task("cutting_board", "demo:cutting_board", 1, "put the bread on the cutting board"),
 )
 
 
