@@ -305,7 +305,7 @@ def run_demo(affordances: list[str] | None = None, trials: int = 4, *, config: R
                 continue
             render = video / f"{name}_{obj.name}.mp4" if video is not None and seed == 0 else None
             res: ExecutionResult = execute(obj, case.pose, case.agent_fragment, case.via_poses, case.scoring,
-                                           config=cfg, render=render)
+                                           config=cfg, render=render, affordance=name)
             row = {"object": obj.name, "affordance": name, **res.to_dict(), "seconds": time.perf_counter() - t0}
             rows.append(row)
             if progress:

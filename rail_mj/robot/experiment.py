@@ -186,7 +186,8 @@ def run_task(task: Task, *, scan: bool = True, config: RobotConfig | None = None
         t0 = time.perf_counter()
         render = Path(video) / f"{task.name}.mp4" if video is not None else None
         # the plan imagined on the model, carried out on the real object standing where it stands
-        res = execute(obj, pose, case.agent_fragment, case.via_poses, case.scoring, config=cfg, render=render)
+        res = execute(obj, pose, case.agent_fragment, case.via_poses, case.scoring, config=cfg, render=render,
+                      affordance=row["affordance"])
         times["execute"] = time.perf_counter() - t0
         row.update(success=bool(res.success), score=float(res.score) if np.isfinite(res.score) else None,
                    peak_force=float(res.peak_force), force_limit=float(res.force_limit),
