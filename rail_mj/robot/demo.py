@@ -135,7 +135,9 @@ def _parts(kind: str, rng: np.random.Generator) -> list[np.ndarray]:
         return parts + [_box_hull([-hx, -hy, 0], [-hx + 0.012, hy, u(0.1, 0.12)])]
     if kind in ("shelf", "cupboard"):
         # a doll's, open at the front (-y), a board at a third of the height. The hand holds the item from above,
-        # so the shelf is open at the top and the cupboard tall enough for the hand to pass under its top
+        # so the shelf is open at the top. The cupboard stays under the hand's home pose (0.36 m above the table),
+        # too low for the hand and wrist over the item (13 cm and more above its centre, pushed in at 0.575 of the
+        # height) to pass under its top: the hand catches the top board and tips it over backwards
         hx, hy, t = u(0.1, 0.12), u(0.05, 0.06), 0.008
         h = u(0.18, 0.22) if kind == "shelf" else u(0.32, 0.34)
         parts = [_box_hull([-hx, -hy, 0], [hx, hy, t]), _box_hull([-hx, hy - t, 0], [hx, hy, h]),

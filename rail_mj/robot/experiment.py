@@ -258,12 +258,12 @@ def format_table(rows: list[dict]) -> str:
     def yn(v) -> str:
         return "-" if v is None else ("yes" if v else "no")
 
-    head = (f"{'object':15s} {'request':34s} {'affordance':11s} {'scan':5s} {'true':5s} {'exec':5s} "
+    head = (f"{'object':15s} {'request':34s} {'affordance':13s} {'scan':5s} {'true':5s} {'exec':5s} "
             f"{'success':7s} {'peak/limit N':>13s}")
     lines = [head, "-" * len(head)]
     for r in rows:
         scan = r["scan"]["functional"] if r.get("scan") else None
-        lines.append(f"{r['task']:15s} {r['request'][:34]:34s} {r['affordance']:11s} {yn(scan):5s} "
+        lines.append(f"{r['task']:15s} {r['request'][:34]:34s} {r['affordance']:13s} {yn(scan):5s} "
                      f"{yn(r['true']['functional']):5s} {yn(r['executed']):5s} {yn(r['success']):7s} "
                      f"{r['peak_force']:6.1f}/{r['force_limit']:<6.1f}")
     return "\n".join(lines)
