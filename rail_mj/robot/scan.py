@@ -7,6 +7,9 @@ scene cloud). The scene is the executor's (``rail_mj.robot.executor.build_scene`
 stable pose on the table at ``RobotConfig.object_xy``. The camera sees the object's true mesh (a render-only
 geom); the robot's links are rendered too (they can occlude) and masked out with a segmentation render.
 
+After fusion, surface that some view saw through is carved away (the projective TSDF fattens convex edges),
+and the open outline where the object meets the table is closed down to the table, so the mesh stands.
+
 The view plan knows only the workspace (where objects are put down in front of the robot), not the object:
 look-at targets sit above the workspace centre on two rings, so an unseen object is scanned the same way.
 Each view is reached by IK (``rail_mj.robot.control.solve_ik``) for a site at the camera; the arm is placed at
@@ -193,7 +196,6 @@ class ScanScene:
     arm: ArmIndex
     camera: int
     robot_geoms: np.ndarray  # (ngeom,) bool: geoms of the Panda (masked out of the depth)
-    scene_geoms: np.ndarray  # (ngeom,) bool: table, floor and object (what the robot must not touch)
     table_top: float  # m
     workspace_centre: np.ndarray  # (3,) on the table top, m
 
@@ -261,7 +263,6 @@ def build_scan_scene(obj: RailObject, pose: StablePose, config: ScanConfig) -> S
         arm=ArmIndex.of(model, CAMERA_SITE),
         camera=model.camera(CAMERA_NAME).id,
         robot_geoms=robot_geoms,
-        scene_geoms=~robot_geoms,
         table_top=th,
         workspace_centre=np.array([tx, ty, th]),
     )
@@ -322,7 +323,7 @@ def plan_views(config: ScanConfig, workspace_centre: np.ndarray) -> list[Planned
 _ROLLS = (0.0, math.pi / 2, -math.pi / 2, math.pi)
 
 
-def _touches_scene(scene: ScanScene, data: mujoco.MjData, world: trimesh.Trimesh, tree: cKDTree,
+def _touches_scene(scene: ScanScene, data: mujoco.MjData, surface: np.ndarray, tree: cKDTree,
                    clearance: float) -> str:
     """Why the arm at ``data.qpos`` may not be there ('' if it may): a contact with the table or floor, or a
     robot geom within ``clearance`` of the object's surface (sampled)."""
@@ -345,7 +346,7 @@ def _touches_scene(scene: ScanScene, data: mujoco.MjData, world: trimesh.Trimesh
             idx = tree.query_ball_point(data.geom_xpos[g], model.geom_rbound[g] + clearance)
             if not idx:
                 continue
-            pts = world[idx] - data.geom_xpos[g]
+            pts = surface[idx] - data.geom_xpos[g]
             local = pts @ data.geom_xmat[g].reshape(3, 3)
             aabb = model.geom_aabb[g]
             if np.any(np.all(np.abs(local - aabb[:3]) <= aabb[3:] + clearance, axis=1)):
