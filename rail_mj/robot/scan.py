@@ -22,6 +22,7 @@ Open3D is the optional extra ``[scan]`` (``pip install -e '.[scan]'``); it is im
 from __future__ import annotations
 
 import math
+import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -58,6 +59,7 @@ __all__ = [
     "noisy_depth",
     "fuse_views",
     "scan_object",
+    "load_open3d",
     "chamfer_distance",
     "save_scan",
     "true_mesh_world",
@@ -200,11 +202,38 @@ class ScanScene:
     workspace_centre: np.ndarray  # (3,) on the table top, m
 
 
-def _open3d() -> ModuleType:
+def _preload_libusb() -> bool:
+    """Load the libusb that the ``libusb-package`` wheel ships; whether there was one to load.
+
+    open3d-cpu's library links ``libusb-1.0.so.0`` (for RealSense cameras), which a bare machine lacks; once a
+    library with that soname is loaded, the dynamic loader uses it for open3d too, so no system package is needed.
+    """
+    import ctypes  # noqa: PLC0415
+
+    try:
+        import libusb_package  # noqa: PLC0415 - part of the [scan] extra
+    except ImportError:
+        return False
+    path = libusb_package.get_library_path()
+    if path is None:
+        return False
+    ctypes.CDLL(str(path), mode=ctypes.RTLD_GLOBAL)
+    return True
+
+
+def load_open3d() -> ModuleType:
+    """The open3d module, or :class:`ScanError` naming the extra to install."""
     try:
         import open3d  # noqa: PLC0415 - an optional extra, imported only when a scan runs
-    except ImportError as exc:
-        raise ScanError(f"the scan needs open3d, an optional extra: {INSTALL_HINT} ({exc})") from exc
+    except (ImportError, OSError) as first:
+        if "libusb" not in str(first) or not _preload_libusb():
+            raise ScanError(f"the scan needs open3d, an optional extra: {INSTALL_HINT} ({first})") from first
+        for name in [m for m in sys.modules if m == "open3d" or m.startswith("open3d.")]:
+            del sys.modules[name]  # the failed import left half-initialised modules behind
+        try:
+            import open3d  # noqa: PLC0415
+        except (ImportError, OSError) as exc:
+            raise ScanError(f"the scan needs open3d, an optional extra: {INSTALL_HINT} ({exc})") from exc
     return open3d
 
 
@@ -475,7 +504,7 @@ def fuse_views(depths: list[np.ndarray], views: list[ScanView], config: ScanConf
     Pixels whose points fall outside the workspace box are dropped first: the fused region is where objects
     are put down, not the whole room, and its size bounds the grid's blocks.
     """
-    o3d = _open3d()
+    o3d = load_open3d()
     o3c = o3d.core
     fx, fy, cx, cy = config.intrinsics()
     # Open3D's integration truncates the projected pixel coordinate (static_cast<int>) instead of rounding it:
@@ -589,7 +618,7 @@ def _extract(volume, depths: list[np.ndarray], views: list[ScanView], config: Sc
 
     Open3D keeps voxels whose weight (views fused) is strictly above its threshold: hence ``- 0.5``.
     """
-    o3d = _open3d()
+    o3d = load_open3d()
     notes: list[str] = []
     cloud = volume.extract_point_cloud(weight_threshold=config.min_observations - 0.5).to_legacy()
     if len(cloud.points) < 50:
@@ -680,7 +709,7 @@ def scan_object(obj: RailObject, pose: StablePose, config: ScanConfig | None = N
     reachable, or when nothing but the table is seen.
     """
     config = config or ScanConfig()
-    _open3d()  # fail before any work when the extra is missing
+    load_open3d()  # fail before any work when the extra is missing
     seconds: dict[str, float] = {}
     t0 = time.perf_counter()
     scene = build_scan_scene(obj, pose, config)
