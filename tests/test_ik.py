@@ -11,15 +11,6 @@ from rail_mj.robot import RobotConfig, build_scene
 from rail_mj.robot.control import HOME_QPOS, ArmIndex, quat_error, solve_ik
 from rail_mj.robot.ik import ArmIK
 from rail_mj.robot.demo import make_object, plan_offline
-from rail_mj.robot.model import panda_dir
-
-
-@pytest.fixture(scope="module")
-def panda_folder():
-    try:
-        return panda_dir()
-    except RobotError as exc:  # no cache and no registry access
-        pytest.skip(f"Panda model unavailable: {exc}")
 
 
 @pytest.fixture(scope="module")

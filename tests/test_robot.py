@@ -18,14 +18,6 @@ from rail_mj.robot.model import MENAGERIE_ENV, PANDA_FILES, fetch_panda, load_pa
 from rail_mj.types import RailObject
 
 
-@pytest.fixture(scope="module")
-def panda_folder():
-    try:
-        return panda_dir()
-    except RobotError as exc:  # no cache and no registry access
-        pytest.skip(f"Panda model unavailable: {exc}")
-
-
 def test_cached_model_verifies_and_loads(panda_folder):
     verify_panda(panda_folder)  # hashes + compile
     model = load_panda_spec(visual=False).compile()

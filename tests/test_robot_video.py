@@ -6,19 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rail_mj.errors import RobotError
 from rail_mj.robot import RobotConfig, execute
 from rail_mj.robot import executor as robot_executor
 from rail_mj.robot.demo import make_object, plan_offline
-from rail_mj.robot.model import panda_dir
-
-
-@pytest.fixture(scope="module")
-def panda_folder():
-    try:
-        return panda_dir()
-    except RobotError as exc:  # no cache and no registry access
-        pytest.skip(f"Panda model unavailable: {exc}")
 
 
 def test_execution_video_is_an_mp4_with_the_arm_the_agent_and_a_caption(panda_folder, tmp_path, monkeypatch):
