@@ -146,6 +146,9 @@ class Outcomes:
     object_tilt: np.ndarray  # (B,) float, angle between task-frame +z and world +z at the end, rad
     object_half_extents: np.ndarray  # (B, 3) float, the object's half-sizes in the task frame
     settled: np.ndarray  # (B,) bool, every body slower than the settle threshold at the end
+    # (B, N) int, the most consecutive of the enclosure probe's horizontal directions in which a ray from the agent's
+    # centre leaves without meeting the object (0: walled all round); None where no probe ran (e.g. the robot)
+    agent_open_sector: np.ndarray | None = None
 
     @property
     def batch(self) -> int:

@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import mujoco
 import numpy as np
 
 from rail_mj.errors import ImaginationError
@@ -28,7 +29,15 @@ __all__ = [
     "drive_table",
     "assemble_outcomes",
     "outcomes_from_states",
+    "PROBE_DIRECTIONS",
+    "open_sectors",
 ]
+
+#: Horizontal directions of the enclosure probe, evenly spaced (22.5 deg apart).
+PROBE_DIRECTIONS = 16
+_PROBE_VEC = np.stack([np.cos(2 * np.pi * np.arange(PROBE_DIRECTIONS) / PROBE_DIRECTIONS),
+                       np.sin(2 * np.pi * np.arange(PROBE_DIRECTIONS) / PROBE_DIRECTIONS),
+                       np.zeros(PROBE_DIRECTIONS)], axis=1).ravel()
 
 
 @dataclass(frozen=True)
@@ -213,6 +222,7 @@ def assemble_outcomes(
     contacts: np.ndarray,
     released_early: np.ndarray,
     settled: np.ndarray,
+    open_sector: np.ndarray | None = None,
 ) -> Outcomes:
     """Final world poses → task-frame Outcomes.
 
@@ -237,6 +247,7 @@ def assemble_outcomes(
         object_tilt=tilt(quat),
         object_half_extents=placement.half_extents.copy(),
         settled=settled.astype(bool),
+        agent_open_sector=None if open_sector is None else open_sector.astype(np.int64),
     )
 
 
@@ -261,4 +272,43 @@ def outcomes_from_states(
         contacts=contacts,
         released_early=released_early,
         settled=settled,
+        open_sector=open_sectors(scene, qpos),
     )
+
+
+def _longest_run(escaped: np.ndarray) -> np.ndarray:
+    """(..., D) bool around a circle → (...) the longest run of consecutive True (D when all are)."""
+    n = escaped.shape[-1]
+    run = np.zeros(escaped.shape[:-1], dtype=np.int64)
+    best = np.zeros_like(run)
+    for k in range(2 * n):  # twice round, so a run across direction 0 counts whole
+        run = np.where(escaped[..., k % n], run + 1, 0)
+        best = np.maximum(best, run)
+    return np.minimum(best, n)
+
+
+def open_sectors(scene: Scene, qpos: np.ndarray) -> np.ndarray:
+    """The enclosure probe on final states (B, nq): for each agent, the most consecutive of
+    :data:`PROBE_DIRECTIONS` horizontal rays from its centre that leave without meeting the object (B, N).
+
+    Droplets in a cavity meet a wall every way (0); on an upturned table, between its legs, or on a seat open
+    at the front, a whole sector is free. The agents are moved out of the way first, so only the object
+    (never the static ground) is cast against.
+    """
+    m = scene.model
+    data = mujoco.MjData(m)
+    out = np.zeros((qpos.shape[0], scene.n_agents), dtype=np.int64)
+    geomid = np.zeros(PROBE_DIRECTIONS, dtype=np.int32)
+    dist = np.zeros(PROBE_DIRECTIONS)
+    for b in range(qpos.shape[0]):
+        q = qpos[b].copy()
+        centres = np.stack([q[a : a + 3] for a in scene.agent_qpos])
+        q[scene.agent_qpos + 2] = -1e3
+        data.qpos[:] = q
+        mujoco.mj_kinematics(m, data)
+        escaped = np.zeros((scene.n_agents, PROBE_DIRECTIONS), dtype=bool)
+        for i, p in enumerate(centres):
+            mujoco.mj_multiRay(m, data, p, _PROBE_VEC, None, 0, -1, geomid, dist, None, PROBE_DIRECTIONS, 100.0)
+            escaped[i] = geomid < 0
+        out[b] = _longest_run(escaped)
+    return out

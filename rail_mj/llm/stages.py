@@ -273,7 +273,20 @@ def result_summary(outcomes: Outcomes, b: int) -> ResultSummary:
         agent_tilt_deg=float(np.mean(np.degrees(np.arccos(cos_tilt)))),
         agent_speed=float(np.mean(np.linalg.norm(outcomes.agent_vel[b], axis=1))),
         frac_through_object=float(np.mean(beneath & (outcomes.contacts_ground[b] > 0))),
+        frac_open_side=_frac_open_side(outcomes, b),
     )
+
+
+def _frac_open_side(outcomes: Outcomes, b: int) -> float:
+    """Of the agents inside the box, the fraction whose enclosure probe found an open sector; 0 without a probe."""
+    from rail_mj.affordances.kinds.container import OPEN_SECTOR  # as in result_summary
+
+    if outcomes.agent_open_sector is None:
+        return 0.0
+    inside = np.all(np.abs(outcomes.agent_pos[b]) < outcomes.object_half_extents[b], axis=1)
+    if not inside.any():
+        return 0.0
+    return float(np.mean(outcomes.agent_open_sector[b][inside] >= OPEN_SECTOR))
 
 
 def functional_pose_request(

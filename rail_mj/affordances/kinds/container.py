@@ -1,7 +1,11 @@
 """``container``: a 3×3×3 grid of droplet spheres dropped from above the opening.
 
 Success: most droplets rest inside the box, below the rim and off the ground,
-none came through the object, and the object stays upright.
+none came through the object, and the object stays upright. The analyser also
+asks that they sit in a cavity: their mean centre at least :data:`MIN_DEPTH` of
+the box height below the rim, and walls all round most of them (the enclosure
+probe's horizontal rays meet the object every way but in sectors narrower than
+:data:`OPEN_SECTOR` directions).
 """
 
 from __future__ import annotations
@@ -21,7 +25,7 @@ from rail_mj.affordances.kinds.base import (
 from rail_mj.affordances.registry import Affordance
 from rail_mj.llm.schemas import AgentLayout, CandidateInteraction, MotionPlan, ScoringCode, ViaPose
 
-__all__ = ["BENEATH_MIDDLE", "Container"]
+__all__ = ["BENEATH_MIDDLE", "MIN_DEPTH", "OPEN_SECTOR", "MAX_OPEN", "Container"]
 
 #: A point on the ground is beneath the object's middle when (x/h_x)^2 + (y/h_y)^2 is below this (an ellipse
 #: half the footprint's size): a droplet resting there came through the object, so it leaks. The scoring source
@@ -31,6 +35,19 @@ BENEATH_MIDDLE = 0.25
 #: Horizontal offset (units of h) of the above_<side> plans: a handle shifts the box centre off the cavity's
 #: axis by a fraction of the half size, so the grid must move by about that much, not onto the rim.
 _OFFSET = 0.3
+
+#: Least depth of the droplets' mean centre below the rim, as a fraction of the pose's box height. A closed box
+#: whose decomposed top is slightly grooved holds droplets just under its top (a few % of its height); a cavity
+#: holds them near its floor, even a goblet's bowl on its stem (about a third of the height below the rim).
+MIN_DEPTH = 0.2
+
+#: Consecutive directions of the enclosure probe (:data:`rail_mj.imagination.batch.PROBE_DIRECTIONS`, 16, 22.5 deg
+#: apart) free of the object that make a droplet's side open: 4 span 67.5 deg, wider than a chance line-up of a
+#: basket's slots, narrower than the gap between an upturned table's legs or a seat's open front.
+OPEN_SECTOR = 4
+
+#: Largest fraction of the droplets inside that may lie open to one side: a cavity walls its droplets all round.
+MAX_OPEN = 0.5
 
 #: Fraction of droplets resting on the object that shows a pour landed on it (a leak test's evidence).
 _LANDED = 0.5
@@ -119,7 +136,15 @@ class Container(Kind):
         if s.frac_inside_bbox < 0.5 or s.mean_height >= 1.0 or s.frac_on_ground > 0.2:
             return False, (f"only {s.frac_inside_bbox:.0%} of droplets rest inside below the rim "
                            f"({s.frac_on_ground:.0%} on the ground)")
-        return True, f"{s.frac_inside_bbox:.0%} of droplets from above rest inside below the rim"
+        depth = (1.0 - s.mean_height) / 2.0
+        if depth < MIN_DEPTH:
+            return False, (f"the droplets rest {depth:.0%} of the height below the rim, on a top rather than in a "
+                           f"cavity (at least {MIN_DEPTH:.0%} deep)")
+        if s.frac_open_side > MAX_OPEN:
+            return False, (f"{s.frac_open_side:.0%} of the droplets inside lie open to one side (no wall over a "
+                           "sector of 67 deg or more): the opening is no enclosing cavity")
+        return True, (f"{s.frac_inside_bbox:.0%} of droplets from above rest inside, {depth:.0%} of the height below "
+                      "the rim, walled all round")
 
     def accept_pose(
         self, aff: Affordance, accepted: list[CandidateInteraction], tried: list[CandidateInteraction]

@@ -1,5 +1,5 @@
 """``dish``: a flat disc of "food" lowered onto the object. Success: it rests level on the object, which is low
-(the size envelope), and stays when placed at the centre."""
+(the size envelope), and stays when placed at the centre, below the top of the object's box (a rim around it)."""
 
 from __future__ import annotations
 
@@ -40,8 +40,14 @@ class Dish(Lowering):
     def accept_pose(
         self, aff: Affordance, accepted: list[CandidateInteraction], tried: list[CandidateInteraction]
     ) -> tuple[list[CandidateInteraction], str]:
-        if all(c.plan != "above" for c in accepted):
+        centre = next((c for c in accepted if c.plan == "above"), None)
+        if centre is None:
             return [], f"the food placed at the centre does not stay; a {aff.name} has a solid centre"
+        if centre.summary.mean_height >= 1.0:
+            # a closed flat box, or an upturned plate whose foot ring is shallower than the food, holds the food
+            # on its top: nothing rises around it, so it slides off at the first nudge
+            return [], (f"the food at the centre rests on top of the object ({centre.summary.mean_height:.2f} of "
+                        f"the half height), not below a rim; a {aff.name} holds food below its rim")
         return accepted, ""
 
     def rank(self, accepted: list[CandidateInteraction]) -> int:
