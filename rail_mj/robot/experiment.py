@@ -123,7 +123,10 @@ def _scanned(obj: RailObject, pose: StablePose) -> tuple[RailObject, dict[str, A
     scanned = object_from_mesh(mesh, name=f"{obj.name}_scan")
     info = {"chamfer_m": float(result.chamfer_m), "n_views": int(result.n_views), "seconds": seconds,
             "stages": {k: float(v) for k, v in result.seconds.items()},
-            "decompose_seconds": time.perf_counter() - t0, "faces": int(len(mesh.faces))}
+            "decompose_seconds": time.perf_counter() - t0, "faces": int(len(mesh.faces)),
+            "watertight": bool(mesh.is_volume), "hulls": len(scanned.hulls),
+            # what the scan noted beyond the views' fallbacks: cut off at the workspace edge, holes left open
+            "notes": [n[:200] for n in result.notes if not n.startswith("view ")]}
     return scanned, info
 
 

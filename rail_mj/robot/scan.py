@@ -9,6 +9,10 @@ geom); the robot's links are rendered too (they can occlude) and masked out with
 
 After fusion, surface that some view saw through is carved away (the projective TSDF fattens convex edges),
 and the open outline where the object meets the table is closed down to the table, so the mesh stands.
+The holes left (a thin rim the TSDF or the carving opened) are closed and the mesh is made a closed
+manifold and simplified by manifold3d to at most ``ScanConfig.max_faces`` faces, moving no surface by more
+than a fraction of a voxel, so thin walls stay: an open mesh would be remeshed by CoACD (which thickened a
+scanned cup's walls and left gaps that leaked) and a dense one decimated by quadrics before CoACD.
 
 The view plan knows only the workspace (where objects are put down in front of the robot), not the object:
 look-at targets sit above the workspace centre on two rings, so an unseen object is scanned the same way.
@@ -80,6 +84,10 @@ _ROBOT_ROOT = "link0"
 #: Voxels per block edge of the TSDF grid; the fused box reaches this far below the table top, m.
 _BLOCK_RESOLUTION = 8
 _BELOW_TABLE = 0.05
+#: Closed pieces of the scan under this fraction of the largest piece's volume are specks, dropped.
+_MIN_PIECE_VOLUME = 0.002
+#: How far apart two touching sheets of the watertight scan are moved, m (far above vertex-merge tolerances).
+_TOUCH_SEPARATION = 1e-5
 
 
 class ScanError(RobotError):
@@ -121,6 +129,12 @@ class ScanConfig(BaseModel):
     cluster_eps: float = Field(0.01, gt=0, description="DBSCAN neighbourhood radius, m")
     carve: bool = Field(True, description="remove surface a view saw through (the TSDF's fattened edges)")
     close_bottom: bool = Field(True, description="cap the open outline where the object meets the table")
+    watertight: bool = Field(True, description="close every other hole and make the mesh a closed manifold "
+                             "(manifold3d), simplified within simplify_tolerance")
+    simplify_tolerance: float = Field(0.3, ge=0, le=2.0,
+                                      description="surface the simplification may move, in voxels; it grows "
+                                      "(up to 2 voxels) only while the mesh has over max_faces faces")
+    max_faces: int = Field(5_000, ge=500, le=20_000, description="most faces of the watertight mesh")
     chamfer_points: int = Field(20000, ge=100, description="points sampled on each mesh for the Chamfer distance")
     seed: int = 0
     robot: RobotConfig = Field(default_factory=RobotConfig, description="table and object placement")
@@ -541,10 +555,7 @@ def _cap_bottom(mesh: trimesh.Trimesh, table_z: float, band: float) -> trimesh.T
     Each loop is then closed with a fan from its centroid, wound against the adjacent faces so the normals
     stay consistent.
     """
-    edges = mesh.edges  # (3F, 2) directed, in face order
-    key = edges.min(axis=1).astype(np.int64) * len(mesh.vertices) + edges.max(axis=1)  # one integer per edge
-    _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
-    boundary = edges[counts[inverse] == 1]
+    boundary = _boundary_edges(mesh)
     if len(boundary) < 3:
         return mesh
     vertices = np.asarray(mesh.vertices).copy()
@@ -564,12 +575,110 @@ def _cap_bottom(mesh: trimesh.Trimesh, table_z: float, band: float) -> trimesh.T
         a, b = boundary[:, 0], boundary[:, 1]
         faces += [np.column_stack([b, a, below[a]]), np.column_stack([b, below[a], below[b]])]
         boundary = np.column_stack([below[a], below[b]])
+    vertices, fans = _fan_fill(vertices, boundary)
+    return trimesh.Trimesh(vertices, np.vstack(faces + fans), process=True)
+
+
+def _boundary_edges(mesh: trimesh.Trimesh) -> np.ndarray:
+    """The edges used by one face only, directed as in that face: (E, 2)."""
+    edges = mesh.edges  # (3F, 2) directed, in face order
+    key = edges.min(axis=1).astype(np.int64) * len(mesh.vertices) + edges.max(axis=1)  # one integer per edge
+    _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
+    return edges[counts[inverse] == 1]
+
+
+def _fan_fill(vertices: np.ndarray, boundary: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
+    """Close each loop of ``boundary`` (directed edges) with a fan from its centroid, wound against the faces
+    beside it so the normals stay consistent: the new vertices and the new faces."""
+    faces = []
     for component in trimesh.graph.connected_components(boundary, min_len=3):
         loop = boundary[np.isin(boundary, component).all(axis=1)]
         centre = len(vertices)
         vertices = np.vstack([vertices, vertices[np.unique(loop)].mean(axis=0)])
         faces.append(np.column_stack([loop[:, 1], loop[:, 0], np.full(len(loop), centre)]))
-    return trimesh.Trimesh(vertices, np.vstack(faces), process=True)
+    return vertices, faces
+
+
+def _watertight(mesh: trimesh.Trimesh, config: ScanConfig) -> tuple[trimesh.Trimesh, list[str]]:
+    """Every remaining hole closed, then a closed manifold simplified to at most ``config.max_faces`` faces.
+
+    The holes left after the bottom closure are small (a rim thinner than the TSDF's truncation, carved
+    edges): a fan closes each. manifold3d then repairs what the fans leave non-manifold and simplifies; its
+    tolerance bounds how far any surface moves, so a wall thicker than twice the tolerance keeps its cavity
+    (quadric decimation has no such bound). The tolerance starts at ``simplify_tolerance`` voxels and grows
+    by 25% while the faces are over ``max_faces``, up to 2 voxels. A mesh manifold3d refuses is returned
+    with the holes closed, and a note says so.
+    """
+    import manifold3d  # noqa: PLC0415 - a core dependency (trimesh's boolean engine), only needed here
+
+    vertices, faces = _fan_fill(np.asarray(mesh.vertices), _boundary_edges(mesh))
+    closed = trimesh.Trimesh(vertices, np.vstack([np.asarray(mesh.faces), *faces]), process=True)
+    try:
+        solid = manifold3d.Manifold(manifold3d.Mesh(vert_properties=np.asarray(closed.vertices, dtype=np.float32),
+                                                    tri_verts=np.asarray(closed.faces, dtype=np.uint32)))
+    except (RuntimeError, ValueError) as exc:
+        return closed, [f"the scanned mesh could not be made a closed manifold ({exc}); holes closed by fans only"]
+    if solid.status() != manifold3d.Error.NoError:
+        return closed, [f"the scanned mesh could not be made a closed manifold ({solid.status().name}); holes "
+                        "closed by fans only"]
+    tolerance = config.simplify_tolerance * config.voxel_size
+    if tolerance > 0:
+        solid = solid.simplify(tolerance)
+    while solid.num_tri() > config.max_faces and tolerance < 2 * config.voxel_size:
+        tolerance = max(1.25 * tolerance, 0.05 * config.voxel_size)
+        solid = solid.simplify(tolerance)
+    # pieces wound inside out (a fan across a sliver) or too small to matter (a speck the crop kept) go
+    pieces = solid.decompose()
+    largest = max(piece.volume() for piece in pieces)
+    kept = [piece for piece in pieces if piece.volume() > _MIN_PIECE_VOLUME * largest]
+    solid = manifold3d.Manifold.batch_boolean(kept, manifold3d.OpType.Add) if len(kept) > 1 else kept[0]
+    out = solid.to_mesh()
+    vertices = _separate_touching(np.asarray(out.vert_properties[:, :3], dtype=np.float64),
+                                  np.asarray(out.tri_verts, dtype=np.int64))
+    result = trimesh.Trimesh(vertices, np.asarray(out.tri_verts, dtype=np.int64), process=False)
+    notes = []
+    if len(kept) < len(pieces):
+        notes.append(f"{len(pieces) - len(kept)} of {len(pieces)} closed pieces dropped (inside out, or under "
+                     f"{_MIN_PIECE_VOLUME:.1%} of the largest's volume)")
+    if len(result.faces) > config.max_faces:
+        notes.append(f"the watertight scan has {len(result.faces):,} faces, over max_faces {config.max_faces:,} "
+                     f"at the largest simplification tolerance ({1000 * tolerance:.2f} mm)")
+    # the loader merges vertices by position and drops degenerate faces: what it gets must still be closed
+    check = result.copy()
+    check.merge_vertices()
+    check.update_faces(check.nondegenerate_faces() & check.unique_faces())
+    if not check.is_volume:
+        return closed, ["the simplified scan is not a closed volume once its vertices are merged; holes closed "
+                        "by fans only"]
+    # a fan across a large outline can make the wrong piece the kept one: the result must lie on the scan
+    samples, _ = trimesh.sample.sample_surface(closed, 4000, seed=config.seed)
+    off = float(np.mean(np.abs(trimesh.proximity.signed_distance(result, samples))))
+    if off > config.voxel_size:
+        return closed, [f"the watertight scan strays {1000 * off:.1f} mm (mean) from the fused surface; holes "
+                        "closed by fans only"]
+    return result, notes
+
+
+def _separate_touching(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Move apart the vertices manifold3d keeps distinct at one position (where two sheets touch).
+
+    A loader that merges vertices by position (``rail_mj.objects.repair_mesh``) would join them again into a
+    non-manifold edge or vertex, and the mesh would no longer be closed. Each copy moves
+    :data:`_TOUCH_SEPARATION` towards the centroid of its own neighbours, which lie on its own sheet.
+    """
+    _, inverse, counts = np.unique(np.round(vertices, 8), axis=0, return_inverse=True, return_counts=True)
+    shared = np.flatnonzero(counts[inverse.ravel()] > 1)
+    if len(shared) == 0:
+        return vertices
+    edges = np.vstack([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    total = np.zeros_like(vertices)
+    np.add.at(total, edges[:, 0], vertices[edges[:, 1]])
+    degree = np.bincount(edges[:, 0], minlength=len(vertices))
+    out = vertices.copy()
+    step = total[shared] / np.maximum(degree[shared], 1)[:, None] - vertices[shared]
+    norm = np.linalg.norm(step, axis=1, keepdims=True)
+    out[shared] += _TOUCH_SEPARATION * step / np.maximum(norm, 1e-12)
+    return out
 
 
 def _carve(mesh: trimesh.Trimesh, depths: list[np.ndarray], views: list[ScanView], config: ScanConfig
@@ -690,6 +799,9 @@ def _extract(volume, depths: list[np.ndarray], views: list[ScanView], config: Sc
         mesh, _ = _carve(mesh, depths, views, config)
     if config.close_bottom:
         mesh = _cap_bottom(mesh, table_z, config.plane_distance + 2 * config.voxel_size)
+    if config.watertight:
+        mesh, more = _watertight(mesh, config)
+        notes += more
     return mesh, table_z, notes
 
 
