@@ -607,7 +607,7 @@ def _watertight(mesh: trimesh.Trimesh, config: ScanConfig) -> tuple[trimesh.Trim
     tolerance bounds how far any surface moves, so a wall thicker than twice the tolerance keeps its cavity
     (quadric decimation has no such bound). The tolerance starts at ``simplify_tolerance`` voxels and grows
     by 25% while the faces are over ``max_faces``, up to 2 voxels. A mesh manifold3d refuses is returned
-    with the holes closed, and a note says so.
+    as it came (open: what a fan would add is not on the object), and a note says so.
     """
     import manifold3d  # noqa: PLC0415 - a core dependency (trimesh's boolean engine), only needed here
 
@@ -617,10 +617,10 @@ def _watertight(mesh: trimesh.Trimesh, config: ScanConfig) -> tuple[trimesh.Trim
         solid = manifold3d.Manifold(manifold3d.Mesh(vert_properties=np.asarray(closed.vertices, dtype=np.float32),
                                                     tri_verts=np.asarray(closed.faces, dtype=np.uint32)))
     except (RuntimeError, ValueError) as exc:
-        return closed, [f"the scanned mesh could not be made a closed manifold ({exc}); holes closed by fans only"]
+        return mesh, [f"the scanned mesh could not be made a closed manifold ({exc}); its holes are left open"]
     if solid.status() != manifold3d.Error.NoError:
-        return closed, [f"the scanned mesh could not be made a closed manifold ({solid.status().name}); holes "
-                        "closed by fans only"]
+        return mesh, [f"the scanned mesh could not be made a closed manifold ({solid.status().name}); holes "
+                        "left open"]
     tolerance = config.simplify_tolerance * config.voxel_size
     if tolerance > 0:
         solid = solid.simplify(tolerance)
@@ -648,14 +648,14 @@ def _watertight(mesh: trimesh.Trimesh, config: ScanConfig) -> tuple[trimesh.Trim
     check.merge_vertices()
     check.update_faces(check.nondegenerate_faces() & check.unique_faces())
     if not check.is_volume:
-        return closed, ["the simplified scan is not a closed volume once its vertices are merged; holes closed "
-                        "by fans only"]
+        return mesh, ["the simplified scan is not a closed volume once its vertices are merged; holes "
+                        "left open"]
     # a fan across a large outline can make the wrong piece the kept one: the result must lie on the scan
     samples, _ = trimesh.sample.sample_surface(closed, 4000, seed=config.seed)
     off = float(np.mean(np.abs(trimesh.proximity.signed_distance(result, samples))))
     if off > config.voxel_size:
-        return closed, [f"the watertight scan strays {1000 * off:.1f} mm (mean) from the fused surface; holes "
-                        "closed by fans only"]
+        return mesh, [f"the watertight scan strays {1000 * off:.1f} mm (mean) from the fused surface; holes "
+                        "left open"]
     return result, notes
 
 
