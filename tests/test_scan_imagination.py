@@ -61,3 +61,13 @@ def test_scanned_cup_is_a_cup_as_placed_and_upside_down_is_not(cup, cup_scan):
     assert upright.functional, upright.analyzer_reasons
     flipped = _as_placed(scan_object(cup, _upside_down(cup)))
     assert not flipped.functional, flipped.analyzer_reasons
+
+
+def test_a_thin_walled_tray_closes_as_a_volume_with_its_cavity_open():
+    # 6 mm walls round an open tray: the volume closing keeps the walls solid and the cavity a view saw into open
+    tray = make_object("tray", 1)
+    result = scan_object(tray, upright_pose(tray), ScanConfig(closing="volume"))
+    assert repair_mesh(result.mesh.copy()).is_volume, result.notes
+    assert len(result.mesh.faces) <= ScanConfig().max_faces
+    assert abs(result.mesh.volume - tray.mesh.volume) < 0.15 * tray.mesh.volume  # filled, it would be ~4x
+    assert result.chamfer_m < 0.002

@@ -8,11 +8,11 @@ stable pose on the table at ``RobotConfig.object_xy``. The camera sees the objec
 geom); the robot's links are rendered too (they can occlude) and masked out with a segmentation render.
 
 After fusion, surface that some view saw through is carved away (the projective TSDF fattens convex edges),
-and the open outline where the object meets the table is closed down to the table, so the mesh stands.
-The holes left (a thin rim the TSDF or the carving opened) are closed and the mesh is made a closed
-manifold and simplified by manifold3d to at most ``ScanConfig.max_faces`` faces, moving no surface by more
-than a fraction of a voxel, so thin walls stay: an open mesh would be remeshed by CoACD (which thickened a
-scanned cup's walls and left gaps that leaked) and a dense one decimated by quadrics before CoACD.
+and the scan is made a closed volume: the space no view saw through, on a voxel grid over the object's box
+(so a cavity a view saw into stays open and a wall stays solid), meshed by marching cubes (scikit-image),
+standing on the table, decimated to at most ``ScanConfig.max_faces`` faces. An open mesh would be remeshed
+by CoACD (which thickened a scanned cup's walls and left gaps that leaked). Where that fails, the fused
+mesh's outline on the table and its holes are fanned and manifold3d repairs it (``ScanConfig.closing``).
 
 The view plan knows only the workspace (where objects are put down in front of the robot), not the object:
 look-at targets sit above the workspace centre on two rings, so an unseen object is scanned the same way.
@@ -31,6 +31,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
+from typing import Literal
 
 import mujoco
 import numpy as np
@@ -88,6 +89,9 @@ _BELOW_TABLE = 0.05
 _MIN_PIECE_VOLUME = 0.002
 #: How far apart two touching sheets of the watertight scan are moved, m (far above vertex-merge tolerances).
 _TOUCH_SEPARATION = 1e-5
+#: How far (grid steps) the volume closing's surface reaches round a grid point the fused surface passes through:
+#: enough to keep a wall thinner than the grid, little enough not to thicken the walls the grid resolves.
+_WALL_FILL = 0.1
 
 
 class ScanError(RobotError):
@@ -135,6 +139,14 @@ class ScanConfig(BaseModel):
                                       description="surface the simplification may move, in voxels; it grows "
                                       "(up to 2 voxels) only while the mesh has over max_faces faces")
     max_faces: int = Field(5_000, ge=500, le=20_000, description="most faces of the watertight mesh")
+    closing: Literal["auto", "volume", "fans"] = Field(
+        "auto", description="how the watertight step closes the scan: 'fans' fans the fused mesh's holes and "
+        "repairs it (may stay open); 'volume' meshes the space no view saw through (always closed, but unseen "
+        "space - a deep cavity's bottom, under a table top - comes out solid); 'auto': fans, else volume")
+    solid_voxel: float = Field(1.0, ge=0.25, le=1.0, description="the volume closing's grid step, × voxel_size")
+    solid_offset: float = Field(0.0, ge=0.0, le=1.0,
+                                description="how far the volume closing's surface lies outside the free space, "
+                                "in grid steps")
     chamfer_points: int = Field(20000, ge=100, description="points sampled on each mesh for the Chamfer distance")
     seed: int = 0
     robot: RobotConfig = Field(default_factory=RobotConfig, description="table and object placement")
@@ -602,12 +614,11 @@ def _fan_fill(vertices: np.ndarray, boundary: np.ndarray) -> tuple[np.ndarray, l
 def _watertight(mesh: trimesh.Trimesh, config: ScanConfig) -> tuple[trimesh.Trimesh, list[str]]:
     """Every remaining hole closed, then a closed manifold simplified to at most ``config.max_faces`` faces.
 
-    The holes left after the bottom closure are small (a rim thinner than the TSDF's truncation, carved
-    edges): a fan closes each. manifold3d then repairs what the fans leave non-manifold and simplifies; its
-    tolerance bounds how far any surface moves, so a wall thicker than twice the tolerance keeps its cavity
-    (quadric decimation has no such bound). The tolerance starts at ``simplify_tolerance`` voxels and grows
-    by 25% while the faces are over ``max_faces``, up to 2 voxels. A mesh manifold3d refuses is returned
-    as it came (open: what a fan would add is not on the object), and a note says so.
+    The fallback of the volume closing (``closing="fans"``, or where that fails). The holes left after the
+    bottom closure are small (a rim thinner than the TSDF's truncation, carved edges): a fan closes each.
+    manifold3d then repairs what the fans leave non-manifold and simplifies (:func:`_simplified`). A mesh
+    manifold3d refuses is returned as it came (open: what a fan would add is not on the object), and a note
+    says so.
     """
     import manifold3d  # noqa: PLC0415 - a core dependency (trimesh's boolean engine), only needed here
 
@@ -621,8 +632,30 @@ def _watertight(mesh: trimesh.Trimesh, config: ScanConfig) -> tuple[trimesh.Trim
     if solid.status() != manifold3d.Error.NoError:
         return mesh, [f"the scanned mesh could not be made a closed manifold ({solid.status().name}); holes "
                         "left open"]
+    result, notes = _simplified(solid, config)
+    if result is None:
+        return mesh, notes + ["holes left open"]
+    # a fan across a large outline can make the wrong piece the kept one: the result must lie on the scan
+    samples, _ = trimesh.sample.sample_surface(closed, 4000, seed=config.seed)
+    off = float(np.mean(np.abs(trimesh.proximity.signed_distance(result, samples))))
+    if off > config.voxel_size:
+        return mesh, [f"the watertight scan strays {1000 * off:.1f} mm (mean) from the fused surface; holes "
+                        "left open"]
+    return result, notes
+
+
+def _simplified(solid, config: ScanConfig, simplify: bool = True) -> tuple[trimesh.Trimesh | None, list[str]]:
+    """A closed manifold (manifold3d) simplified to at most ``config.max_faces`` faces, specks dropped, as a
+    mesh that stays closed through the loader's vertex merge; ``None`` with a note when it does not.
+
+    The tolerance bounds how far any surface moves, so a wall thicker than twice the tolerance keeps its
+    cavity (quadric decimation has no such bound). It starts at ``simplify_tolerance`` voxels and grows by
+    25% while the faces are over ``max_faces``, up to 2 voxels.
+    """
+    import manifold3d  # noqa: PLC0415
+
     tolerance = config.simplify_tolerance * config.voxel_size
-    if tolerance > 0:
+    if simplify and tolerance > 0:
         solid = solid.simplify(tolerance)
     while solid.num_tri() > config.max_faces and tolerance < 2 * config.voxel_size:
         tolerance = max(1.25 * tolerance, 0.05 * config.voxel_size)
@@ -648,15 +681,88 @@ def _watertight(mesh: trimesh.Trimesh, config: ScanConfig) -> tuple[trimesh.Trim
     check.merge_vertices()
     check.update_faces(check.nondegenerate_faces() & check.unique_faces())
     if not check.is_volume:
-        return mesh, ["the simplified scan is not a closed volume once its vertices are merged; holes "
-                        "left open"]
-    # a fan across a large outline can make the wrong piece the kept one: the result must lie on the scan
-    samples, _ = trimesh.sample.sample_surface(closed, 4000, seed=config.seed)
-    off = float(np.mean(np.abs(trimesh.proximity.signed_distance(result, samples))))
-    if off > config.voxel_size:
-        return mesh, [f"the watertight scan strays {1000 * off:.1f} mm (mean) from the fused surface; holes "
-                        "left open"]
+        return None, ["the simplified scan is not a closed volume once its vertices are merged"]
     return result, notes
+
+
+def _solid_closing(fused: trimesh.Trimesh, depths: list[np.ndarray], views: list[ScanView], config: ScanConfig,
+                   lo: np.ndarray, hi: np.ndarray, table_z: float) -> tuple[trimesh.Trimesh | None, list[str]]:
+    """The scan as the boundary of the space no view saw through: a closed manifold by construction.
+
+    On a grid of ``solid_voxel`` × the voxel size over the object's box (from the crop's floor above the
+    table), each point's free-ness is the largest, over the views, of how far in front of the seen surface it
+    lies along that view's ray (its pixel's return; a lost pixel tells nothing). Space some view saw through
+    is outside; everything else - the walls, and the inside no view reached - is solid, so an open cavity a
+    view saw into stays open and a hole no view saw through is closed. The surface lies ``solid_offset``
+    grid steps outside the free space; a wall thinner than the grid (its points all just in front of one
+    face or the other) is kept by making the grid points the fused surface passes through solid
+    (:data:`_WALL_FILL`). Solid pieces the fused surface does not touch (unseen pockets in the box) go; the
+    grid is padded with free space, so marching cubes closes it, and the base is put on the table. ``None``
+    with a note when the mesh is not a closed manifold.
+    """
+    import manifold3d  # noqa: PLC0415 - a core dependency (trimesh's boolean engine), only needed here
+    from scipy.ndimage import label  # noqa: PLC0415
+    from skimage.measure import marching_cubes  # noqa: PLC0415 - part of the [scan] extra
+
+    step = config.solid_voxel * config.voxel_size
+    floor = table_z + config.plane_distance
+    origin = np.array([lo[0], lo[1], floor])
+    shape = tuple(int(n) for n in np.ceil((np.asarray(hi) - origin) / step).astype(int) + 1)
+    axes = [(origin[i] + step * np.arange(shape[i])).astype(np.float32) for i in range(3)]
+    clip = np.float32(2 * step)  # only the band near the surface matters to marching cubes
+    free = np.full(shape, -clip, dtype=np.float32)
+    fx, fy, cx, cy = config.intrinsics()
+    for depth, view in zip(depths, views, strict=True):
+        world_to_cam = np.linalg.inv(view.cam_to_world).astype(np.float32)
+        rot, shift = world_to_cam[:3, :3], world_to_cam[:3, 3]
+        # camera coordinates of the grid points, by broadcasting the axes (no (N, 3) array of points)
+        pc = [rot[r, 0] * axes[0][:, None, None] + rot[r, 1] * axes[1][None, :, None]
+              + rot[r, 2] * axes[2][None, None, :] + shift[r] for r in range(3)]
+        z = np.maximum(pc[2], 1e-6)
+        u = np.rint(fx * pc[0] / z + cx).astype(np.int32)
+        v = np.rint(fy * pc[1] / z + cy).astype(np.int32)
+        inside = (pc[2] > 1e-6) & (u >= 0) & (u < config.width) & (v >= 0) & (v < config.height)
+        ui, vi = u[inside], v[inside]
+        ahead = np.where(depth[vi, ui] > 0, depth[vi, ui] - z[inside] - 2 * config.depth_noise * z[inside], -clip)
+        free[inside] = np.maximum(free[inside], np.clip(ahead, -clip, clip))
+    solid = np.float32(config.solid_offset * step) - free  # > 0: solid
+    samples, _ = trimesh.sample.sample_surface_even(fused, max(1000, int(4 * fused.area / step ** 2)),
+                                                    seed=config.seed)
+    index = np.rint((np.asarray(samples) - origin) / step).astype(int)
+    index = index[np.all((index >= 0) & (index < shape), axis=1)]
+    flat = np.ravel_multi_index(index.T, shape)
+    solid.flat[flat] = np.maximum(solid.flat[flat], np.float32(_WALL_FILL * step))
+    pieces, n_pieces = label(solid > 0)
+    touched = np.bincount(pieces.flat[flat], minlength=n_pieces + 1) > 0
+    sizes = np.bincount(pieces.ravel(), minlength=n_pieces + 1)
+    touched[0] = False
+    keep = touched & (sizes >= _MIN_PIECE_VOLUME * sizes[touched].max(initial=0))
+    if not keep.any():
+        return None, ["the volume closing found no solid on the fused surface"]
+    solid[~keep[pieces]] = -clip
+    vertices, faces, _, _ = marching_cubes(np.pad(solid, 1, constant_values=-clip), level=0.0,
+                                           spacing=(step, step, step))
+    vertices = vertices + (origin - step)
+    # the base: the padding under the crop's floor closed the footprint there; it stands on the table
+    vertices[vertices[:, 2] < floor, 2] = table_z
+    if trimesh.Trimesh(vertices, faces, process=False).volume < 0:
+        faces = faces[:, ::-1]  # marching cubes winds by the field's gradient: outward normals wanted
+    # the grid's staircase is fine and flat: quadrics decimate it (manifold3d's simplification leaves
+    # collinear slivers there, which the loader drops, opening the mesh); manifold3d then checks it is closed
+    o3d = load_open3d()
+    dense = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(vertices), o3d.utility.Vector3iVector(faces))
+    coarse = dense.simplify_quadric_decimation(config.max_faces)
+    coarse.remove_degenerate_triangles()
+    coarse.remove_unreferenced_vertices()
+    vertices, faces = np.asarray(coarse.vertices), np.asarray(coarse.triangles)
+    try:
+        closed = manifold3d.Manifold(manifold3d.Mesh(vert_properties=np.asarray(vertices, dtype=np.float32),
+                                                     tri_verts=np.asarray(faces, dtype=np.uint32)))
+    except (RuntimeError, ValueError) as exc:
+        return None, [f"the volume closing's mesh is not a manifold ({exc})"]
+    if closed.status() != manifold3d.Error.NoError:
+        return None, [f"the volume closing's mesh is not a manifold ({closed.status().name})"]
+    return _simplified(closed, config, simplify=False)
 
 
 def _separate_touching(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -797,10 +903,23 @@ def _extract(volume, depths: list[np.ndarray], views: list[ScanView], config: Sc
     mesh = trimesh.Trimesh(np.asarray(o3d_mesh.vertices), np.asarray(o3d_mesh.triangles), process=True)
     if config.carve:
         mesh, _ = _carve(mesh, depths, views, config)
+    fused = mesh
+    if config.watertight and config.closing == "volume":
+        solid, more = _solid_closing(fused, depths, views, config, lo, hi, table_z)
+        if solid is not None:
+            return solid, table_z, notes + more
+        notes += [f"{note}; the fused mesh's holes are fanned instead" for note in more]
     if config.close_bottom:
         mesh = _cap_bottom(mesh, table_z, config.plane_distance + 2 * config.voxel_size)
     if config.watertight:
-        mesh, more = _watertight(mesh, config)
+        capped = mesh
+        mesh, more = _watertight(capped, config)
+        if mesh is capped and config.closing == "auto":
+            # the fans left it open: the volume closing is closed by construction (unseen space counts as solid)
+            solid, also = _solid_closing(fused, depths, views, config, lo, hi, table_z)
+            if solid is not None:
+                return solid, table_z, notes + [f"{note}; the volume closing is used instead" for note in more] + also
+            more += also
         notes += more
     return mesh, table_z, notes
 
