@@ -72,6 +72,7 @@ class Affordance:
     aliases: tuple[str, ...] = ()
     paper: bool = False  # one of the paper's eight
     droplets: Droplets = Droplets()  # container kind only
+    persons: int = 1  # seat kind only: people who sit on it side by side (1: a seat for one)
     #: size of the agent the row is for relative to the person its sizes are for (:meth:`scaled`; 1 = a person's)
     scale: float = 1.0
 
@@ -156,16 +157,20 @@ def _rows() -> tuple[Affordance, ...]:
                    "tall).", (0.15, 0.32), (0.01, 0.045), aliases=("dish",), paper=True,
                    envelope=Envelope(height=(0.01, 0.045), length=(0.15, 0.32))),
         Affordance("table", "surface", "A table holds items on a level top surface 0.55-1.1 m high and at least "
-                   "0.5 m across, its top at least as wide as it is high.", (0.55, 3.0), (0.3, 1.6), paper=True,
+                   "0.5 m across, its top at least as wide as it is high, with free space above it.", (0.55, 3.0),
+                   (0.3, 1.6), paper=True,
                    envelope=Envelope(height=(0.55, 1.12), width=(0.5, 3.0), aspect=(0.0, 1.0), rest=(0.54, 1.12))),
         Affordance("chair", "seat", "A chair lets one person sit: a level seat 0.38-0.55 m high and 0.3-0.7 m "
                    "across, usually with a backrest.", (0.4, 1.3), (0.3, 0.9), paper=True,
-                   envelope=Envelope(width=(0.3, 0.8), length=(0.3, 0.8), rest=(0.36, 0.57))),
+                   # a seat for one by the seat kind's second-sitter test, not by the box: arms and a back
+                   # make an armchair's box 0.9 m wide around a 0.5 m seat
+                   envelope=Envelope(rest=(0.36, 0.57))),
+        # sizes as a chair's: an armchair or a bar chair is a stool too
         Affordance("stool", "seat", "A stool lets one person sit on a level seat 0.38-0.85 m high, without a "
-                   "backrest.", (0.3, 1.0), (0.25, 0.75),
-                   envelope=Envelope(width=(0.25, 0.75), length=(0.25, 0.8), rest=(0.36, 0.87))),
+                   "backrest.", (0.3, 1.3), (0.25, 0.9), envelope=Envelope(rest=(0.36, 0.87))),
         Affordance("bench", "seat", "A bench lets people sit side by side on a long level seat 0.38-0.55 m high.",
-                   (0.9, 3.0), (0.25, 0.9), envelope=Envelope(length=(0.9, 3.0), rest=(0.36, 0.57))),
+                   # a bed's headboard makes its smallest side 0.9-1.2 m
+                   (0.9, 3.0), (0.25, 1.3), envelope=Envelope(rest=(0.36, 0.57)), persons=2),
         Affordance("bed", "lie", "A bed lets a person lie down on a large level surface a little above the floor.",
                    (1.6, 2.6), (0.2, 1.2), envelope=Envelope(length=(1.6, 2.6), rest=(0.15, 0.9))),
         Affordance("tray", "dish", "A tray carries items on a flat level base with a low rim (15-60 cm across, at "

@@ -16,6 +16,10 @@ _HALF_Z = 0.015  # the book's half height, m
 #: How many of the five lowering plans must succeed: a top at least half a metre across holds the box placed
 #: off centre too, a small pedestal foot or a stretcher only at one place.
 _MIN_PLANS = 4
+#: A top has free space above it: the box rests at least this high in the pose's box (its centre, in units of
+#: the box's half height; 1 = the box top). Upside down, a console holds the box on its bottom among its legs,
+#: which rise 8 cm or more above it (0.8 or lower in its 0.7 m box); a stretcher or a shelf is lower still.
+_FREE_ABOVE = 0.9
 
 
 class Surface(Lowering):
@@ -42,9 +46,11 @@ class Surface(Lowering):
 
     def accept(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float]) -> tuple[bool, str]:
         ok, why = super().accept(aff, c, h)
-        # the item belongs on top, not on a stretcher or shelf in the lower half
-        if ok and c.summary.mean_height < 0.0:
-            return False, "the agent rests in the lower half of the object, not on top"
+        # the item belongs on the top, with free space above it: not on a stretcher, a shelf or among legs
+        if ok and c.summary.mean_height < _FREE_ABOVE:
+            below = (1.0 - c.summary.mean_height) * h[2]
+            return False, (f"the agent rests {below:.2f} m below the object's top: parts of it rise above this "
+                           "surface, it is no top with free space above it")
         return ok, why
 
     def accept_pose(
@@ -54,3 +60,4 @@ class Surface(Lowering):
             return [], (f"only {len(accepted)} of the placements hold the box; a {aff.name} top holds it at the "
                         f"centre and off centre ({_MIN_PLANS} needed)")
         return accepted, ""
+

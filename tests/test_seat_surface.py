@@ -1,0 +1,123 @@
+"""Seat and surface verdicts rest on where the agent came to rest, not on the object's box (issue 13).
+
+Stage 7 is exercised on hand-made candidates (what the rollouts would report), stage 6 on hand-made
+outcomes, so each test runs in well under a second.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rail_mj.llm import (
+    CandidateInteraction,
+    FunctionalPoseRequest,
+    PoseCandidates,
+    ResultSummary,
+    analyze_functional_poses,
+    generate_profile,
+)
+from rail_mj.scoring import compile_scoring
+from rail_mj.types import Outcomes
+
+#: An upholstered armchair as it stands: rolled arms and a back make its box 0.91 m wide around a 0.55 m seat.
+ARMCHAIR = [0.455, 0.375, 0.395]
+CENTRE = ("above", "front", "back", "left", "right")
+AREA = ("above_front", "above_back", "above_left", "above_right")
+BESIDE = ("beside_front", "beside_back")
+TOPS = ("above", "above_front", "above_back", "above_left", "above_right")
+
+
+def _rests(plan: str, h: list[float], height: float, agent_half_z: float) -> CandidateInteraction:
+    """A candidate whose one agent rests level on the object alone, its bottom ``height`` m above the ground."""
+    mean = (height + agent_half_z - h[2]) / h[2]  # agent centre in units of h_z above the box centre
+    summary = ResultSummary(frac_inside_bbox=1.0, frac_on_ground=0.0, frac_touching_object=1.0, mean_height=mean,
+                            object_tilt_deg=0.5, agent_tilt_deg=1.0, agent_speed=0.0)
+    return CandidateInteraction(plan=plan, description=plan, via_poses=[[0.0, 0.0, 1.0], [0.0, 0.0, 0.0]],
+                                score=0.5, summary=summary)
+
+
+def _pose(index: int, probability: float, h: list[float], plans: tuple[str, ...], height: float,
+          agent_half_z: float = 0.05) -> PoseCandidates:
+    return PoseCandidates(pose_index=index, probability=probability, half_extents=h,
+                          candidates=[_rests(p, h, height, agent_half_z) for p in plans])
+
+
+def _verdict(affordance: str, *poses: PoseCandidates):
+    return analyze_functional_poses(FunctionalPoseRequest(affordance=affordance, expected_outcome="rests",
+                                                          poses=list(poses)))
+
+
+def _outcome(agent_pos: list[float], h: list[float]) -> Outcomes:
+    """One rollout: one level agent at ``agent_pos`` (task frame) touching the object, not the ground."""
+    z = np.zeros((1, 1), dtype=np.int64)
+    return Outcomes(
+        pose_index=np.zeros(1, dtype=np.int64), plan_index=np.zeros(1, dtype=np.int64),
+        agent_pos=np.array([[agent_pos]], dtype=float), agent_quat=np.array([[[1.0, 0.0, 0.0, 0.0]]]),
+        agent_vel=np.zeros((1, 1, 3)), contacts_object=z + 1, contacts_agents=z, contacts_ground=z,
+        released_early=z.astype(bool), object_pos=np.zeros((1, 3)), object_quat=np.array([[1.0, 0.0, 0.0, 0.0]]),
+        object_tilt=np.zeros(1), object_half_extents=np.array([h], dtype=float), settled=np.ones(1, dtype=bool),
+    )
+
+
+def _score(affordance: str, h: list[float], agent_pos: list[float]) -> float:
+    dims = sorted((2 * v for v in h), reverse=True)
+    return float(compile_scoring(generate_profile(affordance, dims).scoring.source)(_outcome(agent_pos, h))[0])
+
+
+def test_an_armchair_seat_scores_whatever_the_arms_make_its_box():
+    seated = [0.0, 0.0, -ARMCHAIR[2] + 0.45 + 0.05]  # pelvis bottom 0.45 m up, at the centre
+    assert _score("chair", ARMCHAIR, seated) > 0
+    assert _score("chair", ARMCHAIR, [0.0, 0.0, ARMCHAIR[2] + 0.05]) < 0  # on top of its 0.79 m back
+
+
+def test_an_armchair_is_a_chair_and_a_stool_in_its_upright_pose():
+    upright = _pose(0, 0.2, ARMCHAIR, CENTRE + AREA[:3], 0.45)
+    for name in ("chair", "stool"):
+        verdict = _verdict(name, upright)
+        assert verdict.best_pose == 0, verdict.poses[0].reason
+
+
+def test_a_seat_for_two_is_no_chair_and_a_seat_for_one_no_bench():
+    sofa = [0.9, 0.42, 0.42]
+    two = _pose(0, 0.3, sofa, CENTRE + AREA + BESIDE, 0.45)
+    chair = _verdict("chair", two)
+    assert chair.best_pose is None and "more than one" in chair.poses[0].reason
+    assert _verdict("bench", two).best_pose == 0
+    one = _pose(0, 0.3, ARMCHAIR, CENTRE + AREA + BESIDE[:1], 0.45)  # a second pelvis rests on one side only
+    bench = _verdict("bench", one)
+    assert bench.best_pose is None and "side by side" in bench.poses[0].reason
+    assert _verdict("chair", one).best_pose == 0
+    seat = _pose(0, 0.3, ARMCHAIR, CENTRE + AREA, 0.45)
+    arms = [_rests(p, ARMCHAIR, 0.62, 0.05) for p in BESIDE]  # the second pelvis lands on the rolled arms
+    on_arms = seat.model_copy(update={"candidates": seat.candidates + arms})
+    assert _verdict("chair", on_arms).best_pose == 0 and _verdict("bench", on_arms).best_pose is None
+
+
+def test_a_pouf_rolled_on_its_side_is_not_its_seat():
+    """On its side a pouf bears the pelvis on its ridge where it is lowered at the centre, and tips it off when
+    it is lowered a little off the centre; upright its top bears it there too. The side pose is the likelier one
+    and both hold the centre plans."""
+    side_box, up_box = [0.28, 0.21, 0.28], [0.28, 0.28, 0.21]
+    side = _pose(0, 0.4, side_box, CENTRE, 0.55)
+    upright = _pose(1, 0.2, up_box, ("above",) + AREA, 0.42)
+    verdict = _verdict("chair", side, upright)
+    assert [v.accept for v in verdict.poses] == [False, True]
+    assert "no seat area" in verdict.poses[0].reason
+
+
+def test_a_chair_lying_on_its_back_is_not_its_seat():
+    """Lying on its back a chair bears the pelvis on its box's top from every approach; standing, its back rises
+    behind the seat and stops the approach from behind. The lying pose is the likelier one."""
+    lying, standing = [0.45, 0.25, 0.21], [0.25, 0.21, 0.45]
+    verdict = _verdict("chair", _pose(0, 0.35, lying, CENTRE + AREA[:2], 0.42),
+                       _pose(5, 0.03, standing, CENTRE[:4] + AREA[:2], 0.45))
+    assert [v.accept for v in verdict.poses] == [True, True] and verdict.best_pose == 5
+
+
+def test_a_console_upside_down_on_its_legs_is_not_its_table_pose():
+    """Upside down, the box rests on the console's bottom among the legs that rise 9 cm above it; upright on the
+    top. Both hold every placement, and the upturned pose is the likelier one."""
+    upright = upturned = [0.845, 0.36, 0.34]  # 1.69 x 0.72 m, 0.68 m high on 9 cm legs
+    verdict = _verdict("table", _pose(0, 0.22, upturned, TOPS, 0.59, 0.015), _pose(1, 0.17, upright, TOPS, 0.68, 0.015))
+    assert [v.accept for v in verdict.poses] == [False, True]
+    assert "free space above" in verdict.poses[0].reason and verdict.best_pose == 1
