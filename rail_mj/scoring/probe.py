@@ -16,6 +16,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from rail_mj.errors import ConfigError
+from rail_mj.imagination.batch import PROBE_DIRECTIONS
 from rail_mj.types import Outcomes
 
 __all__ = ["probe_outcomes"]
@@ -65,6 +66,9 @@ def probe_outcomes(n_agents: int, n_plans: int, half_extents: Sequence[Sequence[
                        else np.zeros((batch, 1))).astype(np.int64)
     tilt = np.where(scattered, rng.uniform(1.0, 1.6, batch), rng.uniform(0.0, 0.1, batch))
     speed = np.where(scattered, 0.5, 0.01)[:, None, None]
+    # the enclosure probe: walled all round inside, open on every side beside the object or scattered
+    open_sector = np.where((beside | scattered)[:, None], PROBE_DIRECTIONS,
+                           np.where(on_top[:, None], rng.integers(0, PROBE_DIRECTIONS + 1, (batch, n_agents)), 0))
     return Outcomes(
         pose_index=pose_index.astype(np.int64),
         plan_index=plan_index.astype(np.int64),
@@ -80,4 +84,5 @@ def probe_outcomes(n_agents: int, n_plans: int, half_extents: Sequence[Sequence[
         object_tilt=tilt,
         object_half_extents=half.copy(),
         settled=~scattered,
+        agent_open_sector=open_sector.astype(np.int64),
     )
