@@ -223,10 +223,12 @@ def test_functional_pose_rules_for_a_cup():
 def test_functional_pose_rules_for_a_chair_and_no_valid_pose():
     h = [0.25, 0.24, 0.45]
     seat = _candidate("front", [0.6, 0.0, 0.5], frac_touching_object=1.0, mean_height=0.0)  # centre 0.45 m up
+    off_centre = [_candidate(p, [0.0, 0.0, 0.8], score=0.3, frac_touching_object=1.0, mean_height=0.0)
+                  for p in ("above_left", "above_front")]  # a seat's area: it bears the pelvis off the centre too
     too_high = _candidate("above", [0.0, 0.0, 0.8], frac_touching_object=1.0, mean_height=1.1)
     request = FunctionalPoseRequest(affordance="chair", expected_outcome="seated", poses=[
         PoseCandidates(pose_index=0, probability=0.6, half_extents=h, candidates=[too_high]),
-        PoseCandidates(pose_index=1, probability=0.4, half_extents=h, candidates=[too_high, seat]),
+        PoseCandidates(pose_index=1, probability=0.4, half_extents=h, candidates=[too_high, seat, *off_centre]),
     ])
     verdict = analyze_functional_poses(request)
     assert [v.accept for v in verdict.poses] == [False, True]

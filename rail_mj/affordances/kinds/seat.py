@@ -1,6 +1,10 @@
 """``seat``: a box "pelvis" lowered onto the object from above, or arriving from a side above seat height.
 
-Success: the pelvis rests upright on the object alone at seat height.
+Success: the pelvis rests upright on the object alone at seat height. The verdict rests on where the pelvis
+comes to rest, not on the object's box: a seat is where the pelvis rests level at the centre; a seat has an
+area (the pelvis also rests a little off the centre, not only on a post or a ridge); and a
+seat for one is not a seat for two (a second pelvis lowered beside it along the object's length does not rest
+on its level, as it does on a bench or a sofa).
 """
 
 from __future__ import annotations
@@ -31,14 +35,34 @@ __all__ = ["Seat"]
 _HALF = (0.1, 0.1, 0.05)
 #: Seat height (m) the side plans arrive above: higher than any seat.
 _ABOVE_SEAT = 0.65
+#: Off-centre placements (m, a person's) that probe the seat's area: a sitter shifts this much on a seat, and
+#: the pelvis still clears armrests 0.31 m apart. On a ridge (a pouf or a stool lying on its side) the pelvis
+#: placed this far across it tips off.
+_AREA = 0.06
+#: A back behind the seat: the pose's box rises at least this far above the seated pelvis's centre (units of
+#: the box's half height; the pelvis rests at mean height 1 + its half height when nothing rises above it). A
+#: chair's back rises 0.3-0.5 m above its seat, a chair lying on its back has nothing above the pelvis.
+_BACK = 0.5
+#: Where a second sitter sits (m from the centre along the object's length, a person's): a pelvis resting
+#: there is supported only by a seat over 0.7 m long, the widest seat for one (0.9 m make a bench for two).
+_BESIDE = 0.35
+#: Plans that lower the pelvis onto the centre of the object's box.
+_CENTRE = ("above",) + tuple(side for side, _, _ in SIDES)
+_AREA_PLANS = tuple(f"above_{side}" for side, _, _ in SIDES)
+#: A second pelvis sits on the same seat when it rests at the seat's level: within this fraction of the pose's
+#: half height (an armchair's rolled arms bear it 0.1-0.2 m above its cushion, a third of its half height).
+_SAME_LEVEL = 0.15
+#: A second pelvis at either end of the length (task-frame x, the footprint's long side).
+_BESIDE_PLANS = (("beside_front", 1.0), ("beside_back", -1.0))
 
 
 class Seat(Kind):
     name = "seat"
     agent_description = "One box standing for a sitting person's pelvis's contact patch, 0.2 x 0.2 x 0.1 m."
     interaction_description = ("The pelvis is lowered onto the object from above, or arrives from the front, back, "
-                               "left or right above seat height and is then lowered; it is released at the first "
-                               "contact.")
+                               "left or right above seat height and is then lowered; it is also lowered a little "
+                               "off the centre to each side, and 0.35 m to either end of the object's length where "
+                               "a second person would sit; it is released at the first contact.")
     expected_outcome = ("The pelvis rests upright on the {name} at seat height (0.3–0.65 m above the ground), not "
                         "touching the ground, and the {name} does not tip over.")
 
@@ -53,6 +77,15 @@ class Seat(Kind):
                                                     "horizontally over the object's centre; lower the pelvis "
                                                     "straight down; release at the first contact.")
                   for side, _, _ in SIDES]
+        plans += [MotionPlan(name=f"above_{side}", description=f"Start with the pelvis above the object, "
+                                                               f"{_AREA:g} m to the {side} of its centre; lower it "
+                                                               "straight down; release at the first contact.")
+                  for side, _, _ in SIDES]
+        plans += [MotionPlan(name=name, description=f"Where a second person would sit: start with the pelvis above "
+                                                    f"the object, {_BESIDE:g} m to the {name.split('_')[1]} of its "
+                                                    "centre along its length; lower it straight down; release at "
+                                                    "the first contact.")
+                  for name, _ in _BESIDE_PLANS]
         return plans
 
     def via_poses(self, plan: str, shape: AgentShape, layout: AgentLayout) -> list[ViaPose]:
@@ -60,8 +93,13 @@ class Seat(Kind):
         scale = shape.half_z / _HALF[2]  # the sitter's size against a person's
         above_seat = scale * _ABOVE_SEAT + shape.radius + 0.05 * scale  # the pelvis included
         bottom = shape.half_z + 0.02
-        if plan == "above":
-            return [via((0, 0, 1), (0, 0, shape.radius + gap)), via((0, 0, -1), (0, 0, bottom))]
+        beside = dict(_BESIDE_PLANS)
+        if plan == "above" or plan in _AREA_PLANS or plan in beside:
+            if plan in beside:
+                ox, oy = beside[plan] * _BESIDE * scale, 0.0
+            else:
+                ox, oy = side_offset(plan, _AREA * scale)
+            return [via((0, 0, 1), (ox, oy, shape.radius + gap)), via((0, 0, -1), (ox, oy, bottom))]
         ux, uy = side_offset(plan, 1.0)
         return [via((ux, uy, -1), (ux * (shape.radius + gap), uy * (shape.radius + gap), above_seat)),
                 via((0, 0, -1), (0, 0, above_seat)),
@@ -72,3 +110,36 @@ class Seat(Kind):
 
     def accept(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float]) -> tuple[bool, str]:
         return rest_accept(c, h, rest_window(aff, _HALF[2] * aff.scale), 15)
+
+    def accept_pose(
+        self, aff: Affordance, accepted: list[CandidateInteraction], tried: list[CandidateInteraction]
+    ) -> tuple[list[CandidateInteraction], str]:
+        centre = [c for c in accepted if c.plan in _CENTRE]
+        area = [c for c in accepted if c.plan in _AREA_PLANS]
+        if not centre:
+            return [], "the pelvis rests at seat height only off the centre: no seat at the object's centre"
+        if not area:
+            return [], (f"the pelvis rests only where it is placed at the centre, not {_AREA * aff.scale:g} m off it "
+                        "to any side: a post or a ridge, no seat area")
+        level = sorted(c.summary.mean_height for c in centre)[len(centre) // 2]
+        beside = {c.plan for c in accepted
+                  if c.plan in dict(_BESIDE_PLANS) and abs(c.summary.mean_height - level) <= _SAME_LEVEL}
+        both = len(beside) == len(_BESIDE_PLANS)
+        if aff.persons == 1 and both:
+            return [], (f"a second pelvis also rests on the seat's level {_BESIDE * aff.scale:g} m to either side "
+                        f"along its length: a seat for more than one, not a {aff.name}")
+        if aff.persons > 1 and not both:
+            return [], (f"a second pelvis does not rest on the seat's level {_BESIDE * aff.scale:g} m to either side "
+                        f"along its length: a {aff.name} seats people side by side")
+        # the pose is chosen by its centre approaches, as before: a chair's arms and back keep the pelvis off
+        # some of its off-centre placements, so counting them would favour poses with no arms or back in the way
+        return centre, ""
+
+    def rank(self, accepted: list[CandidateInteraction]) -> int:
+        """A seat with a back first (1, else 0): of two poses that seat the pelvis, the one where the object rises
+        behind it (a chair standing, not lying on its back or side, whose box is the longer for it)."""
+        if not accepted:
+            return 0
+        level = sorted(c.summary.mean_height for c in accepted)[len(accepted) // 2]
+        return int(level <= 1.0 - _BACK)
+
