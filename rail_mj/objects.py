@@ -22,6 +22,8 @@ import hashlib
 import io
 import json
 import re
+import subprocess
+import sys
 import zipfile
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
@@ -503,28 +505,51 @@ def _preprocess_mode(mesh: trimesh.Trimesh, config: DecompositionConfig) -> str:
     return "off" if mesh.is_volume else "on"
 
 
-def _run_coacd(mesh: trimesh.Trimesh, config: DecompositionConfig) -> list[np.ndarray]:
-    import coacd
+class _CoacdCrash(Exception):
+    """The CoACD child process died (a signal, not a Python error)."""
 
-    coacd.set_log_level("error")
+
+def _coacd_child(vertices: np.ndarray, faces: np.ndarray, options: dict) -> list[np.ndarray]:
+    """One CoACD run in a child process (:mod:`rail_mj.coacd_child`): its hulls' vertices."""
+    payload = io.BytesIO()
+    np.savez(payload, vertices=vertices, faces=faces, options=json.dumps(options))
+    proc = subprocess.run([sys.executable, str(Path(__file__).with_name("coacd_child.py"))],
+                          input=payload.getvalue(), capture_output=True, check=False)
+    if proc.returncode < 0:
+        raise _CoacdCrash(f"killed by signal {-proc.returncode}")
+    if proc.returncode != 0:
+        why = proc.stderr.decode(errors="replace").strip().splitlines()
+        raise DecompositionError(f"CoACD failed ({why[-1] if why else f'exit status {proc.returncode}'})")
+    with np.load(io.BytesIO(proc.stdout)) as data:
+        return [np.asarray(data[f"arr_{i}"], dtype=np.float64) for i in range(len(data.files))]
+
+
+def _run_coacd(mesh: trimesh.Trimesh, config: DecompositionConfig) -> list[np.ndarray]:
+    options = dict(
+        threshold=config.threshold,
+        max_convex_hull=config.max_convex_hull,
+        preprocess_mode=_preprocess_mode(mesh, config),
+        preprocess_resolution=config.preprocess_resolution,
+        resolution=config.resolution,
+        mcts_nodes=config.mcts_nodes,
+        mcts_iterations=config.mcts_iterations,
+        mcts_max_depth=config.mcts_max_depth,
+        decimate=True,
+        max_ch_vertex=max(config.max_hull_vertices, 8),
+        seed=config.seed,
+    )
+    vertices, faces = np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int32)
     try:
-        parts = coacd.run_coacd(
-            coacd.Mesh(np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int32)),
-            threshold=config.threshold,
-            max_convex_hull=config.max_convex_hull,
-            preprocess_mode=_preprocess_mode(mesh, config),
-            preprocess_resolution=config.preprocess_resolution,
-            resolution=config.resolution,
-            mcts_nodes=config.mcts_nodes,
-            mcts_iterations=config.mcts_iterations,
-            mcts_max_depth=config.mcts_max_depth,
-            decimate=True,
-            max_ch_vertex=max(config.max_hull_vertices, 8),
-            seed=config.seed,
-        )
-    except Exception as exc:  # CoACD surfaces C++ failures as assorted Python errors
-        raise DecompositionError(f"CoACD failed ({type(exc).__name__}: {exc})") from exc
-    return [np.asarray(v, dtype=np.float64) for v, _ in parts]
+        return _coacd_child(vertices, faces, options)
+    except _CoacdCrash as crash:
+        if options["preprocess_mode"] == "on":
+            raise DecompositionError(f"CoACD crashed on this mesh ({crash}); repair or simplify the mesh") from None
+        # the crashes seen come from CoACD's cutting of the mesh as given; its own remeshing avoids them
+        try:
+            return _coacd_child(vertices, faces, {**options, "preprocess_mode": "on"})
+        except _CoacdCrash as again:
+            raise DecompositionError(f"CoACD crashed on this mesh ({crash}), and again with its own remeshing "
+                                     f"({again}); repair or simplify the mesh") from None
 
 
 def _bodies(mesh: trimesh.Trimesh) -> list[trimesh.Trimesh]:

@@ -224,6 +224,29 @@ def test_second_call_hits_cache(cup_object, monkeypatch: pytest.MonkeyPatch) -> 
         np.testing.assert_array_equal(a, b)
 
 
+def test_a_coacd_crash_is_retried_with_its_remeshing_then_a_named_error(tmp_path, monkeypatch):
+    seen = []
+
+    def crash_without_remeshing(vertices, faces, options):
+        seen.append(options["preprocess_mode"])
+        if options["preprocess_mode"] != "on":
+            raise objects._CoacdCrash("killed by signal 11")
+        return [np.asarray(vertices)]
+
+    monkeypatch.setattr(objects, "_coacd_child", crash_without_remeshing)
+    mesh = small_cup()
+    assert len(objects._run_coacd(mesh, DecompositionConfig(preprocess_mode="off"))) == 1
+    assert seen == ["off", "on"]
+    # a child that really dies by a signal, every time: the caller lives and is told what happened
+    segv = tmp_path / "segv"
+    segv.write_text("#!/bin/sh\nkill -SEGV $$\n")
+    segv.chmod(0o755)
+    monkeypatch.undo()
+    monkeypatch.setattr(objects.sys, "executable", str(segv))
+    with pytest.raises(DecompositionError, match=r"CoACD crashed on this mesh \(killed by signal 11\), and again"):
+        objects._run_coacd(mesh, DecompositionConfig(preprocess_mode="off"))
+
+
 def test_damaged_cache_entry_is_recomputed(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("RAIL_MJ_CACHE", str(tmp_path))
     sphere = trimesh.creation.icosphere(subdivisions=1, radius=0.05)
