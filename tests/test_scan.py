@@ -154,3 +154,12 @@ def test_bad_configs_and_a_missing_open3d_are_named(monkeypatch):
     obj = _box_object()
     with pytest.raises(ScanError, match=r"pip install -e '\.\[scan\]'"):
         scan_object(obj, upright_pose(obj))
+
+
+def test_a_watertight_step_left_with_no_volume_says_so_instead_of_crashing():
+    import manifold3d
+
+    from rail_mj.robot.scan import _simplified
+
+    mesh, notes = _simplified(manifold3d.Manifold(), ScanConfig())
+    assert mesh is None and "no piece with a volume" in notes[0]

@@ -662,8 +662,10 @@ def _simplified(solid, config: ScanConfig, simplify: bool = True) -> tuple[trime
         solid = solid.simplify(tolerance)
     # pieces wound inside out (a fan across a sliver) or too small to matter (a speck the crop kept) go
     pieces = solid.decompose()
-    largest = max(piece.volume() for piece in pieces)
+    largest = max((piece.volume() for piece in pieces), default=0.0)
     kept = [piece for piece in pieces if piece.volume() > _MIN_PIECE_VOLUME * largest]
+    if largest <= 0.0 or not kept:  # simplified away, or every piece inside out
+        return None, ["the simplified scan keeps no piece with a volume"]
     solid = manifold3d.Manifold.batch_boolean(kept, manifold3d.OpType.Add) if len(kept) > 1 else kept[0]
     out = solid.to_mesh()
     vertices = _separate_touching(np.asarray(out.vert_properties[:, :3], dtype=np.float64),
