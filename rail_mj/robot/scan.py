@@ -85,6 +85,10 @@ _ROBOT_ROOT = "link0"
 #: Voxels per block edge of the TSDF grid; the fused box reaches this far below the table top, m.
 _BLOCK_RESOLUTION = 8
 _BELOW_TABLE = 0.05
+#: A fan-closed scan is weighed against the volume closing when more than this fraction of its surface lies more
+#: than _FAN_MARGIN voxels in front of what some view saw (its own surface never does: carving removed that).
+_FAN_SEEN_THROUGH = 0.03
+_FAN_MARGIN = 2.0
 #: Closed pieces of the scan under this fraction of the largest piece's volume are specks, dropped.
 _MIN_PIECE_VOLUME = 0.002
 #: How far apart two touching sheets of the watertight scan are moved, m (far above vertex-merge tolerances).
@@ -789,23 +793,18 @@ def _separate_touching(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return out
 
 
-def _carve(mesh: trimesh.Trimesh, depths: list[np.ndarray], views: list[ScanView], config: ScanConfig
-           ) -> tuple[trimesh.Trimesh, int]:
-    """Remove surface that some view saw through: free-space carving of the TSDF's edge artefacts.
-
-    The projective TSDF fattens convex edges: voxels just past an edge, hidden behind the top face from one
-    side, are fused as inside. A camera on the other side sees the table behind them. A vertex goes when a
-    view has a return at its pixel and every valid return in the 3 × 3 neighbourhood (so a silhouette's pixel
-    steps never carve) lies beyond it by more than the margin: half a voxel plus two noise deviations.
-    """
+def _seen_through(points: np.ndarray, depths: list[np.ndarray], views: list[ScanView], config: ScanConfig,
+                  margin_voxels: float) -> np.ndarray:
+    """(N,) bool: some view has a return at the point's pixel, and every valid return in the 3 × 3
+    neighbourhood (so a silhouette's pixel steps never count) lies beyond it by more than the margin:
+    ``margin_voxels`` voxels plus two noise deviations. Such a point is in space a camera saw through."""
     from scipy.ndimage import minimum_filter  # noqa: PLC0415 - scipy's image module, only here
 
     fx, fy, cx, cy = config.intrinsics()
-    vertices = np.asarray(mesh.vertices)
-    free = np.zeros(len(vertices), dtype=bool)
+    free = np.zeros(len(points), dtype=bool)
     for depth, view in zip(depths, views, strict=True):
         world_to_cam = np.linalg.inv(view.cam_to_world)
-        pc = vertices @ world_to_cam[:3, :3].T + world_to_cam[:3, 3]
+        pc = points @ world_to_cam[:3, :3].T + world_to_cam[:3, 3]
         z = pc[:, 2]
         ahead = z > 1e-6
         u = np.full(len(z), -1)
@@ -816,9 +815,28 @@ def _carve(mesh: trimesh.Trimesh, depths: list[np.ndarray], views: list[ScanView
         # lost pixels (0) are unknown, not far: the neighbourhood's nearest valid return decides
         seen = minimum_filter(np.where(depth > 0, depth, np.inf), size=3, mode="nearest")
         ui, vi, zi = u[inside], v[inside], z[inside]
-        margin = 0.5 * config.voxel_size + 2 * config.depth_noise * zi
+        margin = margin_voxels * config.voxel_size + 2 * config.depth_noise * zi
         through = (depth[vi, ui] > 0) & (seen[vi, ui] > zi + margin)
         free[np.flatnonzero(inside)[through]] = True
+    return free
+
+
+def _off_surface(mesh: trimesh.Trimesh, fused: trimesh.Trimesh, config: ScanConfig) -> float:
+    """Mean distance from ``mesh``'s surface to the fused surface, m: what a closing added away from the scan."""
+    target, _ = trimesh.sample.sample_surface(fused, 20000, seed=config.seed)
+    samples, _ = trimesh.sample.sample_surface(mesh, 4000, seed=config.seed + 1)
+    return float(cKDTree(np.asarray(target)).query(np.asarray(samples))[0].mean())
+
+
+def _carve(mesh: trimesh.Trimesh, depths: list[np.ndarray], views: list[ScanView], config: ScanConfig
+           ) -> tuple[trimesh.Trimesh, int]:
+    """Remove surface that some view saw through: free-space carving of the TSDF's edge artefacts.
+
+    The projective TSDF fattens convex edges: voxels just past an edge, hidden behind the top face from one
+    side, are fused as inside. A camera on the other side sees the table behind them. A vertex goes when
+    :func:`_seen_through` with a margin of half a voxel.
+    """
+    free = _seen_through(np.asarray(mesh.vertices), depths, views, config, 0.5)
     if not free.any():
         return mesh, 0
     keep = ~free[np.asarray(mesh.faces)].any(axis=1)
@@ -916,6 +934,17 @@ def _extract(volume, depths: list[np.ndarray], views: list[ScanView], config: Sc
     if config.watertight:
         capped = mesh
         mesh, more = _watertight(capped, config)
+        if mesh is not capped and config.closing == "auto":
+            # a fan across a wide outline (a plate's rim, its well's surface lost) lies where views saw through;
+            # then the closing that adds less surface away from what was fused wins
+            samples, _ = trimesh.sample.sample_surface(mesh, 4000, seed=config.seed)
+            through = float(np.mean(_seen_through(np.asarray(samples), depths, views, config, _FAN_MARGIN)))
+            if through > _FAN_SEEN_THROUGH:
+                solid, also = _solid_closing(fused, depths, views, config, lo, hi, table_z)
+                if solid is not None and _off_surface(solid, fused, config) < _off_surface(mesh, fused, config):
+                    return solid, table_z, notes + more + [
+                        f"{through:.0%} of the fan-closed surface lies where views saw through; the volume closing "
+                        "strays less from the fused surface and is used instead"] + also
         if mesh is capped and config.closing == "auto":
             # the fans left it open: the volume closing is closed by construction (unseen space counts as solid)
             solid, also = _solid_closing(fused, depths, views, config, lo, hi, table_z)
