@@ -13,23 +13,21 @@ import signal
 import socket
 import subprocess
 import sys
-import time
 from collections import Counter
 from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 
+from eval_procs import GUARD_S, output, start_eval, wait_until
 from rail_mj import eval as rail_eval
 from rail_mj.paths import CACHE_ENV
 from rail_mj.runfiles import HOLDER_FILE, STAGING_PREFIX, staging_dir
 
-REPO = Path(__file__).resolve().parents[1]
 CLASSES, PER_CLASS, AFFORDANCE = ["solid_box", "cone", "solid_cylinder"], 8, "bathtub"
 N_CASES = len(CLASSES) * PER_CLASS
 ARGS = ["--classes", ",".join(CLASSES), "--per-class", str(PER_CLASS), "--affordances", AFFORDANCE,
         "--provider", "offline", "--backend", "native", "--drops", "8", "--no-render", "--no-progress"]
-GUARD_S = 300  # only against a hang: every wait below ends on a file or process event
 
 
 @pytest.fixture(scope="module")
@@ -52,33 +50,17 @@ def finished_run(cache, tmp_path_factory) -> Path:
 
 
 def _start(out: Path, *, resume: bool) -> subprocess.Popen:
-    log = out.parent / f"{out.name}.{time.monotonic_ns()}.log"
-    cmd = [sys.executable, "-m", "rail_mj.eval", *ARGS, "--out", str(out), *(["--resume"] if resume else [])]
-    with open(log, "w") as fh:
-        proc = subprocess.Popen(cmd, cwd=REPO, stdout=fh, stderr=subprocess.STDOUT)
-    proc.log = log  # type: ignore[attr-defined]
-    return proc
-
-
-def _output(proc: subprocess.Popen) -> str:
-    return proc.log.read_text()  # type: ignore[attr-defined]
+    return start_eval(out, [*ARGS, *(["--resume"] if resume else [])])
 
 
 def _run(out: Path, *, resume: bool) -> tuple[int, str]:
     proc = _start(out, resume=resume)
-    return proc.wait(timeout=GUARD_S), _output(proc)
+    return proc.wait(timeout=GUARD_S), output(proc)
 
 
 def _kill_when(proc: subprocess.Popen, moment: Callable[[], bool], what: str) -> None:
     """SIGKILL ``proc`` as soon as ``moment()`` holds."""
-    deadline = time.monotonic() + GUARD_S
-    while not moment():
-        if proc.poll() is not None:
-            pytest.fail(f"eval ended (status {proc.returncode}) before {what}:\n{_output(proc)}")
-        if time.monotonic() > deadline:
-            proc.kill()
-            pytest.fail(f"eval never reached the moment {what}")
-        time.sleep(0.001)
+    wait_until(moment, proc, what, poll_s=0.001)
     proc.send_signal(signal.SIGKILL)
     proc.wait(timeout=GUARD_S)
 
@@ -141,11 +123,7 @@ def test_second_run_on_one_out_fails_naming_the_holder(finished_run, tmp_path):
 
 
 def _stop_when_locked(proc: subprocess.Popen, out: Path) -> None:
-    deadline = time.monotonic() + GUARD_S
-    while not (out / HOLDER_FILE).exists():
-        if proc.poll() is not None or time.monotonic() > deadline:
-            pytest.fail(f"eval never took the lock:\n{_output(proc)}")
-        time.sleep(0.001)
+    wait_until((out / HOLDER_FILE).exists, proc, "it took the lock", poll_s=0.001)
     proc.send_signal(signal.SIGSTOP)
 
 

@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 import trimesh
 
+from eval_procs import CRASHER, GUARD_S, REPO, start_eval, wait_until
 from rail_mj import eval as rail_eval
 from rail_mj.eval import cases_without_timings as _cases
 from rail_mj import llm
@@ -31,12 +32,10 @@ from rail_mj.paths import CACHE_ENV
 from rail_mj.pipeline import ObjectInput, RunConfig, classify
 from rail_mj.stable_poses import find_stable_poses
 
-REPO = Path(__file__).resolve().parents[1]
 CLASSES, PER_CLASS, AFFORDANCE = ["solid_box", "cone", "solid_cylinder"], 4, "bathtub"
 N_CASES = len(CLASSES) * PER_CLASS
 ARGS = ["--classes", ",".join(CLASSES), "--per-class", str(PER_CLASS), "--affordances", AFFORDANCE,
         "--provider", "offline", "--backend", "native", "--drops", "8", "--no-render", "--no-progress"]
-GUARD_S = 300  # only against a hang: every wait below ends on a file or process event
 #: what may differ between two runs of the same cases: how long they took and where they ran
 RUN_ONLY = {"timing", "wall_s_this_run", "execution", "merged_from", "missing_shards"}
 
@@ -184,20 +183,6 @@ def test_a_torn_stable_pose_cache_entry_is_recomputed(cache, tmp_path):
 
 # ---- crashes, Ctrl-C and SIGKILL ------------------------------------------------------------------------
 
-CRASHER = '''
-import ctypes
-
-
-class Crasher:
-    """An object whose path segfaults the process that reads it, like a bad mesh in native code."""
-
-    def __fspath__(self):
-        ctypes.string_at(0)
-
-    def __str__(self):
-        return "crasher.obj"
-'''
-
 
 def test_a_crashed_worker_is_an_error_line_and_the_run_goes_on(cache, tmp_path, monkeypatch):
     (tmp_path / "crashing_mesh.py").write_text(CRASHER)
@@ -258,12 +243,7 @@ def test_ray_missing_is_a_usage_error_before_any_work(tmp_path, monkeypatch, cap
 
 
 def _start(out: Path, *extra: str) -> subprocess.Popen:
-    log = out.parent / f"{out.name}.{time.monotonic_ns()}.log"
-    cmd = [sys.executable, "-m", "rail_mj.eval", *ARGS, "--out", str(out), "--workers", "2", *extra]
-    with open(log, "w") as fh:
-        proc = subprocess.Popen(cmd, cwd=REPO, stdout=fh, stderr=subprocess.STDOUT)
-    proc.log = log  # type: ignore[attr-defined]
-    return proc
+    return start_eval(out, [*ARGS, "--workers", "2", *extra])
 
 
 def _children(pid: int) -> set[int]:
@@ -280,17 +260,6 @@ def _gone(pid: int) -> bool:
         return True
 
 
-def _wait_for(condition, proc: subprocess.Popen, what: str) -> None:
-    deadline = time.monotonic() + GUARD_S
-    while not condition():
-        if proc.poll() is not None:
-            pytest.fail(f"eval ended (status {proc.returncode}) before {what}:\n{proc.log.read_text()}")
-        if time.monotonic() > deadline:
-            proc.kill()
-            pytest.fail(f"eval never reached the moment {what}")
-        time.sleep(0.005)
-
-
 def _lines(out: Path) -> list[str]:
     path = out / "results.jsonl"
     return path.read_text().splitlines() if path.exists() else []
@@ -305,7 +274,7 @@ def _stop_mid_run(out: Path, sig: signal.Signals) -> tuple[subprocess.Popen, set
         workers.update(_children(proc.pid))
         return len(_lines(out)) >= 1
 
-    _wait_for(first_case, proc, "a case was written")
+    wait_until(first_case, proc, "a case was written")
     workers |= _children(proc.pid)
     proc.send_signal(sig)
     proc.wait(timeout=GUARD_S)

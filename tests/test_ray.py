@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 import trimesh
 
+from eval_procs import CRASHER
 from rail_mj import eval as rail_eval
 from rail_mj.eval import cases_without_timings as _cases
 from rail_mj.paths import CACHE_ENV
@@ -22,19 +23,6 @@ ray = pytest.importorskip("ray")
 
 CLASSES, PER_CLASS, AFFORDANCE = ["solid_box", "cone"], 3, "bathtub"
 RUN_ONLY = {"timing", "wall_s_this_run", "execution"}
-CRASHER = '''
-import ctypes
-
-
-class Crasher:
-    """An object whose path segfaults the process that reads it, like a bad mesh in native code."""
-
-    def __fspath__(self):
-        ctypes.string_at(0)
-
-    def __str__(self):
-        return "crasher.obj"
-'''
 
 
 @pytest.fixture(scope="module")
