@@ -35,11 +35,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-
-def _cpu_s() -> float:
-    """CPU seconds of this process and its finished children (CoACD runs in a child, rail_mj.coacd_child)."""
-    return sum(r.ru_utime + r.ru_stime for r in (resource.getrusage(resource.RUSAGE_SELF),
-                                                 resource.getrusage(resource.RUSAGE_CHILDREN)))
+from cpu_time import cpu_seconds  # benchmarks/cpu_time.py, beside this script
 
 
 def cup(profile_points: int = 20, sections: int = 64) -> trimesh.Trimesh:
@@ -140,16 +136,16 @@ def measure(item: Item) -> dict:
             seen["coacd_faces"] = len(mesh.faces)
 
     objects._run_coacd = timed_coacd
-    t, cpu = time.perf_counter(), _cpu_s()
+    t, cpu = time.perf_counter(), cpu_seconds()
     if item.path is None:
         raw = GENERATED[item.name][0]()
         faces_in = len(raw.faces)
         obj = objects.object_from_mesh(raw, name=item.name)
     else:
         faces_in = len(trimesh.load(item.path, force="mesh", process=False).faces)
-        t, cpu = time.perf_counter(), _cpu_s()
+        t, cpu = time.perf_counter(), cpu_seconds()
         obj = objects.load_object(item.path, units=item.units, up=item.up, name=item.name)  # type: ignore[arg-type]
-    load_s, cpu_s = time.perf_counter() - t, _cpu_s() - cpu
+    load_s, cpu_s = time.perf_counter() - t, cpu_seconds() - cpu
     objects._run_coacd = run_coacd
     t = time.perf_counter()
     quality = objects.hull_quality(obj.mesh, obj.hulls)

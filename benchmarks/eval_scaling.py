@@ -22,12 +22,12 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
 import sys
 import tempfile
 import time
 from pathlib import Path
 
+from cpu_time import cpu_seconds  # benchmarks/cpu_time.py, beside this script
 from rail_mj import eval as rail_eval
 from rail_mj.dataset import CLASSES, generate
 from rail_mj.affordances import PAPER_AFFORDANCES
@@ -47,12 +47,6 @@ def _run(dataset: Path, out: Path, affordances: list[str], cache: Path, **execut
     if not summary["complete"]:
         sys.exit(f"{out}: the run is not complete")
     return summary["wall_s_this_run"]
-
-
-def _cpu_s() -> float:
-    """CPU seconds of this process and of its finished children (the local workers, once stopped)."""
-    return sum(r.ru_utime + r.ru_stime for r in (resource.getrusage(resource.RUSAGE_SELF),
-                                                 resource.getrusage(resource.RUSAGE_CHILDREN)))
 
 
 def main() -> int:
@@ -85,9 +79,9 @@ def main() -> int:
 
     modes: dict[str, dict] = {}
     for mode, execution in (("workers=1", {"workers": 1}), ("workers=2", {"workers": 2})):
-        load0, cpu0 = os.getloadavg()[0], _cpu_s()
+        load0, cpu0 = os.getloadavg()[0], cpu_seconds()
         wall = _run(dataset, base / mode.replace("=", ""), affordances, cache_for(mode.replace("=", "")), **execution)
-        modes[mode] = {"wall_s": wall, "load_before": load0, "cores_used": (_cpu_s() - cpu0) / wall}
+        modes[mode] = {"wall_s": wall, "load_before": load0, "cores_used": (cpu_seconds() - cpu0) / wall}
     if not args.no_ray:
         import ray
 
