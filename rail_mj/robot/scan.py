@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 import sys
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
@@ -821,11 +822,12 @@ def _seen_through(points: np.ndarray, depths: list[np.ndarray], views: list[Scan
     return free
 
 
-def _off_surface(mesh: trimesh.Trimesh, fused: trimesh.Trimesh, config: ScanConfig) -> float:
-    """Mean distance from ``mesh``'s surface to the fused surface, m: what a closing added away from the scan."""
+def _off_surface(meshes: Sequence[trimesh.Trimesh], fused: trimesh.Trimesh, config: ScanConfig) -> list[float]:
+    """Mean distance from each mesh's surface to the fused surface, m: what a closing added away from the scan."""
     target, _ = trimesh.sample.sample_surface(fused, 20000, seed=config.seed)
-    samples, _ = trimesh.sample.sample_surface(mesh, 4000, seed=config.seed + 1)
-    return float(cKDTree(np.asarray(target)).query(np.asarray(samples))[0].mean())
+    tree = cKDTree(np.asarray(target))
+    return [float(tree.query(np.asarray(trimesh.sample.sample_surface(m, 4000, seed=config.seed + 1)[0]))[0].mean())
+            for m in meshes]
 
 
 def _carve(mesh: trimesh.Trimesh, depths: list[np.ndarray], views: list[ScanView], config: ScanConfig
@@ -941,10 +943,12 @@ def _extract(volume, depths: list[np.ndarray], views: list[ScanView], config: Sc
             through = float(np.mean(_seen_through(np.asarray(samples), depths, views, config, _FAN_MARGIN)))
             if through > _FAN_SEEN_THROUGH:
                 solid, also = _solid_closing(fused, depths, views, config, lo, hi, table_z)
-                if solid is not None and _off_surface(solid, fused, config) < _off_surface(mesh, fused, config):
-                    return solid, table_z, notes + more + [
-                        f"{through:.0%} of the fan-closed surface lies where views saw through; the volume closing "
-                        "strays less from the fused surface and is used instead"] + also
+                if solid is not None:
+                    off_solid, off_fans = _off_surface([solid, mesh], fused, config)
+                    if off_solid < off_fans:
+                        return solid, table_z, notes + more + [
+                            f"{through:.0%} of the fan-closed surface lies where views saw through; the volume "
+                            "closing strays less from the fused surface and is used instead"] + also
         if mesh is capped and config.closing == "auto":
             # the fans left it open: the volume closing is closed by construction (unseen space counts as solid)
             solid, also = _solid_closing(fused, depths, views, config, lo, hi, table_z)
