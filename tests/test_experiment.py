@@ -59,3 +59,20 @@ def test_one_whole_task_doll_on_stool():
     row = run_task(Task("doll_stool", "demo:stool", 1, "put the doll on the stool"), scan=False)
     assert row["agent"] == "doll" and row["affordance"] == "stool" and row["true"]["functional"]
     assert row["executed"] and row["success"] and row["peak_force"] <= 1.2 * row["force_limit"]
+
+
+def test_the_scan_is_available_where_the_loader_can_load_open3d(monkeypatch):
+    # open3d-cpu needs libusb, which the loader preloads from a wheel; a bare `import open3d` refused the scan
+    # on a machine without the system library although the scan itself ran
+    from rail_mj.robot import experiment
+    from rail_mj.robot.scan import ScanError
+
+    calls = []
+    monkeypatch.setattr("rail_mj.robot.scan.load_open3d", lambda: calls.append(1))
+    assert experiment.scan_available() is None and calls
+
+    def missing():
+        raise ScanError("the scan needs open3d, an optional extra")
+
+    monkeypatch.setattr("rail_mj.robot.scan.load_open3d", missing)
+    assert "open3d" in experiment.scan_available()

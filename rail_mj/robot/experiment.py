@@ -101,11 +101,13 @@ def task_object(task: Task) -> RailObject:
 def scan_available() -> str | None:
     """Why the wrist-camera scan cannot run here (None when it can)."""
     try:
-        import open3d  # noqa: F401
-
-        from rail_mj.robot import scan  # noqa: F401
+        from rail_mj.robot.scan import load_open3d
     except ImportError as exc:
         return f"no scan: {exc} (pip install -e '.[scan]')"
+    try:
+        load_open3d()  # preloads the wheel's libusb where the machine has none; a bare import would fail there
+    except RailError as exc:
+        return f"no scan: {exc}"
     return None
 
 
