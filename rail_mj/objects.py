@@ -364,6 +364,15 @@ def _decimate(mesh: trimesh.Trimesh, label: str, face_count: int, *, strict: boo
     return out
 
 
+def _check_not_too_large(label: str, largest: float) -> None:
+    if largest > MAX_EXTENT:
+        raise _fail(
+            label,
+            f"is too large: largest extent {largest:.4g} m > {MAX_EXTENT:g} m; if the file is in "
+            "millimetres or centimetres pass units=0.001 or units=0.01 (metres per mesh unit)",
+        )
+
+
 def repair_mesh(mesh: trimesh.Trimesh, *, label: str = "mesh") -> trimesh.Trimesh:
     """Validate and repair a mesh (returns a new one); raise MeshError naming ``label``.
 
@@ -384,6 +393,10 @@ def repair_mesh(mesh: trimesh.Trimesh, *, label: str = "mesh") -> trimesh.Trimes
     if not np.isfinite(vertices).all():
         bad = int((~np.isfinite(vertices).all(axis=1)).sum())
         raise _fail(label, f"has {bad} vertices with NaN or inf coordinates; all coordinates must be finite")
+    if faces.min() < 0 or faces.max() >= len(vertices):
+        raise _fail(label, f"has faces that index vertices outside 0..{len(vertices) - 1}")
+    # Too large is judged before cleaning: merging vertices at 1e30 m overflows trimesh's integer grid.
+    _check_not_too_large(label, float(np.ptp(vertices[np.unique(faces)], axis=0).max()))
     out = trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
     _clean(out)
     if len(out.faces) == 0:
@@ -396,12 +409,6 @@ def repair_mesh(mesh: trimesh.Trimesh, *, label: str = "mesh") -> trimesh.Trimes
         raise _fail(
             label,
             f"is flat (extents {np.round(extents, 6).tolist()} m); an object needs volume in all three axes",
-        )
-    if largest > MAX_EXTENT:
-        raise _fail(
-            label,
-            f"is too large: largest extent {largest:.4g} m > {MAX_EXTENT:g} m; if the file is in "
-            "millimetres or centimetres pass units=0.001 or units=0.01 (metres per mesh unit)",
         )
     if largest < MIN_EXTENT:
         raise _fail(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +19,7 @@ from rail_mj.objects import (
     load_object,
     object_from_mesh,
     reduce_hull,
+    repair_mesh,
 )
 
 # Tiny CoACD settings: a test decomposition takes seconds, not minutes.
@@ -640,3 +642,19 @@ def test_guard_notes_hulls_that_fail_it(monkeypatch: pytest.MonkeyPatch, tmp_pat
 
 def test_guard_passes_good_hulls_without_a_note(cup_object) -> None:
     assert objects.mesh_notes(cup_object.mesh) == []
+
+
+def test_astronomic_coordinates_are_refused_before_cleaning(tmp_path: Path) -> None:
+    # 1e30 m overflowed trimesh's vertex-merge grid (a RuntimeWarning) before the size rule spoke.
+    path = tmp_path / "far.obj"
+    path.write_text("v 0 0 0\nv 1e30 0 0\nv 0 1e30 0\nv 0 0 1e30\nf 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(MeshError, match="too large.*units="):
+            load_mesh(path)
+
+
+def test_faces_indexing_missing_vertices_are_refused() -> None:
+    mesh = trimesh.Trimesh(vertices=np.eye(3), faces=np.array([[0, 1, 7]]), process=False)
+    with pytest.raises(MeshError, match=r"outside 0\.\.2"):
+        repair_mesh(mesh, label="bad")
