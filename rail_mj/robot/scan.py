@@ -849,6 +849,54 @@ def _carve(mesh: trimesh.Trimesh, depths: list[np.ndarray], views: list[ScanView
     return carved, int(free.sum())
 
 
+def _sorted_rows(points: np.ndarray) -> np.ndarray:
+    """The points in lexicographic (x, y, z) order.
+
+    Open3D's voxel-block grid hands out its surface in the order its threads fill a hash map, which changes
+    from run to run; the voxel averaging, the RANSAC's draws and every later step depend on that order.
+    """
+    return points[np.lexsort(points.T[::-1])]
+
+
+def _ransac_plane(points: np.ndarray, distance: float, iterations: int, rng: np.random.Generator
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """The plane (a, b, c, d) with the most points within ``distance`` over ``iterations`` random triples, refitted
+    by least squares to them, and its inliers' indices.
+
+    Open3D's ``segment_plane`` runs its iterations on threads that share one generator, so which triples it
+    tries, and the table height, change from run to run even with its seed set.
+    """
+    triples = points[rng.integers(0, len(points), size=(iterations, 3))]
+    normals = np.cross(triples[:, 1] - triples[:, 0], triples[:, 2] - triples[:, 0])
+    length = np.linalg.norm(normals, axis=1)
+    normals = normals[length > 1e-12] / length[length > 1e-12, None]  # collinear triples define no plane
+    offsets = -np.einsum("ij,ij->i", normals, triples[length > 1e-12, 0])
+    counts = (np.abs(points @ normals.T + offsets) < distance).sum(axis=0)
+    best = int(np.argmax(counts))
+    near = points[np.abs(points @ normals[best] + offsets[best]) < distance]
+    centre = near.mean(axis=0)
+    normal = np.linalg.svd(near - centre, full_matrices=False)[2][-1]
+    inliers = np.flatnonzero(np.abs((points - centre) @ normal) < distance)
+    return np.append(normal, -normal @ centre), inliers
+
+
+def _canonical_mesh(o3d: ModuleType, mesh):
+    """The TSDF's triangle mesh (a tensor mesh) as a legacy mesh in an order that does not depend on threads:
+    vertices sorted as :func:`_sorted_rows`, each triangle started at its smallest index (winding kept), the
+    triangles sorted."""
+    vertices = mesh.vertex.positions.numpy().astype(np.float64)
+    triangles = mesh.triangle.indices.numpy().astype(np.int64)
+    order = np.lexsort(vertices.T[::-1])
+    rank = np.empty(len(order), dtype=np.int64)
+    rank[order] = np.arange(len(order))
+    triangles = rank[triangles]
+    first = np.argmin(triangles, axis=1)
+    triangles = np.take_along_axis(triangles, (first[:, None] + np.arange(3)) % 3, axis=1)
+    triangles = triangles[np.lexsort(triangles.T[::-1])]
+    return o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(vertices[order]),
+                                     o3d.utility.Vector3iVector(triangles.astype(np.int32)))
+
+
 def _extract(volume, depths: list[np.ndarray], views: list[ScanView], config: ScanConfig, table_top: float,
              workspace_centre: np.ndarray) -> tuple[trimesh.Trimesh, float, list[str]]:
     """Table plane (RANSAC) out, largest cluster (DBSCAN) in, the TSDF mesh cropped to the cluster's box.
@@ -857,14 +905,15 @@ def _extract(volume, depths: list[np.ndarray], views: list[ScanView], config: Sc
     """
     o3d = load_open3d()
     notes: list[str] = []
-    cloud = volume.extract_point_cloud(weight_threshold=config.min_observations - 0.5).to_legacy()
-    if len(cloud.points) < 50:
-        raise ScanError(f"the scan saw nothing: {len(cloud.points)} surface points in the workspace "
+    points = _sorted_rows(volume.extract_point_cloud(weight_threshold=config.min_observations - 0.5).point.positions
+                          .numpy().astype(np.float64))
+    if len(points) < 50:
+        raise ScanError(f"the scan saw nothing: {len(points)} surface points in the workspace "
                         f"(half size {config.workspace_half} m at {np.round(workspace_centre, 3).tolist()})")
-    cloud = cloud.voxel_down_sample(2 * config.voxel_size)
-    o3d.utility.random.seed(config.seed)  # RANSAC draws from Open3D's global generator
-    plane, inliers = cloud.segment_plane(distance_threshold=config.plane_distance, ransac_n=3,
-                                         num_iterations=200)
+    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points)).voxel_down_sample(2 * config.voxel_size)
+    cloud.points = o3d.utility.Vector3dVector(_sorted_rows(np.asarray(cloud.points)))
+    plane, inliers = _ransac_plane(np.asarray(cloud.points), config.plane_distance, 200,
+                                   np.random.default_rng(config.seed))
     a, b, c, d = plane
     table_z = table_top
     if abs(c) > 0.95 * math.sqrt(a * a + b * b + c * c):
@@ -902,7 +951,7 @@ def _extract(volume, depths: list[np.ndarray], views: list[ScanView], config: Sc
     ws_hi = workspace_centre[:2] + half[:2] - margin
     if np.any(lo[:2] < ws_lo) or np.any(hi[:2] > ws_hi) or hi[2] > table_z + half[2] - margin:
         notes.append("the object reaches the edge of the fused workspace: it may be cut off")
-    o3d_mesh = volume.extract_triangle_mesh(weight_threshold=config.min_observations - 0.5).to_legacy()
+    o3d_mesh = _canonical_mesh(o3d, volume.extract_triangle_mesh(weight_threshold=config.min_observations - 0.5))
     o3d_mesh = o3d_mesh.crop(o3d.geometry.AxisAlignedBoundingBox(lo, hi))
     if len(o3d_mesh.triangles) == 0:
         raise ScanError("the TSDF holds no surface inside the object's cluster box")
