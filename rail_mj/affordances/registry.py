@@ -73,6 +73,7 @@ class Affordance:
     paper: bool = False  # one of the paper's eight
     droplets: Droplets = Droplets()  # container kind only
     persons: int = 1  # seat kind only: people who sit on it side by side (1: a seat for one)
+    legroom: bool = False  # surface kind only: used from beside it, so a person's feet go under its top's edge
     #: size of the agent the row is for relative to the person its sizes are for (:meth:`scaled`; 1 = a person's)
     scale: float = 1.0
 
@@ -157,14 +158,18 @@ def _rows() -> tuple[Affordance, ...]:
                    "tall).", (0.15, 0.32), (0.01, 0.045), aliases=("dish",), paper=True,
                    envelope=Envelope(height=(0.01, 0.045), length=(0.15, 0.32))),
         Affordance("table", "surface", "A table holds items on a level top surface 0.55-1.1 m high and at least "
-                   "0.5 m across, its top at least as wide as it is high, with free space above it.", (0.55, 3.0),
-                   (0.3, 1.6), paper=True,
-                   envelope=Envelope(height=(0.55, 1.12), width=(0.5, 3.0), aspect=(0.0, 1.0), rest=(0.54, 1.12))),
-        Affordance("chair", "seat", "A chair lets one person sit: a level seat 0.38-0.55 m high and 0.3-0.7 m "
-                   "across, usually with a backrest.", (0.4, 1.3), (0.3, 0.9), paper=True,
+                   "0.5 m across, with free space above it and room for a person's feet under its edge.",
+                   (0.55, 3.0), (0.3, 1.6), paper=True, legroom=True,
+                   # the top's depth against its height is no rule: a desk or a console is 0.55-0.6 m deep and
+                   # 0.6-0.77 m high; a bathtub on its side, which is as deep, has no room under its edge
+                   envelope=Envelope(height=(0.55, 1.12), width=(0.5, 3.0), rest=(0.54, 1.12))),
+        Affordance("chair", "seat", "A chair lets one person sit: a level seat 0.3-0.7 m across, 0.38-0.55 m "
+                   "high, up to 0.77 m for a counter or bar chair (feet on a rung), usually with a backrest.",
+                   (0.4, 1.3), (0.3, 0.9), paper=True,
                    # a seat for one by the seat kind's second-sitter test, not by the box: arms and a back
-                   # make an armchair's box 0.9 m wide around a 0.5 m seat
-                   envelope=Envelope(rest=(0.36, 0.57))),
+                   # make an armchair's box 0.9 m wide around a 0.5 m seat. Counter and bar chairs seat a person
+                   # at 0.6-0.77 m (24-30 in); a pelvis on an armchair's 0.79 m back is no sitter
+                   envelope=Envelope(rest=(0.36, 0.78))),
         # sizes as a chair's: an armchair or a bar chair is a stool too
         Affordance("stool", "seat", "A stool lets one person sit on a level seat 0.38-0.85 m high, without a "
                    "backrest.", (0.3, 1.3), (0.25, 0.9), envelope=Envelope(rest=(0.36, 0.87))),

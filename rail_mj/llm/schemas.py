@@ -210,6 +210,10 @@ class ResultSummary(_Model):
         0.0, description="agents on the ground beneath the middle of the object (within half its footprint): "
                          "they came through it"
     )
+    frac_beneath_middle: float = Field(
+        0.0, description="agents whose centre lies beneath or over the middle of the object (within half its "
+                         "footprint), whatever they rest on"
+    )
     frac_open_side: float = Field(
         0.0, description="agents inside the box that lie open to one side: horizontal rays from the agent leave "
                          "without meeting the object over a sector of at least 67 deg (no enclosing wall there)"

@@ -273,6 +273,7 @@ def result_summary(outcomes: Outcomes, b: int) -> ResultSummary:
         agent_tilt_deg=float(np.mean(np.degrees(np.arccos(cos_tilt)))),
         agent_speed=float(np.mean(np.linalg.norm(outcomes.agent_vel[b], axis=1))),
         frac_through_object=float(np.mean(beneath & (outcomes.contacts_ground[b] > 0))),
+        frac_beneath_middle=float(np.mean(beneath)),
         frac_open_side=_frac_open_side(outcomes, b),
     )
 

@@ -49,6 +49,8 @@ _BESIDE = 0.35
 #: Plans that lower the pelvis onto the centre of the object's box.
 _CENTRE = ("above",) + tuple(side for side, _, _ in SIDES)
 _AREA_PLANS = tuple(f"above_{side}" for side, _, _ in SIDES)
+#: The off-centre placements along each horizontal axis of the task frame.
+_AXES = (("front", "back"), ("left", "right"))
 #: A second pelvis sits on the same seat when it rests at the seat's level: within this fraction of the pose's
 #: half height (an armchair's rolled arms bear it 0.1-0.2 m above its cushion, a third of its half height).
 _SAME_LEVEL = 0.15
@@ -131,15 +133,18 @@ class Seat(Kind):
         if aff.persons > 1 and not both:
             return [], (f"a second pelvis does not rest on the seat's level {_BESIDE * aff.scale:g} m to either side "
                         f"along its length: a {aff.name} seats people side by side")
-        # the pose is chosen by its centre approaches, as before: a chair's arms and back keep the pelvis off
-        # some of its off-centre placements, so counting them would favour poses with no arms or back in the way
-        return centre, ""
+        return centre + area, ""
 
     def rank(self, accepted: list[CandidateInteraction]) -> int:
-        """A seat with a back first (1, else 0): of two poses that seat the pelvis, the one where the object rises
-        behind it (a chair standing, not lying on its back or side, whose box is the longer for it)."""
-        if not accepted:
+        """A seat with a back first, then one with an area both ways: of two poses that seat the pelvis, the one
+        where the object rises behind it (a chair standing, not lying on its back or side, whose box is the longer
+        for it), then the one that bears it off the centre along both horizontal axes (a pouf standing, not
+        rolled on its side, whose ridge bears it only along its axis). 3 x back (0 or 1) + axes (0-2)."""
+        centre = [c for c in accepted if c.plan in _CENTRE]
+        if not centre:
             return 0
-        level = sorted(c.summary.mean_height for c in accepted)[len(accepted) // 2]
-        return int(level <= 1.0 - _BACK)
+        level = sorted(c.summary.mean_height for c in centre)[len(centre) // 2]
+        plans = {c.plan for c in accepted}
+        axes = sum(any(f"above_{side}" in plans for side in pair) for pair in _AXES)
+        return 3 * int(level <= 1.0 - _BACK) + axes
 

@@ -1,14 +1,28 @@
 """``surface``: a flat box placed on top. Success: it rests level on top at table height, at the centre and
-off centre."""
+off centre. For a row with ``legroom`` (a table) the box also slides in just above the floor from each side: a
+table is used from beside it, so from some side it gets under the top's edge (between legs, past a pedestal's
+foot, into a desk's knee space), where a person's feet go; a closed block, a bathtub on its side or an
+upturned tub meets a wall at the edge."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 
-from rail_mj.affordances.kinds.base import AgentShape, box_agent, rest_bounds, rest_scoring, rest_window, rest_words
+from rail_mj.affordances.kinds.base import (
+    SIDES,
+    AgentShape,
+    box_agent,
+    clearance,
+    rest_bounds,
+    rest_scoring,
+    rest_window,
+    rest_words,
+    side_offset,
+    via,
+)
 from rail_mj.affordances.kinds.lowering import Lowering
 from rail_mj.affordances.registry import Affordance
-from rail_mj.llm.schemas import CandidateInteraction, ScoringCode
+from rail_mj.llm.schemas import AgentLayout, CandidateInteraction, MotionPlan, ScoringCode, ViaPose
 
 __all__ = ["Surface"]
 
@@ -20,6 +34,12 @@ _MIN_PLANS = 4
 #: the box's half height; 1 = the box top). Upside down, a console holds the box on its bottom among its legs,
 #: which rise 8 cm or more above it (0.8 or lower in its 0.7 m box); a stretcher or a shelf is lower still.
 _FREE_ABOVE = 0.9
+#: Gap (m) between the floor and the sliding box's bottom: it slides without touching the floor (a touch releases
+#: it) and over a pedestal's foot plate (3 cm), as feet do, under anything that leaves them room (a console's
+#: 8 cm legs).
+_SLIDE_LIFT = 0.035
+#: Plans that slide the box in just above the floor from each side towards the middle.
+_SLIDES = tuple(f"under_{side}" for side, _, _ in SIDES)
 
 
 class Surface(Lowering):
@@ -36,6 +56,23 @@ class Surface(Lowering):
     def agent(self, aff: Affordance, dims: Sequence[float]) -> AgentShape:
         return box_agent("book", (min(0.15, max(0.04, 0.12 * dims[1])),) * 2 + (_HALF_Z,))
 
+    def plans(self, shape: AgentShape) -> list[MotionPlan]:
+        return super().plans(shape) + [
+            MotionPlan(name=f"under_{side}", description=f"Start with the {shape.label} on the {side} of the object, "
+                                                         f"{_SLIDE_LIFT:g} m above the floor; slide it horizontally "
+                                                         "towards the middle under the object; release it at the "
+                                                         "first contact (room for feet under the top's edge).")
+            for side, _, _ in SIDES]
+
+    def via_poses(self, plan: str, shape: AgentShape, layout: AgentLayout) -> list[ViaPose]:
+        if plan not in _SLIDES:
+            return super().via_poses(plan, shape, layout)
+        ux, uy = side_offset(plan.removeprefix("under_"), 1.0)
+        out, z = shape.radius + clearance(shape), shape.half_z + _SLIDE_LIFT
+        # down beside the object's box from where the whole box clears the floor, then in
+        return [via((ux, uy, -1), (ux * out, uy * out, shape.radius + 0.01)), via((ux, uy, -1), (ux * out, uy * out, z)),
+                via((0, 0, -1), (0, 0, z))]
+
     def scoring(self, aff: Affordance, shape: AgentShape) -> ScoringCode:
         lo, hi = rest_bounds(aff)
         # on top: never below the box's middle either (in a tall object a board at table height is no top)
@@ -45,6 +82,8 @@ class Surface(Lowering):
         return rest_window(aff, _HALF_Z)
 
     def accept(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float]) -> tuple[bool, str]:
+        if c.plan in _SLIDES:  # evidence of room under the top; where it comes to rest is no placement
+            return False, "the box slid in above the floor probes the room under the top; it places nothing"
         ok, why = super().accept(aff, c, h)
         # the item belongs on the top, with free space above it: not on a stretcher, a shelf or among legs
         if ok and c.summary.mean_height < _FREE_ABOVE:
@@ -59,5 +98,10 @@ class Surface(Lowering):
         if len(accepted) < _MIN_PLANS:
             return [], (f"only {len(accepted)} of the placements hold the box; a {aff.name} top holds it at the "
                         f"centre and off centre ({_MIN_PLANS} needed)")
+        # under the top: the slid box ends under the middle of the footprint, not in a recess at its edge (a
+        # bathtub on its side, whose feet stick out sideways, leaves 10 cm between them)
+        if aff.legroom and not any(c.plan in _SLIDES and c.summary.frac_beneath_middle > 0 for c in tried):
+            return [], (f"the box slid in {_SLIDE_LIFT:g} m above the floor from every side stops at the object's "
+                        f"edge: no room for feet under the top, which a {aff.name} is used from beside")
         return accepted, ""
 
