@@ -11,6 +11,7 @@ __all__ = [
     "ConfigError",
     "MeshError",
     "DecompositionError",
+    "DecompositionTimeout",
     "FragmentError",
     "SceneError",
     "StablePoseError",
@@ -42,6 +43,10 @@ class MeshError(RailError, ValueError):
 
 class DecompositionError(RailError):
     """Convex decomposition (CoACD) failed or produced no usable hull."""
+
+
+class DecompositionTimeout(DecompositionError):
+    """CoACD ran past ``DecompositionConfig.time_limit_s`` and was stopped."""
 
 
 class FragmentError(RailError, ValueError):

@@ -21,7 +21,9 @@ from __future__ import annotations
 import hashlib
 import io
 import json
+import math
 import re
+import signal
 import subprocess
 import sys
 import zipfile
@@ -33,7 +35,7 @@ import numpy as np
 import trimesh
 from scipy.spatial import ConvexHull, QhullError
 
-from rail_mj.errors import ConfigError, DecompositionError, MeshError
+from rail_mj.errors import ConfigError, DecompositionError, DecompositionTimeout, MeshError
 from rail_mj.paths import cache_dir
 from rail_mj.types import RailObject
 
@@ -97,6 +99,10 @@ MAX_EXCESS = 0.25
 MAX_MISSING = 0.3
 # Fewest faces DecompositionConfig.max_faces may ask for: below it decimation erases whole features.
 _MIN_COACD_FACES = 500
+# A face is loose when its piece (faces joined by shared edges) has fewer faces than a tetrahedron;
+# a mesh with more than this fraction of loose faces is refused as a triangle soup.
+_MIN_PIECE_FACES = 4
+_MAX_LOOSE_FRACTION = 0.5
 # A mesh is flat when its smallest extent is below this fraction of its largest.
 _FLAT_RATIO = 1e-6
 # Hulls with less volume than this (m^3) are slivers MuJoCo cannot give inertia.
@@ -139,6 +145,9 @@ class DecompositionConfig:
     # CoACD sees at most this many faces: the mesh is decimated for it alone (the object keeps the
     # repaired mesh); None: CoACD sees the mesh as repaired (<= FACE_BUDGET faces)
     max_faces: int | None = None
+    # CPU seconds one CoACD run may take before it is stopped with a DecompositionTimeout: a 10k-piece
+    # triangle soup ran for minutes per run. The worst real mesh here took 26 s of wall time cold.
+    time_limit_s: float = 150.0
 
     def __post_init__(self) -> None:
         if not 0.0 < self.threshold <= 1.0:
@@ -154,6 +163,8 @@ class DecompositionConfig:
         for name in ("preprocess_resolution", "resolution", "mcts_nodes", "mcts_iterations", "mcts_max_depth"):
             if getattr(self, name) < 1:
                 raise ConfigError(f"{name} must be >= 1, got {getattr(self, name)}")
+        if not (np.isfinite(self.time_limit_s) and self.time_limit_s > 0):
+            raise ConfigError(f"time_limit_s must be a positive number of seconds, got {self.time_limit_s}")
         if self.max_faces is not None and self.max_faces < _MIN_COACD_FACES:
             raise ConfigError(f"max_faces must be None or >= {_MIN_COACD_FACES}, got {self.max_faces}")
 
@@ -373,6 +384,23 @@ def _check_not_too_large(label: str, largest: float) -> None:
         )
 
 
+def _check_not_a_soup(label: str, mesh: trimesh.Trimesh) -> None:
+    """Refuse a mesh most of whose faces lie in pieces too small to enclose anything.
+
+    Such a triangle soup has no surface to stand on or hold with, and CoACD runs for minutes on it. On the
+    real-mesh set at most 1.5% of a mesh's faces are loose.
+    """
+    _, piece_of_face, piece_sizes = np.unique(_body_labels(mesh), return_inverse=True, return_counts=True)
+    loose = piece_sizes[piece_of_face] < _MIN_PIECE_FACES
+    if loose.mean() > _MAX_LOOSE_FRACTION:
+        raise _fail(
+            label,
+            f"is a triangle soup: {int(loose.sum()):,} of its {len(mesh.faces):,} faces lie in pieces of fewer than "
+            f"{_MIN_PIECE_FACES} faces joined by shared edges ({len(piece_sizes):,} pieces), which enclose nothing; "
+            f"at most {_MAX_LOOSE_FRACTION:.0%} may; weld the vertices or export a connected surface",
+        )
+
+
 def repair_mesh(mesh: trimesh.Trimesh, *, label: str = "mesh") -> trimesh.Trimesh:
     """Validate and repair a mesh (returns a new one); raise MeshError naming ``label``.
 
@@ -380,7 +408,7 @@ def repair_mesh(mesh: trimesh.Trimesh, *, label: str = "mesh") -> trimesh.Trimes
     unreferenced vertices, decimate to at most :data:`FACE_BUDGET` faces when over it,
     make winding consistent and normals outward.
     Rejects: no faces, more than :data:`MAX_FACES` faces, non-finite vertices,
-    flat meshes, absurd sizes. What was changed beyond cleaning is listed by
+    flat meshes, absurd sizes, triangle soups. What was changed beyond cleaning is listed by
     :func:`mesh_notes` on the result.
     """
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
@@ -420,6 +448,7 @@ def repair_mesh(mesh: trimesh.Trimesh, *, label: str = "mesh") -> trimesh.Trimes
         n_faces = len(out.faces)
         out = _decimate(out, label, FACE_BUDGET)
         notes.append(f"decimated from {n_faces:,} to {len(out.faces):,} faces (face budget {FACE_BUDGET:,})")
+    _check_not_a_soup(label, out)
     trimesh.repair.fix_normals(out)
     if notes:
         out.metadata[_NOTES_KEY] = notes
@@ -498,8 +527,9 @@ def reduce_hull(points: np.ndarray, max_vertices: int) -> np.ndarray:
 
 def _cache_key(digest: str, config: DecompositionConfig, n_bodies: int) -> str:
     # Options left at None and a single body are left out of the key, so the meshes and configs that
-    # existed before those options and the split into bodies keep their cache entries.
-    fields = {k: v for k, v in asdict(config).items() if v is not None}
+    # existed before those options and the split into bodies keep their cache entries; the time limit
+    # does not change the hulls it lets through.
+    fields = {k: v for k, v in asdict(config).items() if v is not None and k != "time_limit_s"}
     payload = {"mesh": digest, "config": fields}
     if n_bodies > 1:
         payload["bodies"] = n_bodies
@@ -512,16 +542,39 @@ def _preprocess_mode(mesh: trimesh.Trimesh, config: DecompositionConfig) -> str:
     return "off" if mesh.is_volume else "on"
 
 
+_WALL_PER_CPU = 4.0
+_WALL_SLACK_S = 10.0
+
+
 class _CoacdCrash(Exception):
     """The CoACD child process died (a signal, not a Python error)."""
 
 
-def _coacd_child(vertices: np.ndarray, faces: np.ndarray, options: dict) -> list[np.ndarray]:
-    """One CoACD run in a child process (:mod:`rail_mj.coacd_child`): its hulls' vertices."""
+def _coacd_child(vertices: np.ndarray, faces: np.ndarray, options: dict, time_limit_s: float) -> list[np.ndarray]:
+    """One CoACD run in a child process (:mod:`rail_mj.coacd_child`): its hulls' vertices.
+
+    The child may use ``time_limit_s`` seconds of CPU (a limit that holds however loaded the machine is),
+    and :data:`_WALL_PER_CPU` times that plus :data:`_WALL_SLACK_S` of wall time, in case it stalls without
+    spending CPU (CoACD's threads on a loaded machine take longer on the wall than on the CPU).
+    """
     payload = io.BytesIO()
-    np.savez(payload, vertices=vertices, faces=faces, options=json.dumps(options))
-    proc = subprocess.run([sys.executable, str(Path(__file__).with_name("coacd_child.py"))],
-                          input=payload.getvalue(), capture_output=True, check=False)
+    np.savez(payload, vertices=vertices, faces=faces, options=json.dumps(options),
+             cpu_limit_s=max(1, math.ceil(time_limit_s)))
+    wall_s = _WALL_PER_CPU * time_limit_s + _WALL_SLACK_S
+
+    def late(what: str) -> DecompositionTimeout:
+        return DecompositionTimeout(
+            f"CoACD did not finish within {what} on this mesh ({len(faces):,} faces); a mesh of many loose "
+            "pieces or a triangle soup does this: repair or simplify it, or raise DecompositionConfig.time_limit_s"
+        )
+
+    try:
+        proc = subprocess.run([sys.executable, str(Path(__file__).with_name("coacd_child.py"))],
+                              input=payload.getvalue(), capture_output=True, check=False, timeout=wall_s)
+    except subprocess.TimeoutExpired:
+        raise late(f"{wall_s:g} s of wall time") from None
+    if proc.returncode == -signal.SIGXCPU:
+        raise late(f"{time_limit_s:g} s of CPU")
     if proc.returncode < 0:
         raise _CoacdCrash(f"killed by signal {-proc.returncode}")
     if proc.returncode != 0:
@@ -547,27 +600,35 @@ def _run_coacd(mesh: trimesh.Trimesh, config: DecompositionConfig) -> list[np.nd
     )
     vertices, faces = np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int32)
     try:
-        return _coacd_child(vertices, faces, options)
+        return _coacd_child(vertices, faces, options, config.time_limit_s)
     except _CoacdCrash as crash:
         if options["preprocess_mode"] == "on":
             raise DecompositionError(f"CoACD crashed on this mesh ({crash}); repair or simplify the mesh") from None
         # the crashes seen come from CoACD's cutting of the mesh as given; its own remeshing avoids them
         try:
-            return _coacd_child(vertices, faces, {**options, "preprocess_mode": "on"})
+            return _coacd_child(vertices, faces, {**options, "preprocess_mode": "on"}, config.time_limit_s)
         except _CoacdCrash as again:
             raise DecompositionError(f"CoACD crashed on this mesh ({crash}), and again with its own remeshing "
                                      f"({again}); repair or simplify the mesh") from None
 
 
-def _bodies(mesh: trimesh.Trimesh) -> list[trimesh.Trimesh]:
-    """The mesh's connected pieces (faces joined by shared edges), in the order of their first face."""
-    labels = trimesh.graph.connected_component_labels(mesh.face_adjacency, node_count=len(mesh.faces))
+def _body_labels(mesh: trimesh.Trimesh) -> np.ndarray:
+    """Per face, the connected piece (faces joined by shared edges) it belongs to."""
+    return trimesh.graph.connected_component_labels(mesh.face_adjacency, node_count=len(mesh.faces))
+
+
+def _bodies(mesh: trimesh.Trimesh, labels: np.ndarray) -> list[trimesh.Trimesh]:
+    """The mesh's connected pieces, in the order of their first face.
+
+    Each piece keeps only its own vertices, gathered in one pass: copying every vertex into each piece
+    and pruning made a 10k-piece triangle soup quadratic (minutes).
+    """
     _, first = np.unique(labels, return_index=True)
     pieces = []
     for label in labels[np.sort(first)]:
-        piece = trimesh.Trimesh(mesh.vertices, mesh.faces[labels == label], process=False)
-        piece.remove_unreferenced_vertices()
-        pieces.append(piece)
+        faces = mesh.faces[labels == label]
+        used, local = np.unique(faces, return_inverse=True)
+        pieces.append(trimesh.Trimesh(mesh.vertices[used], local.reshape(faces.shape), process=False))
     return pieces
 
 
@@ -606,8 +667,8 @@ def decompose(mesh: trimesh.Trimesh, config: DecompositionConfig | None = None) 
     Cached as .npz under ``cache_dir("hulls")``, keyed by the mesh arrays and the config.
     """
     config = config or DecompositionConfig()
-    bodies = _bodies(mesh)
-    path = cache_dir("hulls") / f"{_cache_key(mesh_hash(mesh), config, len(bodies))}.npz"
+    labels = _body_labels(mesh)
+    path = cache_dir("hulls") / f"{_cache_key(mesh_hash(mesh), config, len(np.unique(labels)))}.npz"
     if path.exists():
         try:
             with np.load(path) as data:
@@ -620,9 +681,9 @@ def decompose(mesh: trimesh.Trimesh, config: DecompositionConfig | None = None) 
         target = mesh
         if config.max_faces is not None and len(mesh.faces) > config.max_faces:
             target = _decimate(mesh, "mesh", config.max_faces, strict=False)
-            bodies = _bodies(target)
-        if 1 < len(bodies) <= config.max_convex_hull:
-            raw = _decompose_bodies(bodies, config)
+            labels = _body_labels(target)
+        if 1 < len(np.unique(labels)) <= config.max_convex_hull:
+            raw = _decompose_bodies(_bodies(target, labels), config)
         else:
             raw = _run_coacd(target, config)
     hulls = []
@@ -851,14 +912,18 @@ def _guarded_hulls(
     quality = hull_quality(mesh, hulls)
     notes = []
     if _guard_score(quality) > 1.0 and decomposition is None and config != DecompositionConfig():
-        again = decompose(mesh, DecompositionConfig())
-        again_quality = hull_quality(mesh, again)
-        if _guard_score(again_quality) < _guard_score(quality):
-            notes.append(
-                f"hulls made again with the default settings: the faster ones' excess {quality.excess:.2f}, "
-                f"missing {quality.missing:.2f}"
-            )
-            hulls, quality = again, again_quality
+        try:
+            again = decompose(mesh, DecompositionConfig())
+        except DecompositionTimeout as late:  # the faster settings' hulls are kept, with why
+            notes.append(f"hulls not made again with the default settings: {late}")
+        else:
+            again_quality = hull_quality(mesh, again)
+            if _guard_score(again_quality) < _guard_score(quality):
+                notes.append(
+                    f"hulls made again with the default settings: the faster ones' excess {quality.excess:.2f}, "
+                    f"missing {quality.missing:.2f}"
+                )
+                hulls, quality = again, again_quality
     if _guard_score(quality) > 1.0:
         notes.append(
             f"hull quality below the guard ({quality.n_hulls} hulls): they fill {quality.excess:.0%} of the free space "

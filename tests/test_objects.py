@@ -10,7 +10,7 @@ import pytest
 import trimesh
 
 import rail_mj.objects as objects
-from rail_mj.errors import ConfigError, DecompositionError, MeshError
+from rail_mj.errors import ConfigError, DecompositionError, DecompositionTimeout, MeshError
 from rail_mj.objects import (
     SUPPORTED_EXTENSIONS,
     DecompositionConfig,
@@ -229,7 +229,7 @@ def test_second_call_hits_cache(cup_object, monkeypatch: pytest.MonkeyPatch) -> 
 def test_a_coacd_crash_is_retried_with_its_remeshing_then_a_named_error(tmp_path, monkeypatch):
     seen = []
 
-    def crash_without_remeshing(vertices, faces, options):
+    def crash_without_remeshing(vertices, faces, options, time_limit_s):
         seen.append(options["preprocess_mode"])
         if options["preprocess_mode"] != "on":
             raise objects._CoacdCrash("killed by signal 11")
@@ -658,3 +658,74 @@ def test_faces_indexing_missing_vertices_are_refused() -> None:
     mesh = trimesh.Trimesh(vertices=np.eye(3), faces=np.array([[0, 1, 7]]), process=False)
     with pytest.raises(MeshError, match=r"outside 0\.\.2"):
         repair_mesh(mesh, label="bad")
+
+
+def test_a_coacd_run_past_its_time_limit_is_stopped_with_a_named_error(tmp_path, monkeypatch):
+    hang = tmp_path / "hang"
+    hang.write_text("#!/bin/sh\nexec sleep 60\n")
+    hang.chmod(0o755)
+    monkeypatch.setattr(objects.sys, "executable", str(hang))
+    monkeypatch.setattr(objects, "_WALL_SLACK_S", 0.0)
+    with pytest.raises(DecompositionTimeout, match=r"within 2 s of wall time .*time_limit_s"):
+        objects._run_coacd(small_cup(), DecompositionConfig(preprocess_mode="off", time_limit_s=0.5))
+    with pytest.raises(ConfigError, match="time_limit_s"):
+        DecompositionConfig(time_limit_s=0)
+
+
+def test_the_time_limit_is_not_part_of_the_hull_cache_key() -> None:
+    assert objects._cache_key("m", DecompositionConfig(), 1) == objects._cache_key(
+        "m", DecompositionConfig(time_limit_s=5.0), 1)
+
+
+def test_a_guard_redo_that_runs_out_of_time_keeps_the_first_hulls(monkeypatch) -> None:
+    first = (np.asarray(box((0.1, 0.1, 0.1)).vertices),)
+    calls = []
+
+    def fake_decompose(mesh, config):
+        calls.append(config)
+        if len(calls) > 1:
+            raise DecompositionTimeout("CoACD did not finish within 1 s")
+        return first
+
+    monkeypatch.setattr(objects, "decompose", fake_decompose)
+    monkeypatch.setattr(objects, "_guard_score", lambda quality: 2.0)
+    mesh = small_cup()
+    monkeypatch.setattr(objects, "decomposition_for", lambda m: objects.DENSE_DECOMPOSITION)
+    hulls, notes = objects._guarded_hulls(mesh, None)
+    assert hulls is first and len(calls) == 2
+    assert any("not made again" in n and "did not finish" in n for n in notes)
+
+
+def test_bodies_keep_only_their_own_vertices() -> None:
+    # 300 separate cubes: each piece must carry its 8 vertices, not all 2,400
+    rng = np.random.default_rng(0)
+    tets = [trimesh.creation.box((0.01, 0.01, 0.01)).apply_translation(rng.random(3)) for _ in range(300)]
+    soup = trimesh.util.concatenate(tets)
+    labels = objects._body_labels(soup)
+    pieces = objects._bodies(soup, labels)
+    assert len(pieces) == 300
+    assert all(len(p.vertices) == 8 and p.is_volume for p in pieces)
+    np.testing.assert_allclose(pieces[7].bounds, tets[7].bounds)
+
+
+def test_a_coacd_run_past_its_cpu_limit_is_stopped_however_loaded_the_machine(tmp_path, monkeypatch) -> None:
+    # the real child sets RLIMIT_CPU on itself; CoACD on a mug with a handle needs several CPU seconds
+    monkeypatch.setenv("RAIL_MJ_CACHE", str(tmp_path))
+    with pytest.raises(DecompositionTimeout, match=r"within 1 s of CPU"):
+        objects._run_coacd(small_cup(), DecompositionConfig(preprocess_mode="on", time_limit_s=1))
+
+
+def test_a_triangle_soup_is_refused_naming_its_loose_faces(tmp_path: Path) -> None:
+    rng = np.random.default_rng(0)
+    vertices = rng.random((3000, 3)) * 0.1
+    path = tmp_path / "soup.ply"
+    trimesh.Trimesh(vertices, np.arange(3000).reshape(-1, 3), process=False).export(path)
+    with pytest.raises(MeshError, match=r"triangle soup: 1,000 of its 1,000 faces .* weld the vertices"):
+        load_mesh(path)
+
+
+def test_a_few_loose_faces_beside_a_body_are_kept() -> None:
+    cup = small_cup()
+    debris = trimesh.Trimesh(np.array([[0.2, 0, 0], [0.21, 0, 0], [0.2, 0.01, 0]]), [[0, 1, 2]], process=False)
+    mesh = repair_mesh(trimesh.util.concatenate([cup, debris]), label="cup with debris")
+    assert len(mesh.faces) == len(cup.faces) + 1
