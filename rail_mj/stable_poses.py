@@ -14,12 +14,14 @@ estimates of its basin: the fraction of drops that ended in it and trimesh's qua
 from __future__ import annotations
 
 import hashlib
+import heapq
 import json
 from pathlib import Path
 
 import mujoco
 import mujoco.batch
 import numpy as np
+import scipy.ndimage
 import scipy.spatial
 import trimesh
 
@@ -31,10 +33,10 @@ from rail_mj.paths import cache_dir
 from rail_mj.runfiles import atomic_write_text
 from rail_mj.types import RailObject, StablePose, StablePoses
 
-__all__ = ["find_stable_poses", "pose_from_up"]
+__all__ = ["find_stable_poses", "pose_from_up", "spill_level"]
 
-#: bump when the algorithm changes, so old cache entries are ignored
-_CACHE_VERSION = 3
+#: bump when the algorithm changes, so old cache entries are ignored (4: poses carry their spill level)
+_CACHE_VERSION = 4
 #: two resting shapes match when their height signatures differ by less than this fraction of the object size
 _CONGRUENT = 0.02
 #: quasi-static poses are checked by setting the object down this much off the pose and simulating this long (s)
@@ -80,7 +82,62 @@ def pose_from_up(obj: RailObject, up: np.ndarray, probability: float) -> StableP
     lo, hi = verts.min(axis=0), verts.max(axis=0)
     centre = (lo + hi) / 2
     pos = np.array([-centre[0], -centre[1], -lo[2]])
-    return StablePose(pos=pos, quat=quat, probability=probability, half_extents=(hi - lo) / 2)
+    rim = spill_level(_surface_samples(obj) @ rot.reshape(3, 3).T - lo)
+    return StablePose(pos=pos, quat=quat, probability=probability, half_extents=(hi - lo) / 2, rim=rim)
+
+
+#: Points sampled on the mesh surface for :func:`spill_level` (fixed seed: the same poses give the same level).
+_SAMPLES = 60000
+#: Cells across the larger side of the height map of :func:`spill_level` (a cell holds a dozen samples of a flat top).
+_GRID = 48
+#: A basin is at least this deep (fraction of the object's height) where it is deepest.
+_MIN_BASIN = 0.1
+
+
+def _surface_samples(obj: RailObject) -> np.ndarray:
+    points, _ = trimesh.sample.sample_surface(obj.mesh, _SAMPLES, seed=0)
+    return np.asarray(points, dtype=np.float64)
+
+
+def spill_level(points: np.ndarray) -> float | None:
+    """Height (above the lowest point) at which water poured into the object's deepest basin spills over: the lowest
+    point of the rim that surrounds it, as the object is seen from above. A handle rising above the rim or
+    reaching out beside it plays no part, nor do holes in the walls (unseen from above). None without a basin
+    at least :data:`_MIN_BASIN` of the height deep (a closed box, a slatted crate open to the floor).
+
+    ``points``: surface samples in a pose's frame (z up, lowest point at 0). The height map keeps the highest
+    sample per cell (empty cells are the floor); water floods in from the border over the lowest passes first
+    (priority flood), so each cell's water level is the lowest rim it spills over on its way out.
+    """
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    cell = float(max(hi[0] - lo[0], hi[1] - lo[1])) / _GRID
+    if cell <= 0 or hi[2] <= 0:
+        return None
+    ij = np.floor((points[:, :2] - lo[:2]) / cell).astype(int) + 1  # one floor cell of margin all round
+    shape = tuple(int(v) for v in ij.max(axis=0) + 2)
+    height = np.zeros(shape)
+    np.maximum.at(height, (ij[:, 0], ij[:, 1]), points[:, 2])
+    # a cell no sample fell in is no pit: it takes its neighbours' height (walls grow by a cell, rims keep theirs)
+    height = scipy.ndimage.maximum_filter(height, size=3, mode="constant")
+    level = np.full(shape, np.inf)
+    heap = []
+    for i in range(shape[0]):
+        for j in range(shape[1]):
+            if i in (0, shape[0] - 1) or j in (0, shape[1] - 1):
+                level[i, j] = height[i, j]
+                heap.append((height[i, j], i, j))
+    heapq.heapify(heap)
+    while heap:
+        h, i, j = heapq.heappop(heap)
+        for a, b in ((i + 1, j), (i - 1, j), (i, j + 1), (i, j - 1)):
+            if 0 <= a < shape[0] and 0 <= b < shape[1] and level[a, b] == np.inf:
+                level[a, b] = max(height[a, b], h)
+                heapq.heappush(heap, (level[a, b], a, b))
+    depth = level - height
+    deepest = np.unravel_index(int(np.argmax(depth)), shape)
+    if depth[deepest] < _MIN_BASIN * hi[2]:
+        return None
+    return float(level[deepest])
 
 
 def _cluster(ups: np.ndarray, tol: float) -> list[np.ndarray]:
@@ -220,14 +277,14 @@ def _to_json(poses: StablePoses) -> str:
         "n_drops": poses.n_drops,
         "n_unsettled": poses.n_unsettled,
         "poses": [{"pos": p.pos.tolist(), "quat": p.quat.tolist(), "probability": p.probability,
-                   "half_extents": p.half_extents.tolist()} for p in poses],
+                   "half_extents": p.half_extents.tolist(), "rim": p.rim} for p in poses],
     })
 
 
 def _from_json(text: str) -> StablePoses:
     raw = json.loads(text)
     poses = tuple(StablePose(pos=np.array(p["pos"]), quat=np.array(p["quat"]), probability=float(p["probability"]),
-                             half_extents=np.array(p["half_extents"])) for p in raw["poses"])
+                             half_extents=np.array(p["half_extents"]), rim=p["rim"]) for p in raw["poses"])
     return StablePoses(poses=poses, n_drops=int(raw["n_drops"]), n_unsettled=int(raw["n_unsettled"]))
 
 

@@ -67,6 +67,9 @@ class StablePose:
     quat: np.ndarray  # (4,) wxyz world orientation of the mesh frame
     probability: float  # fraction of drops that ended in this pose
     half_extents: np.ndarray  # (3,) half-sizes of the world-aligned bounding box in this pose
+    #: height (m) above the ground at which water poured into its deepest basin spills over in this pose (the
+    #: lowest point of the rim, unlike the box a handle may raise); None without a basin
+    rim: float | None = None
 
     @property
     def up_in_mesh_frame(self) -> np.ndarray:

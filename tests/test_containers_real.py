@@ -14,6 +14,7 @@ from rail_mj.affordances.kinds.container import MIN_DEPTH
 from rail_mj.llm.schemas import CandidateInteraction, ResultSummary
 from rail_mj.objects import object_from_mesh
 from rail_mj.pipeline import Pipeline, RunConfig
+from rail_mj.stable_poses import pose_from_up
 
 
 @pytest.fixture(autouse=True)
@@ -96,3 +97,32 @@ def test_the_enclosure_probe_counts_the_widest_free_sector_round_the_circle() ->
     free[1, [15, 0, 1, 2]] = True  # a sector across direction 0 counts whole
     free[2] = True
     assert _longest_run(free).tolist() == [0, 4, 16]
+
+
+def test_a_vessels_spill_level_is_its_rim_not_its_rising_handle() -> None:
+    """A saucepan's handle rises 4 cm above its rim; water spills at the rim. A closed box has no basin."""
+    pan = object_from_mesh(shapes.saucepan(np.random.default_rng(1)).mesh, name="saucepan")
+    pose = pose_from_up(pan, np.array([0.0, 0.0, 1.0]), 1.0)
+    assert 2 * pose.half_extents[2] > 0.115 and pose.rim == pytest.approx(0.088, abs=0.004)
+    box = object_from_mesh(trimesh.creation.box(extents=(0.2, 0.15, 0.1)), name="box")
+    assert pose_from_up(box, np.array([0.0, 0.0, 1.0]), 1.0).rim is None
+
+
+def test_a_bowls_proportions_are_its_rims_a_deep_pot_stays_no_bowl() -> None:
+    """Height/width at most 0.55 for a bowl: the saucepan's box says 0.64, its rim 0.47; a deep pot's rim 0.74."""
+    bowl = get("bowl")
+    pan = [0.17, 0.093, 0.06]
+    assert not bowl.pose_fits(pan)[0] and bowl.pose_fits(pan, rim=0.088)[0]
+    pot = [0.17, 0.0865, 0.07]
+    fits, why = bowl.pose_fits(pot, rim=0.128)
+    assert not fits and "height/width is 0.740" in why
+    kind = kind_of(bowl)
+    source = kind.scoring(bowl, kind.agent(bowl, [0.34, 0.186, 0.12])).source
+    assert "e[:, 2] / np.maximum" not in source and "(2.0 * e[:, 2] <= 0.2)" in source
+
+
+def test_a_scoop_whose_handle_rises_above_its_rim_is_a_bowl() -> None:
+    """Its handle makes the box 0.82 as high as wide; its rim is 0.47 of its width."""
+    r = _verdict(shapes.scoop(np.random.default_rng(1)).mesh, "scoop", "bowl")
+    assert r.functional, r.analyzer_reasons
+    assert r.functional_pose is not None and r.functional_pose.up_in_mesh_frame[2] > 0.95

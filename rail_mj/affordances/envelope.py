@@ -5,7 +5,10 @@ stable pose's task-frame box (half extents ``h``): ``H = 2 h_z``, ``W`` / ``L``
 the smaller / larger horizontal full extent, ``aspect = H / W``. ``rest`` is
 the agent's bottom height above the ground for the seat, lie and surface kinds.
 The same terms become numpy conditions in the scoring source and a check in
-the Functional Pose Analyzer, so the two never disagree.
+the Functional Pose Analyzer, so the two never disagree; one exception: a
+vessel's upper bound on ``aspect`` is its rim's (the pose's spill level over
+``W``, which a handle rising above the rim does not raise), which only the
+analyser sees, so a container's scoring leaves that bound out.
 """
 
 from __future__ import annotations
@@ -39,23 +42,29 @@ class Envelope:
                  ("height/width", "e[:, 2] / np.maximum(np.minimum(e[:, 0], e[:, 1]), 1e-9)", self.aspect)]
         return [t for t in terms if t[2] != ANY]
 
-    def violation(self, half: Sequence[float]) -> tuple[str, float, Range] | None:
-        """The first box size of a pose (half extents) outside its range: (name, value, range); None when all fit."""
+    def violation(self, half: Sequence[float], rim: float | None = None) -> tuple[str, float, Range] | None:
+        """The first box size of a pose (half extents) outside its range: (name, value, range); None when all fit.
+        With the pose's ``rim`` (spill level, m) the aspect's upper bound is the rim's: ``rim / W``."""
         hx, hy, hz = half
+        width = max(min(hx, hy), 1e-9)
         values = {"height": 2 * hz, "width": 2 * min(hx, hy), "length": 2 * max(hx, hy),
-                  "height/width": hz / max(min(hx, hy), 1e-9)}
+                  "height/width": hz / width}
         for name, _, (lo, hi) in self.terms():
-            if not lo <= values[name] <= hi:
-                return name, values[name], (lo, hi)
+            value = values[name]
+            if name == "height/width" and rim is not None and value > hi:
+                value = min(hz, rim / 2) / width
+            if not lo <= value <= hi:
+                return name, value, (lo, hi)
         return None
 
-    def source(self) -> str:
-        """The box-size conditions as `` & (...)`` numpy terms over ``e``, to append to a scoring mask."""
+    def source(self, *, rim_aspect: bool = False) -> str:
+        """The box-size conditions as `` & (...)`` numpy terms over ``e``, to append to a scoring mask; with
+        ``rim_aspect`` the aspect's upper bound is left to the analyser, which sees the rim."""
         conds = []
-        for _, expr, (lo, hi) in self.terms():
+        for name, expr, (lo, hi) in self.terms():
             if lo > 0.0:
                 conds.append(f"({expr} >= {lo:g})")
-            if hi < math.inf:
+            if hi < math.inf and not (rim_aspect and name == "height/width"):
                 conds.append(f"({expr} <= {hi:g})")
         return "".join(f" & {c}" for c in conds)
 

@@ -86,9 +86,10 @@ class Affordance:
         """Whether OBB dims lie in the plausible size ranges (the stage-1 dimension check)."""
         return self.largest[0] <= max(dims) <= self.largest[1] and self.smallest[0] <= min(dims) <= self.smallest[1]
 
-    def pose_fits(self, half: Sequence[float]) -> tuple[bool, str]:
-        """Whether a pose's box (half extents) is inside the envelope; the reason when it is not."""
-        bad = self.envelope.violation(half)
+    def pose_fits(self, half: Sequence[float], rim: float | None = None) -> tuple[bool, str]:
+        """Whether a pose's box (half extents) is inside the envelope, a vessel's aspect at its ``rim`` (the
+        pose's spill level, m) when given; the reason when it is not."""
+        bad = self.envelope.violation(half, rim)
         if bad is None:
             return True, ""
         name, value, (lo, hi) = bad

@@ -151,7 +151,8 @@ def offline_functional_poses(request: FunctionalPoseRequest) -> FunctionalPoseVe
         reasons: list[str] = []
         h = list(pose.half_extents)
         for c in pose.candidates:
-            ok, why = kind.judge(aff, c, h) if kind is not None and aff is not None else kinds.judge_unregistered(c)
+            ok, why = (kind.judge(aff, c, h, pose.rim) if kind is not None and aff is not None
+                       else kinds.judge_unregistered(c))
             reasons.append(f"{c.plan}: {why}")
             if ok:
                 accepted.append(c)

@@ -236,6 +236,9 @@ class PoseCandidates(_Model):
     pose_index: int = Field(ge=0)
     probability: float = Field(ge=0, le=1)
     half_extents: Vec3
+    rim: float | None = Field(None, description="height (m) at which water poured into the object's deepest basin "
+                                                "spills over in this pose (its rim's lowest point, below a rising "
+                                                "handle); null without a basin")
     candidates: list[CandidateInteraction]
     failed: list[CandidateInteraction] = Field(
         default_factory=list, description="the pose's plans that the scoring function called failures: evidence"

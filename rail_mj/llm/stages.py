@@ -325,6 +325,7 @@ def functional_pose_request(
                 pose_index=i,
                 probability=float(poses[i].probability),
                 half_extents=[float(v) for v in poses[i].half_extents],
+                rim=poses[i].rim,
                 candidates=[c for c in tried if c.score > 0],
                 failed=[c for c in tried if c.score <= 0],
             )

@@ -89,9 +89,11 @@ class Kind(ABC):
     def scoring(self, aff: Affordance, shape: AgentShape) -> ScoringCode:
         """Vectorised numpy scoring source, constants and the pose envelope baked in."""
 
-    def judge(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float]) -> tuple[bool, str]:
-        """Whether one candidate of a pose with half extents ``h`` is consistent with common sense, and why."""
-        fits, why = aff.pose_fits(h)
+    def judge(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float],
+              rim: float | None = None) -> tuple[bool, str]:
+        """Whether one candidate of a pose with half extents ``h`` (and spill level ``rim``, m, when it has a
+        basin) is consistent with common sense, and why."""
+        fits, why = aff.pose_fits(h, rim)
         if not fits:
             return False, why
         why = tipping(c)

@@ -121,8 +121,9 @@ class Container(Kind):
 
     def scoring(self, aff: Affordance, shape: AgentShape) -> ScoringCode:
         envelope = aff.envelope.doc()
+        # a vessel's height/width upper bound is its rim's, which stage 7 sees (a saucepan's handle rises above it)
         body = _BODY.format(min_frac=0.5, max_tilt=math.radians(15), name=aff.name, envelope=envelope,
-                            object_cond=aff.envelope.source(), beneath=BENEATH_MIDDLE)
+                            object_cond=aff.envelope.source(rim_aspect=True), beneath=BENEATH_MIDDLE)
         return ScoringCode(description="Success when more than half the droplets rest inside the object's box "
                                        "below the rim and off the ground, none leaks through to the ground under "
                                        f"the object, the object is upright and its pose has "

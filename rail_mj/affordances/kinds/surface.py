@@ -70,8 +70,8 @@ class Surface(Lowering):
         ux, uy = side_offset(plan.removeprefix("under_"), 1.0)
         out, z = shape.radius + clearance(shape), shape.half_z + _SLIDE_LIFT
         # down beside the object's box from where the whole box clears the floor, then in
-        return [via((ux, uy, -1), (ux * out, uy * out, shape.radius + 0.01)), via((ux, uy, -1), (ux * out, uy * out, z)),
-                via((0, 0, -1), (0, 0, z))]
+        return [via((ux, uy, -1), (ux * out, uy * out, shape.radius + 0.01)),
+                via((ux, uy, -1), (ux * out, uy * out, z)), via((0, 0, -1), (0, 0, z))]
 
     def scoring(self, aff: Affordance, shape: AgentShape) -> ScoringCode:
         lo, hi = rest_bounds(aff)
