@@ -74,6 +74,17 @@ def test_a_thin_walled_tray_closes_as_a_volume_with_its_cavity_open():
 
 
 
+def test_a_deep_bins_cavity_stays_open_down_to_its_bottom():
+    # the ring views never see the bottom of a 30 cm bin: the volume closing filled the unseen cavity (3.6x the
+    # true volume, judged no bin); the view straight down onto the opening sees through it to the bottom
+    trash_bin = make_object("trash_bin", 1)
+    result = scan_object(trash_bin, upright_pose(trash_bin))
+    assert repair_mesh(result.mesh.copy()).is_volume, result.notes
+    assert abs(result.mesh.volume - trash_bin.mesh.volume) < 0.25 * trash_bin.mesh.volume
+    assert result.chamfer_m < 0.004
+    assert result.n_views == ScanConfig().n_views + 1  # the view from above was reached
+
+
 def test_a_scanned_plate_is_a_plate_as_placed():
     # fans across the plate's rim closed the scan but left food resting on top (not functional); the volume
     # closing, chosen because the fans lay where views saw through, keeps the plate a plate

@@ -15,7 +15,9 @@ by CoACD (which thickened a scanned cup's walls and left gaps that leaked). Wher
 mesh's outline on the table and its holes are fanned and manifold3d repairs it (``ScanConfig.closing``).
 
 The view plan knows only the workspace (where objects are put down in front of the robot), not the object:
-look-at targets sit above the workspace centre on two rings, so an unseen object is scanned the same way.
+look-at targets sit above the workspace centre on two rings, so an unseen object is scanned the same way. One
+more view then looks straight down onto the top of what the rings fused (``ScanConfig.top_view``): it sees the
+bottom of a deep cavity, and counts for the closings (what views saw through), not for the TSDF or the carving.
 Each view is reached by IK (``rail_mj.robot.control.solve_ik``) for a site at the camera; the arm is placed at
 the solution and the camera pose used for fusion is read from the model. An unreachable view, or one where
 the arm would touch the table or the object, is skipped and named in ``ScanResult.skipped``.
@@ -61,6 +63,7 @@ __all__ = [
     "ScanScene",
     "build_scan_scene",
     "plan_views",
+    "plan_top_view",
     "render_views",
     "noisy_depth",
     "fuse_views",
@@ -116,6 +119,8 @@ class ScanConfig(BaseModel):
     distance: float = Field(0.33, gt=0.05, le=1.5, description="camera to look-at target, m")
     elevations: tuple[float, ...] = Field((35.0, 60.0), min_length=1,
                                           description="view elevations above the table, cycled over the views")
+    top_view: bool = Field(True, description="after the planned views, one more straight down onto the top of "
+                           "what they fused: the only view that sees the bottom of a deep, narrow cavity")
     elevation_step: float = Field(10.0, ge=0, description="fallback: how much steeper to try an unreachable view")
     fallback_distance: float = Field(0.8, gt=0.3, le=1.0,
                                      description="fallback: the closer distance tried last, × distance")
@@ -195,7 +200,7 @@ class ScanResult:
     mesh: trimesh.Trimesh  # world frame, metres, z up, resting on the table
     chamfer_m: float  # symmetric Chamfer distance to the true mesh (mean of both directions), m; nan unknown
     seconds: dict[str, float]  # plan (IK), render, fuse, extract (and chamfer)
-    n_views: int  # views fused
+    n_views: int  # views used: fused, and the top view (free space only)
     skipped: tuple[str, ...]  # why each planned view was not used
     table_z: float  # fitted table plane height under the object, m
     views: tuple[ScanView, ...]
@@ -379,6 +384,26 @@ def plan_views(config: ScanConfig, workspace_centre: np.ndarray) -> list[Planned
     return views
 
 
+def plan_top_view(volume, config: ScanConfig, table_top: float, index: int) -> PlannedView | None:
+    """A view straight down onto the centre of what the fused views saw above the table, ``distance`` above its
+    top (then the fallback distance); None when they saw nothing there.
+
+    The ring views look in at 35-60 degrees: the bottom of a deep cavity (a waste-paper bin's) stays unseen, and
+    the volume closing fills what no view saw through. Only a camera above the opening sees down into it. The view
+    is not fused into the TSDF: looking straight down on a thin board (a doll's table top), the projective TSDF
+    counts a truncation's depth behind it as inside and thickens it (Chamfer 2.4 -> 2.7 mm); what it adds is the
+    space it sees through.
+    """
+    points = volume.extract_point_cloud(weight_threshold=config.min_observations - 0.5).point.positions.numpy()
+    points = points[points[:, 2] > table_top + 2 * config.plane_distance]
+    if len(points) < 50:
+        return None
+    lo, hi = np.percentile(points, [1.0, 99.0], axis=0)  # a speck of noise does not move the view
+    target = np.array([(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, float(points[:, 2].max())])
+    eyes = tuple(target + np.array([0.0, 0.0, d]) for d in (config.distance, config.fallback_distance * config.distance))
+    return PlannedView(index=index, target=target, eyes=eyes)
+
+
 #: Rolls about the viewing axis tried in turn until the IK reaches the pose: the image's roll is free.
 _ROLLS = (0.0, math.pi / 2, -math.pi / 2, math.pi)
 
@@ -529,8 +554,10 @@ def noisy_depth(depth: np.ndarray, config: ScanConfig, rng: np.random.Generator)
     return out
 
 
-def fuse_views(depths: list[np.ndarray], views: list[ScanView], config: ScanConfig, workspace_centre: np.ndarray):
-    """Integrate the depth images into a TSDF voxel-block grid (Open3D's ``VoxelBlockGrid``); returns the grid.
+def fuse_views(depths: list[np.ndarray], views: list[ScanView], config: ScanConfig, workspace_centre: np.ndarray,
+               grid=None):
+    """Integrate the depth images into a TSDF voxel-block grid (Open3D's ``VoxelBlockGrid``; a new one unless
+    ``grid`` is given); returns the grid.
 
     Pixels whose points fall outside the workspace box are dropped first: the fused region is where objects
     are put down, not the whole room, and its size bounds the grid's blocks.
@@ -546,10 +573,11 @@ def fuse_views(depths: list[np.ndarray], views: list[ScanView], config: ScanConf
     hi = workspace_centre + half
     block = _BLOCK_RESOLUTION * config.voxel_size
     blocks = int(np.prod(np.ceil((hi - lo) / block) + 2))
-    grid = o3d.t.geometry.VoxelBlockGrid(
-        attr_names=("tsdf", "weight"), attr_dtypes=(o3c.float32, o3c.float32), attr_channels=((1), (1)),
-        voxel_size=config.voxel_size, block_resolution=_BLOCK_RESOLUTION, block_count=blocks,
-        device=o3c.Device("CPU:0"))
+    if grid is None:
+        grid = o3d.t.geometry.VoxelBlockGrid(
+            attr_names=("tsdf", "weight"), attr_dtypes=(o3c.float32, o3c.float32), attr_channels=((1), (1)),
+            voxel_size=config.voxel_size, block_resolution=_BLOCK_RESOLUTION, block_count=blocks,
+            device=o3c.Device("CPU:0"))
     u, v = np.meshgrid(np.arange(config.width), np.arange(config.height))
     rays = np.stack([(u - cx) / fx, (v - cy) / fy, np.ones(u.shape)], axis=-1)
     for depth, view in zip(depths, views, strict=True):
@@ -898,10 +926,13 @@ def _canonical_mesh(o3d: ModuleType, mesh):
 
 
 def _extract(volume, depths: list[np.ndarray], views: list[ScanView], config: ScanConfig, table_top: float,
-             workspace_centre: np.ndarray) -> tuple[trimesh.Trimesh, float, list[str]]:
+             workspace_centre: np.ndarray, n_fused: int | None = None) -> tuple[trimesh.Trimesh, float, list[str]]:
     """Table plane (RANSAC) out, largest cluster (DBSCAN) in, the TSDF mesh cropped to the cluster's box.
 
-    Open3D keeps voxels whose weight (views fused) is strictly above its threshold: hence ``- 0.5``.
+    Open3D keeps voxels whose weight (views fused) is strictly above its threshold: hence ``- 0.5``. The first
+    ``n_fused`` views (default all) are the TSDF's and carve it; the rest (the top view) count for the closings
+    only: carving with a view straight down on a box's top opened holes at its edges that the fans could not close,
+    and the volume closing came out a voxel wider on each side (noisy test box: 5.2 mm instead of 3.3 mm).
     """
     o3d = load_open3d()
     notes: list[str] = []
@@ -973,7 +1004,7 @@ def _extract(volume, depths: list[np.ndarray], views: list[ScanView], config: Sc
     o3d_mesh.remove_unreferenced_vertices()
     mesh = trimesh.Trimesh(np.asarray(o3d_mesh.vertices), np.asarray(o3d_mesh.triangles), process=True)
     if config.carve:
-        mesh, _ = _carve(mesh, depths, views, config)
+        mesh, _ = _carve(mesh, depths[:n_fused], views[:n_fused], config)
     fused = mesh
     if config.watertight and config.closing == "volume":
         solid, more = _solid_closing(fused, depths, views, config, lo, hi, table_z)
@@ -1045,8 +1076,20 @@ def scan_object(obj: RailObject, pose: StablePose, config: ScanConfig | None = N
     t0 = time.perf_counter()
     volume = fuse_views(depths, views, config, scene.workspace_centre)
     seconds["fuse"] = time.perf_counter() - t0
+    n_fused = len(views)
+    top = plan_top_view(volume, config, scene.table_top, config.n_views) if config.top_view else None
+    if top is not None:
+        t0 = time.perf_counter()
+        more, not_reached, fallback = _reach_views(scene, [top], np.asarray(surface), config)
+        skipped, moved = skipped + not_reached, moved + fallback
+        seconds["plan"] += time.perf_counter() - t0
+        if more:  # for the closings only (plan_top_view and _extract say why)
+            t0 = time.perf_counter()
+            depths = depths + [noisy_depth(d, config, rng) for d in render_views(scene, more, config)]
+            views = views + more
+            seconds["render"] += time.perf_counter() - t0
     t0 = time.perf_counter()
-    mesh, table_z, notes = _extract(volume, depths, views, config, scene.table_top, scene.workspace_centre)
+    mesh, table_z, notes = _extract(volume, depths, views, config, scene.table_top, scene.workspace_centre, n_fused)
     seconds["extract"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     chamfer = chamfer_distance(mesh, world, config.chamfer_points, config.seed)
