@@ -76,3 +76,29 @@ def test_the_scan_is_available_where_the_loader_can_load_open3d(monkeypatch):
 
     monkeypatch.setattr("rail_mj.robot.scan.load_open3d", missing)
     assert "open3d" in experiment.scan_available()
+
+
+def test_a_plan_on_a_scan_turned_half_a_turn_is_carried_out_on_the_real_object_the_same_way_round():
+    # as_placed_pose may turn a scanned model's footprint box half a turn: the doll shelf's scan did, and its plan
+    # "left" (+y on the scan: the shelf's open front) was pushed into the real shelf's back wall
+    import numpy as np
+
+    from rail_mj.robot.control import RobotConfig
+    from rail_mj.robot.experiment import plan_in_true_frame
+    from rail_mj.types import StablePose
+
+    robot = RobotConfig()
+    half = np.array([0.1, 0.06, 0.05])
+    # the scanned mesh: world coordinates, its base brought down from the table top to z = 0
+    scan_base_world = np.array([0.0, 0.0, robot.table_height])
+    turned = StablePose(pos=np.array([robot.object_xy[0], robot.object_xy[1], 0.0]), quat=np.array([0.0, 0, 0, 1]),
+                        probability=1.0, half_extents=half)
+    true_origin = np.array([*robot.object_xy, robot.table_height + half[2]])
+    via = np.array([[0.0, 0.1, 0.02, 1, 0, 0, 0], [0.0, 0.0, 0.02, 1, 0, 0, 0]])
+    out = plan_in_true_frame(via, turned, scan_base_world - true_origin)
+    assert np.allclose(out[:, :3], [[0.0, -0.1, 0.02], [0.0, 0.0, 0.02]])  # the same side of the real object
+    assert np.allclose(np.abs(out[:, 3:]), [0, 0, 0, 1])  # the item turned with the frame
+
+    straight = StablePose(pos=np.array([-robot.object_xy[0], -robot.object_xy[1], 0.0]), quat=np.array([1.0, 0, 0, 0]),
+                          probability=1.0, half_extents=half)
+    assert np.allclose(plan_in_true_frame(via, straight, scan_base_world - true_origin), via)

@@ -29,6 +29,7 @@ import trimesh
 
 from rail_mj.affordances import PAPER_AFFORDANCES, request_scale
 from rail_mj.errors import RailError
+from rail_mj.geometry import quat_conj, quat_mul, quat_rotate, task_origin
 from rail_mj.objects import object_from_mesh
 from rail_mj.pipeline import as_placed_pose, classify
 from rail_mj.robot.control import RobotConfig
@@ -38,8 +39,8 @@ from rail_mj.robot.request import parse_request
 from rail_mj.runfiles import atomic_write_text
 from rail_mj.types import RailObject, StablePose
 
-__all__ = ["Task", "TASKS", "task_object", "scan_available", "run_task", "run_experiment", "summarize",
-           "format_table"]
+__all__ = ["Task", "TASKS", "task_object", "scan_available", "plan_in_true_frame", "run_task", "run_experiment",
+           "summarize", "format_table"]
 
 
 @dataclass(frozen=True)
@@ -111,16 +112,21 @@ def scan_available() -> str | None:
     return None
 
 
-def _scanned(obj: RailObject, pose: StablePose) -> tuple[RailObject, dict[str, Any]]:
-    """The scanned model as an object (mesh frame: z up, base at z = 0), with what the scan measured."""
-    from rail_mj.robot.scan import scan_object
+def _scanned(obj: RailObject, pose: StablePose) -> tuple[RailObject, dict[str, Any], np.ndarray]:
+    """The scanned model as an object (mesh frame: z up, base at z = 0), with what the scan measured, and where
+    its mesh frame's origin lies in the real object's task frame (for :func:`plan_in_true_frame`)."""
+    from rail_mj.robot.scan import ScanConfig, scan_object
 
+    config = ScanConfig()
     t0 = time.perf_counter()
-    result = scan_object(obj, pose)
+    result = scan_object(obj, pose, config)
     seconds = time.perf_counter() - t0
     mesh = trimesh.Trimesh(np.asarray(result.mesh.vertices), np.asarray(result.mesh.faces), process=False)
     # the model stands on the table in the world: bring its base to z = 0 (the pose it stands in is kept)
-    mesh.apply_translation([0.0, 0.0, -float(mesh.bounds[0][2])])
+    base = np.array([0.0, 0.0, float(mesh.bounds[0][2])])
+    mesh.apply_translation(-base)
+    robot = config.robot
+    true_origin = np.array([*robot.object_xy, robot.table_height]) + task_origin(pose.half_extents)
     t0 = time.perf_counter()
     scanned = object_from_mesh(mesh, name=f"{obj.name}_scan")
     info = {"chamfer_m": float(result.chamfer_m), "n_views": int(result.n_views), "seconds": seconds,
@@ -129,7 +135,24 @@ def _scanned(obj: RailObject, pose: StablePose) -> tuple[RailObject, dict[str, A
             "watertight": bool(mesh.is_volume), "hulls": len(scanned.hulls),
             # what the scan noted beyond the views' fallbacks: cut off at the workspace edge, holes left open
             "notes": [n[:200] for n in result.notes if not n.startswith("view ")]}
-    return scanned, info
+    return scanned, info, base - true_origin
+
+
+def plan_in_true_frame(via_poses: np.ndarray, scan_pose: StablePose, scan_base: np.ndarray) -> np.ndarray:
+    """Via-poses ``(K, 7)`` imagined in the scanned model's task frame, in the real object's task frame, where the
+    executor carries them out; ``scan_base``: the scanned mesh frame's origin in that frame.
+
+    Each model gets its own task frame: its box centre, turned so its footprint's box lies on the axes
+    (``as_placed_pose``). Which way round is free: the doll shelf's scan came out turned half a turn, and its
+    plan "left" (the open front, on the scan) was pushed into the real shelf's back wall.
+    """
+    via = np.asarray(via_poses, dtype=float)
+    turn = np.asarray(scan_pose.quat, dtype=float)
+    # scan task frame -> scan mesh frame (the inverse of its pose) -> the real object's task frame
+    local = via[:, :3] + task_origin(scan_pose.half_extents) - np.asarray(scan_pose.pos, dtype=float)
+    pos = quat_rotate(quat_conj(turn), local) + scan_base
+    quat = quat_mul(np.broadcast_to(quat_conj(turn), via[:, 3:].shape), via[:, 3:])
+    return np.hstack([pos, quat / np.linalg.norm(quat, axis=1, keepdims=True)])
 
 
 def _verdict(result) -> dict[str, Any]:
@@ -167,7 +190,7 @@ def run_task(task: Task, *, scan: bool = True, config: RobotConfig | None = None
     if scan:
         t0 = time.perf_counter()
         try:
-            scanned, info = _scanned(obj, pose)
+            scanned, info, scan_base = _scanned(obj, pose)
         except RailError as exc:
             row["scan"] = {"error": f"{type(exc).__name__}: {exc}"[:400], "functional": None}
             times["scan"] = time.perf_counter() - t0
@@ -190,8 +213,9 @@ def run_task(task: Task, *, scan: bool = True, config: RobotConfig | None = None
     else:
         t0 = time.perf_counter()
         render = Path(video) / f"{task.name}.mp4" if video is not None else None
+        via_poses = case.via_poses if plan_from is true else plan_in_true_frame(case.via_poses, case.pose, scan_base)
         # the plan imagined on the model, carried out on the real object standing where it stands
-        res = execute(obj, pose, case.agent_fragment, case.via_poses, case.scoring, config=cfg, render=render,
+        res = execute(obj, pose, case.agent_fragment, via_poses, case.scoring, config=cfg, render=render,
                       affordance=row["affordance"])
         times["execute"] = time.perf_counter() - t0
         row.update(success=bool(res.success), score=float(res.score) if np.isfinite(res.score) else None,
