@@ -138,3 +138,30 @@ def test_robot_refuses_unsafe_fragments(panda_folder, cup_case):
 def test_fetch_from_the_registry(tmp_path):
     folder = fetch_panda(tmp_path / "franka_emika_panda")
     assert sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*") if p.is_file()) == sorted(PANDA_FILES)
+
+
+def test_a_side_grasp_points_the_hand_along_the_push():
+    from rail_mj.robot.executor import side_grasp
+
+    for fingers_vertical in (False, True):
+        rot = np.empty(9)
+        mujoco.mju_quat2Mat(rot, side_grasp(np.array([0.0, 0.3, 0.0]), fingers_vertical))
+        hand_in_agent = rot.reshape(3, 3).T  # columns: the hand's x, y, z in the agent's frame
+        assert np.allclose(hand_in_agent[:, 2], [0, 1, 0]) and np.isclose(np.linalg.det(hand_in_agent), 1.0)
+        assert np.isclose(abs(hand_in_agent[2, 1]), 1.0 if fingers_vertical else 0.0)
+
+
+def test_an_item_pushed_in_under_a_board_is_held_from_the_side(panda_folder):
+    # a doll's cupboard: held from above, the hand over the item catches the top board while pushing it onto the
+    # middle board and tips the cupboard over (issue 15); held from behind, the hand stays out in front
+    from rail_mj.robot.demo import _BLOCK, _inside
+
+    obj = make_object("cupboard", 1)
+    pose = upright_pose(obj)
+    h = pose.half_extents
+    ident = [1.0, 0, 0, 0]
+    z = 0.15 * h[2]  # the storage plans' height: above the middle board, well under the top
+    via = np.array([[0.0, -h[1] - 0.05, z, *ident], [0.0, 0.0, z, *ident]])  # the front is open (-y)
+    res = execute(obj, pose, _BLOCK.format(a=0.02, b=0.02, rho=500), via, _inside(0.0))
+    assert res.reachable and res.success, res.message
+    assert res.object_tilt < 0.1 and res.peak_force <= 1.2 * res.force_limit

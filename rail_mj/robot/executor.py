@@ -26,7 +26,7 @@ import mujoco
 import numpy as np
 
 from rail_mj.errors import FragmentError, RobotError
-from rail_mj.geometry import quat_angle, slerp
+from rail_mj.geometry import quat_angle, quat_conj, quat_rotate, slerp
 from rail_mj.imagination.batch import Placement, assemble_outcomes
 from rail_mj.mjcf import (
     OBJECT_BODY,
@@ -60,6 +60,7 @@ __all__ = [
     "ExecutionResult",
     "RobotScene",
     "build_scene",
+    "side_grasp",
     "DriveResult",
     "drive",
     "execute",
@@ -75,6 +76,8 @@ ScoringFunction = Callable[[Outcomes], np.ndarray]
 _FINGERTIP_Z = 0.1125
 #: Agent frame -> hand frame: the hand points down (its z = the agent's -z).
 _GRASP_QUAT = np.array([0.0, 1.0, 0.0, 0.0])
+#: A plan whose path runs at least this far, and more horizontally than vertically, may be held from the side, m.
+_SIDE_PUSH = 0.01
 _PRIMITIVES = (mujoco.mjtGeom.mjGEOM_SPHERE, mujoco.mjtGeom.mjGEOM_BOX, mujoco.mjtGeom.mjGEOM_CAPSULE,
                mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_ELLIPSOID)
 #: Video frames: (width, height) in pixels and frames per simulated second.
@@ -194,14 +197,35 @@ def _agent_extent(fragment: str) -> np.ndarray:
     return hi - lo
 
 
+def _grasp_depth(extent: np.ndarray, grasp: np.ndarray) -> float:
+    """Half the agent's box (full size ``extent``, its own frame) along the hand's z for the grasp ``grasp``."""
+    rot = np.empty(9)
+    mujoco.mju_quat2Mat(rot, np.asarray(grasp, dtype=np.float64))
+    return float(np.abs(rot.reshape(3, 3)[2]) @ extent / 2)  # row 2: the hand's z in the agent's frame
+
+
+def side_grasp(direction: np.ndarray, fingers_vertical: bool = False) -> np.ndarray:
+    """The grasp (agent frame -> hand frame, wxyz) of a hand pointing along ``direction`` (agent frame, horizontal):
+    it holds the item from behind as it pushes it, the fingers closing across it horizontally or vertically."""
+    z = np.array([direction[0], direction[1], 0.0])
+    z /= np.linalg.norm(z)
+    y = np.array([0.0, 0.0, 1.0]) if fingers_vertical else np.array([-z[1], z[0], 0.0])
+    hand_in_agent = np.column_stack([np.cross(y, z), y, z])
+    quat = np.empty(4)
+    mujoco.mju_mat2Quat(quat, hand_in_agent.T.ravel())
+    return quat
+
+
 def build_scene(cfg: RobotConfig, *, obj: RailObject | None = None, pose: StablePose | None = None,
                 agent_fragment: str | None = None, agent_scale: float = 1.0,
-                boxes: tuple[tuple[np.ndarray, np.ndarray], ...] = (), visual: bool | None = None) -> RobotScene:
+                boxes: tuple[tuple[np.ndarray, np.ndarray], ...] = (), visual: bool | None = None,
+                grasp: np.ndarray = _GRASP_QUAT) -> RobotScene:
     """Compile the torque-controlled Panda on a floor, a table, the placed object and the welded agent.
 
     The object and the agent come from the imagination's scene composer (``rail_mj.mjcf``), with its contact
     constants at the robot's timestep; the table and floor are the ground. ``boxes`` adds fixed boxes
-    ``(centre, half_size)`` in the world (used for scripted collisions).
+    ``(centre, half_size)`` in the world (used for scripted collisions). ``grasp``: how the hand holds the agent
+    (agent frame -> hand frame): from above by default, or :func:`side_grasp`.
     """
     spec = load_panda_spec(visual=cfg.visual if visual is None else visual)
     make_torque_controlled(spec)
@@ -235,13 +259,13 @@ def build_scene(cfg: RobotConfig, *, obj: RailObject | None = None, pose: Stable
                           quat=(1.0, 0.0, 0.0, 0.0), physics=physics)
         agent_name = agent.name
         agent_geoms = agent.find_all(mujoco.mjtObj.mjOBJ_GEOM)
-        grip_z += _agent_extent(agent_fragment)[2] * agent_scale / 2 + 0.002
+        grip_z += _grasp_depth(_agent_extent(agent_fragment) * agent_scale, grasp) + 0.002
         for name in ("hand", "left_finger", "right_finger"):
             spec.add_exclude(bodyname1=name, bodyname2=agent_name)
         spec.add_equality(type=mujoco.mjtEq.mjEQ_WELD, objtype=mujoco.mjtObj.mjOBJ_BODY, name="hold",
                           name1="hand", name2=agent_name,
-                          data=[0, 0, 0, 0, 0, grip_z, *_GRASP_QUAT, 1, 0])
-    spec.body("hand").add_site(name="grip", pos=[0, 0, grip_z], quat=_GRASP_QUAT)
+                          data=[0, 0, 0, 0, 0, grip_z, *grasp, 1, 0])
+    spec.body("hand").add_site(name="grip", pos=[0, 0, grip_z], quat=list(grasp))
     for geom in [g for g in spec.geoms if g.parent.name in MONITORED_BODIES] + agent_geoms:
         geom.solref = [cfg.compliance, 1.0]
     try:
@@ -491,6 +515,17 @@ def _ik_plan(scene: RobotScene, cfg: RobotConfig, start: tuple[np.ndarray, np.nd
     return _IKPlan(postures, worst, blocked, solves, "")
 
 
+def _side_grasps(positions: np.ndarray, final_quat: np.ndarray) -> list[np.ndarray]:
+    """The side grasps worth trying for a path ``(K, 3)`` (task frame) ending with the agent at ``final_quat``:
+    a hand pointing along the push, fingers across it horizontally, then vertically; none for a path that
+    does not push mostly horizontally (a drop from above, a set-down)."""
+    push = positions[-1] - positions[0]
+    if np.linalg.norm(push[:2]) < max(_SIDE_PUSH, abs(push[2])):
+        return []
+    direction = quat_rotate(quat_conj(final_quat), push)  # task frame -> the agent's frame
+    return [side_grasp(direction), side_grasp(direction, fingers_vertical=True)]
+
+
 def _home_grip(scene: RobotScene) -> tuple[np.ndarray, np.ndarray]:
     data = mujoco.MjData(scene.model)
     data.qpos[scene.arm.qpos] = HOME_QPOS
@@ -560,23 +595,36 @@ def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: 
     t0 = time.perf_counter()
     half = np.asarray(pose.half_extents, dtype=float)
     scale = _agent_scale(agent_fragment, half, cfg)
-    scene = build_scene(cfg, obj=obj, pose=pose, agent_fragment=agent_fragment, agent_scale=scale,
-                        visual=True if render is not None else None)
-    timings["build"] = time.perf_counter() - t0
-
-    t0 = time.perf_counter()
     quats = traj[:, 3:] / np.linalg.norm(traj[:, 3:], axis=1, keepdims=True)
-    path = [(scene.task_origin + p, q) for p, q in zip(traj[:, :3], quats)]
-    top = scene.task_origin[2] + half[2]
-    above = path[0][0].copy()
-    above[2] = max(above[2], top + cfg.clearance)
-    home = _home_grip(scene)
-    # rise (or stay) to the approach height first so the straight approach clears the object
-    rise = np.array([home[0][0], home[0][1], max(home[0][2], above[2])])
-    targets = [(rise, path[0][1]), (above, path[0][1])] + path
-    plan = _ik_plan(scene, cfg, home, targets)
-    timings["ik"] = time.perf_counter() - t0
-    timings["ik_per_solve"] = timings["ik"] / max(1, plan.solves)
+    timings["build"] = timings["ik"] = 0.0
+    solves = 0
+    chosen = None
+    # the hand holds the agent from above; where that hand would have to pass through the object (a cupboard's
+    # top board over the shelf the item is pushed onto), a hand holding it from behind may not
+    for grasp in [_GRASP_QUAT, *_side_grasps(traj[:, :3], quats[-1])]:
+        t0 = time.perf_counter()
+        scene = build_scene(cfg, obj=obj, pose=pose, agent_fragment=agent_fragment, agent_scale=scale,
+                            visual=True if render is not None else None, grasp=grasp)
+        timings["build"] += time.perf_counter() - t0
+        t0 = time.perf_counter()
+        path = [(scene.task_origin + p, q) for p, q in zip(traj[:, :3], quats)]
+        top = scene.task_origin[2] + half[2]
+        above = path[0][0].copy()
+        above[2] = max(above[2], top + cfg.clearance)
+        home = _home_grip(scene)
+        # rise (or stay) to the approach height first so the straight approach clears the object
+        rise = np.array([home[0][0], home[0][1], max(home[0][2], above[2])])
+        targets = [(rise, path[0][1]), (above, path[0][1])] + path
+        plan = _ik_plan(scene, cfg, home, targets)
+        timings["ik"] += time.perf_counter() - t0
+        solves += plan.solves
+        # reachable first, then the fewest path samples where the hand would touch the table or the object
+        if chosen is None or (bool(plan.message), plan.blocked) < (bool(chosen[1].message), chosen[1].blocked):
+            chosen = (scene, plan, path, targets, grasp)
+        if not plan.message and not plan.blocked:
+            break
+    scene, plan, path, targets, grasp = chosen
+    timings["ik_per_solve"] = timings["ik"] / max(1, solves)
 
     def result(success: bool, score: float, reachable: bool, message: str, sim: _Sim | None,
                outcomes: Outcomes | None) -> ExecutionResult:
@@ -614,14 +662,20 @@ def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: 
     if not stopped:
         _hold(sim, *path[-1], cfg.hold_time, "hold")
 
-    # release: the weld lets go, the fingers open, the hand lifts straight up
+    # release: the weld lets go, the fingers open, the hand withdraws: straight up from above, and back the way
+    # it pushed from the side (lifting there would catch what hangs over the item)
     data.eq_active[scene.weld] = 0
     sim.held = False
     # the free agent gets back the imagination's contact softness; soft pads were for the grasp
     scene.model.geom_solref[scene.agent_geoms] = scene.agent_solref
     sim.gripper = 255.0
     pos, quat = sim.site_pose()
-    _follow(sim, [(pos + np.array([0.0, 0.0, cfg.lift_after_release]), quat)], [sim.posture[None]], "lift", -1)
+    away = np.array([0.0, 0.0, 1.0])
+    if grasp is not _GRASP_QUAT:
+        rot = np.empty(9)
+        mujoco.mju_quat2Mat(rot, np.asarray(grasp, dtype=np.float64))
+        away = -quat_rotate(path[-1][1], rot.reshape(3, 3)[2])  # the hand's z, agent frame -> task frame
+    _follow(sim, [(pos + cfg.lift_after_release * away, quat)], [sim.posture[None]], "lift", -1)
 
     pos, quat = sim.site_pose()
     sim.phase = "settle"
