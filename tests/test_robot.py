@@ -165,3 +165,19 @@ def test_an_item_pushed_in_under_a_board_is_held_from_the_side(panda_folder):
     res = execute(obj, pose, _BLOCK.format(a=0.02, b=0.02, rho=500), via, _inside(0.0))
     assert res.reachable and res.success, res.message
     assert res.object_tilt < 0.1 and res.peak_force <= 1.2 * res.force_limit
+
+
+def test_an_item_pressed_onto_a_bed_does_not_bring_the_fingertips_down_on_it(panda_folder):
+    # pressed till the force limit, the held item's soft pads sink and its weld gives: with the fingertips 2 mm
+    # above it they struck the mattress, a one-step spike over the limit (a doll's bed: 18.3 N against 15 N)
+    from rail_mj.robot.demo import _on_object
+
+    obj = make_object("bed", 1)
+    pose = upright_pose(obj)
+    top = float(max(hull[:, 2].max() for hull in obj.hulls[:5])) + pose.pos[2] - pose.half_extents[2]  # mattress
+    doll = '<mujoco><worldbody><body name="doll"><geom type="box" size="0.04 0.028 0.013" mass="0.12"/></body></worldbody></mujoco>'
+    ident = [1.0, 0, 0, 0]
+    via = np.array([[0.0, 0.0, top + 0.06, *ident], [0.0, 0.0, top - 0.04, *ident]])  # pressed in till the limit
+    res = execute(obj, pose, doll, via, _on_object)
+    assert res.reachable and res.success and res.force_events
+    assert res.peak_force < 1.05 * res.force_limit

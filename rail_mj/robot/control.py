@@ -73,6 +73,9 @@ class RobotConfig(BaseModel):
     object_xy: tuple[float, float] = Field((0.55, 0.0), description="where the object's task frame sits, m")
     clearance: float = Field(0.08, ge=0, description="approach height above the object top, m")
     agent_size: tuple[float, float] = Field((0.03, 0.045), description="graspable agent size range, m")
+    grip_gap: float = Field(0.015, ge=0, description="how far the held agent lies below the fingertips, m: more than "
+                            "its soft pads sink at the force limit (9 mm at 15 N), so the fingertips do not strike "
+                            "the surface it is pressed onto")
     visual: bool = Field(False, description="load the render meshes (slower compile); forced on when rendering")
 
 

@@ -259,7 +259,7 @@ def build_scene(cfg: RobotConfig, *, obj: RailObject | None = None, pose: Stable
                           quat=(1.0, 0.0, 0.0, 0.0), physics=physics)
         agent_name = agent.name
         agent_geoms = agent.find_all(mujoco.mjtObj.mjOBJ_GEOM)
-        grip_z += _grasp_depth(_agent_extent(agent_fragment) * agent_scale, grasp) + 0.002
+        grip_z += _grasp_depth(_agent_extent(agent_fragment) * agent_scale, grasp) + cfg.grip_gap
         for name in ("hand", "left_finger", "right_finger"):
             spec.add_exclude(bodyname1=name, bodyname2=agent_name)
         spec.add_equality(type=mujoco.mjtEq.mjEQ_WELD, objtype=mujoco.mjtObj.mjOBJ_BODY, name="hold",
