@@ -167,3 +167,16 @@ def test_a_desk_deeper_than_high_is_a_table_a_bathtub_on_its_side_is_not():
     lying.failed.extend(_slid(f"under_{side}", tub, under=False) for side in ("front", "back", "left", "right"))
     verdict = _verdict("table", lying)
     assert verdict.best_pose is None and "no room for feet" in verdict.poses[0].reason
+
+
+def test_a_high_seat_with_nothing_behind_it_is_no_chair():
+    """A round pedestal table 0.71 m high bears the pelvis at its centre and off it, and a second pelvis 0.35 m from
+    its centre slides off its rocking top; a bar chair's seat as high has a back rising 0.3 m behind the sitter."""
+    top = [0.59, 0.59, 0.357]
+    verdict = _verdict("chair", _pose(0, 0.5, top, CENTRE + AREA, 0.714))
+    assert verdict.best_pose is None and "has a back" in verdict.poses[0].reason
+    assert _verdict("stool", _pose(0, 0.5, top, CENTRE + AREA, 0.714)).best_pose == 0  # a stool needs none
+    bar = [0.23, 0.22, 0.53]
+    assert _verdict("chair", _pose(0, 0.3, bar, CENTRE + AREA, 0.72)).best_pose == 0
+    low = [0.59, 0.59, 0.25]  # a 0.5 m low table is as high as a chair's seat: the second sitter tells
+    assert _verdict("chair", _pose(0, 0.5, low, CENTRE + AREA, 0.5)).best_pose == 0

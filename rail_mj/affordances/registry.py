@@ -74,6 +74,9 @@ class Affordance:
     droplets: Droplets = Droplets()  # container kind only
     persons: int = 1  # seat kind only: people who sit on it side by side (1: a seat for one)
     legroom: bool = False  # surface kind only: used from beside it, so a person's feet go under its top's edge
+    #: seat kind only: a seat higher than this (m, the sitter's bottom) has a back rising behind the sitter (a bar
+    #: chair; a high seat without one is a stool, or a table's top)
+    perch: float = math.inf
     #: size of the agent the row is for relative to the person its sizes are for (:meth:`scaled`; 1 = a person's)
     scale: float = 1.0
 
@@ -113,7 +116,7 @@ class Affordance:
         envelope = Envelope(height=times(env.height), width=times(env.width), length=times(env.length),
                             aspect=env.aspect, rest=times(env.rest))
         return replace(self, largest=times(self.largest), smallest=times(self.smallest), envelope=envelope,
-                       scale=self.scale * factor)
+                       perch=self.perch * factor, scale=self.scale * factor)
 
 
 def _rows() -> tuple[Affordance, ...]:
@@ -165,12 +168,13 @@ def _rows() -> tuple[Affordance, ...]:
                    # 0.6-0.77 m high; a bathtub on its side, which is as deep, has no room under its edge
                    envelope=Envelope(height=(0.55, 1.12), width=(0.5, 3.0), rest=(0.54, 1.12))),
         Affordance("chair", "seat", "A chair lets one person sit: a level seat 0.3-0.7 m across, 0.38-0.55 m "
-                   "high, up to 0.77 m for a counter or bar chair (feet on a rung), usually with a backrest.",
+                   "high, up to 0.77 m for a counter or bar chair (feet on a rung, a back behind), usually with a "
+                   "backrest.",
                    (0.4, 1.3), (0.3, 0.9), paper=True,
                    # a seat for one by the seat kind's second-sitter test, not by the box: arms and a back
                    # make an armchair's box 0.9 m wide around a 0.5 m seat. Counter and bar chairs seat a person
-                   # at 0.6-0.77 m (24-30 in); a pelvis on an armchair's 0.79 m back is no sitter
-                   envelope=Envelope(rest=(0.36, 0.78))),
+                   # at 0.6-0.77 m (24-30 in), with a back; a pelvis on an armchair's 0.79 m back is no sitter
+                   envelope=Envelope(rest=(0.36, 0.78)), perch=0.57),
         # sizes as a chair's: an armchair or a bar chair is a stool too
         Affordance("stool", "seat", "A stool lets one person sit on a level seat 0.38-0.85 m high, without a "
                    "backrest.", (0.3, 1.3), (0.25, 0.9), envelope=Envelope(rest=(0.36, 0.87))),

@@ -43,6 +43,9 @@ _AREA = 0.06
 #: the box's half height; the pelvis rests at mean height 1 + its half height when nothing rises above it). A
 #: chair's back rises 0.3-0.5 m above its seat, a chair lying on its back has nothing above the pelvis.
 _BACK = 0.5
+#: A back behind a high seat rises at least this far (m, a person's) above the seated pelvis's centre: a bar chair's
+#: back rises 0.25-0.35 m, a small table's top has nothing above it.
+_PERCH_BACK = 0.2
 #: Where a second sitter sits (m from the centre along the object's length, a person's): a pelvis resting
 #: there is supported only by a seat over 0.7 m long, the widest seat for one (0.9 m make a bench for two).
 _BESIDE = 0.35
@@ -111,7 +114,13 @@ class Seat(Kind):
         return rest_scoring(aff, shape, *rest_bounds(aff), 15, 15, f"upright {rest_words(aff)}")
 
     def accept(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float]) -> tuple[bool, str]:
-        return rest_accept(c, h, rest_window(aff, _HALF[2] * aff.scale), 15)
+        ok, why = rest_accept(c, h, rest_window(aff, _HALF[2] * aff.scale), 15)
+        bottom = (c.summary.mean_height + 1.0) * h[2] - _HALF[2] * aff.scale
+        rise = (1.0 - c.summary.mean_height) * h[2]  # of the object above the pelvis's centre
+        if ok and bottom > aff.perch and rise < _PERCH_BACK * aff.scale:
+            return False, (f"the seat is {bottom:.2f} m high, above a sitter's knees ({aff.perch:g} m), and nothing "
+                           f"rises {_PERCH_BACK * aff.scale:g} m behind the sitter: a {aff.name} that high has a back")
+        return ok, why
 
     def accept_pose(
         self, aff: Affordance, accepted: list[CandidateInteraction], tried: list[CandidateInteraction]
