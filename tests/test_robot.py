@@ -175,7 +175,8 @@ def test_an_item_pressed_onto_a_bed_does_not_bring_the_fingertips_down_on_it(pan
     obj = make_object("bed", 1)
     pose = upright_pose(obj)
     top = float(max(hull[:, 2].max() for hull in obj.hulls[:5])) + pose.pos[2] - pose.half_extents[2]  # mattress
-    doll = '<mujoco><worldbody><body name="doll"><geom type="box" size="0.04 0.028 0.013" mass="0.12"/></body></worldbody></mujoco>'
+    doll = ('<mujoco><worldbody><body name="doll"><geom type="box" size="0.04 0.028 0.013" mass="0.12"/></body>'
+            '</worldbody></mujoco>')
     ident = [1.0, 0, 0, 0]
     via = np.array([[0.0, 0.0, top + 0.06, *ident], [0.0, 0.0, top - 0.04, *ident]])  # pressed in till the limit
     res = execute(obj, pose, doll, via, _on_object)

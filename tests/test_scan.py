@@ -194,7 +194,8 @@ def test_the_tsdf_mesh_order_is_canonical():
     rank = np.argsort(perm)
     faces = rank[np.asarray(box.faces)][rng.permutation(len(box.faces))]
     faces = np.roll(faces, 1, axis=1)  # another start vertex, same winding
-    meshes = [o3d.t.geometry.TriangleMesh(o3d.core.Tensor(np.asarray(v, np.float32)), o3d.core.Tensor(np.asarray(f, np.int32)))
+    meshes = [o3d.t.geometry.TriangleMesh(o3d.core.Tensor(np.asarray(v, np.float32)),
+                                          o3d.core.Tensor(np.asarray(f, np.int32)))
               for v, f in ((box.vertices, box.faces), (np.asarray(box.vertices)[perm], faces))]
     a, b = (_canonical_mesh(o3d, m) for m in meshes)
     assert np.array_equal(np.asarray(a.vertices), np.asarray(b.vertices))

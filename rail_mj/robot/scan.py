@@ -400,7 +400,8 @@ def plan_top_view(volume, config: ScanConfig, table_top: float, index: int) -> P
         return None
     lo, hi = np.percentile(points, [1.0, 99.0], axis=0)  # a speck of noise does not move the view
     target = np.array([(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, float(points[:, 2].max())])
-    eyes = tuple(target + np.array([0.0, 0.0, d]) for d in (config.distance, config.fallback_distance * config.distance))
+    eyes = tuple(target + np.array([0.0, 0.0, d])
+                 for d in (config.distance, config.fallback_distance * config.distance))
     return PlannedView(index=index, target=target, eyes=eyes)
 
 
