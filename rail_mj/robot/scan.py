@@ -671,7 +671,8 @@ def _watertight(mesh: trimesh.Trimesh, config: ScanConfig) -> tuple[trimesh.Trim
         return mesh, notes + ["holes left open"]
     # a fan across a large outline can make the wrong piece the kept one: the result must lie on the scan
     samples, _ = trimesh.sample.sample_surface(closed, 4000, seed=config.seed)
-    off = float(np.mean(np.abs(trimesh.proximity.signed_distance(result, samples))))
+    # unsigned: the sign (ray tests, ~70% of signed_distance's time) plays no part in the mean distance
+    off = float(np.mean(trimesh.proximity.closest_point(result, samples)[1]))
     if off > config.voxel_size:
         return mesh, [f"the watertight scan strays {1000 * off:.1f} mm (mean) from the fused surface; holes "
                         "left open"]
