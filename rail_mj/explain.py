@@ -60,12 +60,12 @@ def up_axis(up: list[float]) -> str:
     return "[" + ", ".join(f"{v:.2f}" for v in up) + "]"
 
 
-def _envelope(affordance: str, half: list[float]) -> str:
+def _envelope(affordance: str, half: list[float], rim: float | None) -> str:
     try:
         aff = get(affordance)
     except UnknownAffordanceError:
         return "no registered envelope"
-    fits, why = aff.pose_fits(half)
+    fits, why = aff.pose_fits(half, rim)  # as the analyser judged it: a vessel's aspect at its rim
     return "fits" if fits else why
 
 
@@ -87,7 +87,7 @@ def explain(r: AffordanceResult) -> Explanation:
             index=p.index, probability=p.probability, up=up_axis(p.up_in_mesh_frame),
             up_in_mesh_frame=[round(v, 4) for v in p.up_in_mesh_frame],
             box_size_m=[round(2.0 * v, 4) for v in p.half_extents],
-            envelope=_envelope(r.affordance, p.half_extents),
+            envelope=_envelope(r.affordance, p.half_extents, p.rim),
             scores={name: round(s, 4) for name, s in zip(r.plans, row, strict=False)},
             analyzer="; ".join(per_pose.get(p.index, [])), functional=p.index == best,
         ))

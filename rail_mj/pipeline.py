@@ -98,6 +98,7 @@ def _pose_info(i: int, pose: StablePose) -> PoseInfo:
         probability=float(pose.probability),
         half_extents=[float(v) for v in pose.half_extents],
         up_in_mesh_frame=[float(v) for v in pose.up_in_mesh_frame],
+        rim=None if pose.rim is None else float(pose.rim),
     )
 
 

@@ -18,6 +18,8 @@ class PoseInfo(BaseModel):
     probability: float = Field(description="fraction of drops that ended in this pose")
     half_extents: list[float] = Field(description="half-sizes of the world-aligned box in this pose, m")
     up_in_mesh_frame: list[float] = Field(description="mesh-frame unit vector pointing up in this pose")
+    rim: float | None = Field(default=None, description="spill level of the pose's deepest basin above the ground, "
+                              "m (a vessel's aspect is judged at it); None without a basin")
 
 
 class PlanInfo(BaseModel):

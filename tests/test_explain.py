@@ -26,9 +26,9 @@ def block(tmp_path: Path) -> Path:
     return path
 
 
-def _pose(i: int, up: list[float], half: list[float], p: float) -> PoseInfo:
+def _pose(i: int, up: list[float], half: list[float], p: float, rim: float | None = None) -> PoseInfo:
     return PoseInfo(index=i, pos=[0, 0, 0], quat=[1, 0, 0, 0], probability=p, half_extents=half,
-                    up_in_mesh_frame=up)
+                    up_in_mesh_frame=up, rim=rim)
 
 
 def test_explain_splits_the_reasons_by_pose_and_names_the_envelope() -> None:
@@ -47,6 +47,18 @@ def test_explain_splits_the_reasons_by_pose_and_names_the_envelope() -> None:
     assert e.reasons == ["no other pose"] and e.verdict == "not functional"
     text = format_explanation(e)
     assert "pose 1: p=0.30, up -y" in text and "rule: no other pose" in text
+
+
+def test_explain_judges_a_vessels_aspect_at_its_rim_as_the_analyser_does() -> None:
+    # a saucepan: 18 cm wide, a handle rising to 14 cm over a 7 cm rim; the box alone is too tall for a bowl
+    half = [0.09, 0.09, 0.07]
+    r = AffordanceResult(object="pan", affordance="bowl", requested="bowl", dims_fit=True,
+                         stable_poses=[_pose(0, [0, 0, 1], half, 1.0, rim=0.07), _pose(1, [0, 0, 1], half, 0.0)],
+                         plans=["above"], scores=[[0.5], [0.5]])
+    e = explain(r)
+    assert e.poses[0].envelope == "fits"
+    assert e.poses[1].envelope.startswith("in this pose its height/width is 0.778")
+    assert AffordanceResult.model_validate_json(r.model_dump_json()).stable_poses[0].rim == 0.07
 
 
 def test_up_axis_names_an_axis_or_prints_the_vector() -> None:
