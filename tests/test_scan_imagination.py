@@ -73,6 +73,17 @@ def test_a_thin_walled_tray_closes_as_a_volume_with_its_cavity_open():
     assert result.chamfer_m < 0.002
 
 
+def test_a_capped_volume_grid_grows_its_step_and_keeps_the_walls_and_the_cavity():
+    # past solid_max_points the grid step grows (so marching cubes and its decimation stay bounded on a large
+    # object); the surface samples still mark the thin walls solid at the coarser step
+    tray = make_object("tray", 1)
+    fine = scan_object(tray, upright_pose(tray), ScanConfig(closing="volume"))
+    coarse = scan_object(tray, upright_pose(tray), ScanConfig(closing="volume", solid_max_points=20_000))
+    assert repair_mesh(coarse.mesh.copy()).is_volume, coarse.notes
+    assert not np.allclose(coarse.mesh.bounds, fine.mesh.bounds)  # the cap took effect
+    assert coarse.mesh.volume < 2.0 * tray.mesh.volume  # the cavity stays open: filled it would be ~4x
+    assert coarse.chamfer_m < 0.004
+
 
 def test_a_deep_bins_cavity_stays_open_down_to_its_bottom():
     # the ring views never see the bottom of a 30 cm bin: the volume closing filled the unseen cavity (3.6x the
