@@ -559,10 +559,8 @@ def noisy_depth(depth: np.ndarray, config: ScanConfig, rng: np.random.Generator)
     return out
 
 
-def fuse_views(depths: list[np.ndarray], views: list[ScanView], config: ScanConfig, workspace_centre: np.ndarray,
-               grid=None):
-    """Integrate the depth images into a TSDF voxel-block grid (Open3D's ``VoxelBlockGrid``; a new one unless
-    ``grid`` is given); returns the grid.
+def fuse_views(depths: list[np.ndarray], views: list[ScanView], config: ScanConfig, workspace_centre: np.ndarray):
+    """Integrate the depth images into a TSDF voxel-block grid (Open3D's ``VoxelBlockGrid``); returns the grid.
 
     Pixels whose points fall outside the workspace box are dropped first: the fused region is where objects
     are put down, not the whole room, and its size bounds the grid's blocks.
@@ -578,11 +576,10 @@ def fuse_views(depths: list[np.ndarray], views: list[ScanView], config: ScanConf
     hi = workspace_centre + half
     block = _BLOCK_RESOLUTION * config.voxel_size
     blocks = int(np.prod(np.ceil((hi - lo) / block) + 2))
-    if grid is None:
-        grid = o3d.t.geometry.VoxelBlockGrid(
-            attr_names=("tsdf", "weight"), attr_dtypes=(o3c.float32, o3c.float32), attr_channels=((1), (1)),
-            voxel_size=config.voxel_size, block_resolution=_BLOCK_RESOLUTION, block_count=blocks,
-            device=o3c.Device("CPU:0"))
+    grid = o3d.t.geometry.VoxelBlockGrid(
+        attr_names=("tsdf", "weight"), attr_dtypes=(o3c.float32, o3c.float32), attr_channels=((1), (1)),
+        voxel_size=config.voxel_size, block_resolution=_BLOCK_RESOLUTION, block_count=blocks,
+        device=o3c.Device("CPU:0"))
     u, v = np.meshgrid(np.arange(config.width), np.arange(config.height))
     rays = np.stack([(u - cx) / fx, (v - cy) / fy, np.ones(u.shape)], axis=-1)
     for depth, view in zip(depths, views, strict=True):
@@ -749,7 +746,7 @@ def _solid_closing(fused: trimesh.Trimesh, depths: list[np.ndarray], views: list
     origin = np.array([lo[0], lo[1], floor])
     box = np.asarray(hi) - origin
     step = max(config.solid_voxel * config.voxel_size, float(np.prod(box) / config.solid_max_points) ** (1 / 3))
-    shape = tuple(int(n) for n in np.ceil((np.asarray(hi) - origin) / step).astype(int) + 1)
+    shape = tuple(int(n) for n in np.ceil(box / step).astype(int) + 1)
     axes = [(origin[i] + step * np.arange(shape[i])).astype(np.float32) for i in range(3)]
     clip = np.float32(2 * step)  # only the band near the surface matters to marching cubes
     free = np.full(shape, -clip, dtype=np.float32)
