@@ -64,11 +64,13 @@ def _footprint_yaw(xy: np.ndarray) -> float:
     return yaw + np.pi / 2 if longer_y > 1e-9 else yaw
 
 
-def pose_from_up(obj: RailObject, up: np.ndarray, probability: float) -> StablePose:
+def pose_from_up(obj: RailObject, up: np.ndarray, probability: float,
+                 samples: np.ndarray | None = None) -> StablePose:
     """The stable pose whose mesh-frame ``up`` points to world +z, AABB centred, bottom at z = 0.
 
     Its yaw puts the footprint's smallest bounding rectangle on the world axes, long side along x, so the
     task-frame box is the object's own box: a table set diagonally would have placements off its corners.
+    ``samples``: the object's :func:`_surface_samples` for its spill level, when the caller has them already.
     """
     tilt = rotation_to_z(np.asarray(up, dtype=np.float64))
     rot = np.zeros(9)
@@ -82,7 +84,8 @@ def pose_from_up(obj: RailObject, up: np.ndarray, probability: float) -> StableP
     lo, hi = verts.min(axis=0), verts.max(axis=0)
     centre = (lo + hi) / 2
     pos = np.array([-centre[0], -centre[1], -lo[2]])
-    rim = spill_level(_surface_samples(obj) @ rot.reshape(3, 3).T - lo)
+    samples = _surface_samples(obj) if samples is None else samples
+    rim = spill_level(samples @ rot.reshape(3, 3).T - lo)
     return StablePose(pos=pos, quat=quat, probability=probability, half_extents=(hi - lo) / 2, rim=rim)
 
 
@@ -341,11 +344,12 @@ def find_stable_poses(
         counts.append(0)
         quasi.append(p)
     poses = []
+    samples = _surface_samples(obj)  # one set for every pose's spill level
     for group in _merge_symmetric(obj, reps, _CONGRUENT):
         best = max(group, key=lambda i: (counts[i], quasi[i]))
         probability = 0.5 * sum(counts[i] / n_drops + quasi[i] for i in group)
         if probability >= min_probability:
-            poses.append(pose_from_up(obj, reps[best], probability))
+            poses.append(pose_from_up(obj, reps[best], probability, samples))
     poses.sort(key=lambda p: -p.probability)
     result = StablePoses(poses=tuple(poses), n_drops=n_drops, n_unsettled=int((~settled).sum()))
     if use_cache:  # atomic: a concurrent reader (another worker, a node on shared storage) never sees half a file
