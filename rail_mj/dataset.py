@@ -437,6 +437,8 @@ def ground_truth_markdown() -> str:
         "An object affords a name when the imagination test for it succeeds in its as-built pose (the one",
         "`functional_up` of its label) *and* its size is in the name's envelope. Uses that need another pose",
         "(a bathtub on its side as a table, an open-front cubby on its back as a basket) do not count.",
+        "An object that is the same shape upside down (a pouf without feet, a console on a plinth; checked on",
+        "its surface by `upside_down_is_itself`) lists the other up in `equivalent_ups`: either pose is it.",
         "Class size ranges stay clear of every envelope boundary.",
         f"Baskets assume agents of Ø >= {100 * BASKET_AGENT_MIN:.1f} cm (slots are {100 * BASKET_GAP:.0f} cm).",
         "The truth is written from the definitions below, not from the offline provider's rules",
@@ -497,6 +499,9 @@ class LabelRecord(BaseModel):
     class_name: str = Field(alias="class", min_length=1)
     affordances: dict[str, bool]
     functional_up: Vec3 | None = None
+    #: other ups (file frame) that give the same shape as functional_up: an object that is itself turned upside
+    #: down (a pouf without feet, a console on a plinth) is as functional either way up
+    equivalent_ups: list[Vec3] | None = None
     nominal_up: Vec3 | None = None
     units: float = Field(default=1.0, gt=0)
     up: Literal["z", "y"] = "z"  # the file's up axis, as rail_mj.objects.load_mesh takes it
@@ -533,6 +538,11 @@ class LabelRecord(BaseModel):
             raise ValueError("functional_up is required when any affordance is true")
         if not any(self.affordances.values()) and self.functional_up is not None:
             raise ValueError("functional_up must be omitted when no affordance is true")
+        if self.equivalent_ups is not None and self.functional_up is None:
+            raise ValueError("equivalent_ups needs a functional_up")
+        for v in self.equivalent_ups or []:
+            if abs(float(np.linalg.norm(v)) - 1.0) > 1e-3:
+                raise ValueError(f"equivalent_ups must be unit vectors, got {list(v)}")
         return self
 
     def mesh_path(self, root: str | Path) -> Path:
@@ -658,6 +668,27 @@ def _mixed_corruptions(name: str, i: int, seed: int) -> tuple[str, ...]:
     return tuple(c for j, c in enumerate(MIXED_CORRUPTIONS) if j in picked)
 
 
+#: Surface points :func:`upside_down_is_itself` checks, and the largest distance (fraction of the box diagonal) that
+#: any may lie from the unturned surface: a pouf's 6 mm cushion lip stays within it, its 3-6 cm feet do not.
+_SYMMETRY_POINTS = 2000
+_SYMMETRY_TOL = 0.015
+
+
+def upside_down_is_itself(mesh: trimesh.Trimesh) -> bool:
+    """Whether the as-built (z-up) mesh turned upside down, by a half turn about its box's x or y axis, is the
+    same shape: then no pose of it can tell its top from its bottom, and both are its functional pose."""
+    lo, hi = mesh.bounds
+    centre = (lo + hi) / 2
+    points, _ = trimesh.sample.sample_surface(mesh, _SYMMETRY_POINTS, seed=0)
+    tol = _SYMMETRY_TOL * float(np.linalg.norm(hi - lo))
+    for flip in ((1.0, -1.0, -1.0), (-1.0, 1.0, -1.0)):  # half turns about x and about y
+        turned = (points - centre) * flip + centre
+        _, dist, _ = trimesh.proximity.closest_point(mesh, turned)
+        if float(np.max(dist)) < tol:
+            return True
+    return False
+
+
 def _posed(mesh: trimesh.Trimesh, rot: np.ndarray) -> trimesh.Trimesh:
     """The mesh turned by ``rot``, centred on the origin and snapped to the grid."""
     posed = mesh.copy()
@@ -725,6 +756,7 @@ def generate(
                     if len(mesh.faces) > MAX_FACES:
                         raise DatasetError(f"corrupting {name}_{i:03d} ({', '.join(geometric)}) made "
                                            f"{len(mesh.faces)} faces > {MAX_FACES}")
+                same_upside_down = upside_down_is_itself(built.mesh)
                 if "y_up" in applied:  # the file is +y up: the loader's (x, y, z) -> (x, -z, y) gives the mesh back
                     flipped = mesh.vertices[:, [0, 2, 1]] * [1.0, 1.0, -1.0] + 0.0
                     mesh = trimesh.Trimesh(vertices=flipped, faces=mesh.faces, process=False)
@@ -747,6 +779,8 @@ def generate(
                     class_name=name,
                     affordances=truth,
                     functional_up=up_t if any(truth.values()) else None,
+                    equivalent_ups=([tuple(-v + 0.0 for v in up_t)]
+                                    if same_upside_down and any(truth.values()) else None),
                     nominal_up=up_t,
                     units=units,
                     up=up_axis,

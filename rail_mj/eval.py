@@ -30,7 +30,8 @@ Rules (also printed in the report):
 * classification is correct when ``functional`` equals the label; a case that
   failed (bad mesh, LLM stage out of retries) counts as wrong;
 * a functional pose is correct when the predicted pose puts the labelled
-  ``functional_up`` within 20° of world up; it is scored over the positive
+  ``functional_up`` (or one of its ``equivalent_ups``: an object that is
+  itself upside down) within 20° of world up; it is scored over the positive
   cases, and a positive case predicted non-functional has no pose (wrong);
 * the dimensions-only baseline says "functional" when the Affordance
   Analyzer's dimension check passes (bounding box alone, no physics) and takes
@@ -86,26 +87,27 @@ class EvalConfig(RunConfig):
     render: bool = True
 
 
-def _mesh_up(record: LabelRecord) -> np.ndarray | None:
-    """The labelled functional up vector in the loaded mesh frame (after the up-axis change)."""
+def _mesh_ups(record: LabelRecord) -> np.ndarray | None:
+    """The labelled functional up vector, then its equivalents, in the loaded mesh frame (after the up-axis
+    change), (K, 3)."""
     if record.functional_up is None:
         return None
-    v = np.asarray(record.functional_up, dtype=float)
+    v = np.asarray([record.functional_up, *(record.equivalent_ups or [])], dtype=float)
     if record.up == "y":  # the loader turns mesh +y into +z: (x, y, z) -> (x, -z, y)
-        v = np.array([v[0], -v[2], v[1]])
-    return v / np.linalg.norm(v)
+        v = np.stack([v[:, 0], -v[:, 2], v[:, 1]], axis=1)
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
 
 
-def _pose_correct(pose: PoseInfo | None, up: np.ndarray | None) -> bool:
-    if pose is None or up is None:
+def _pose_correct(pose: PoseInfo | None, ups: np.ndarray | None) -> bool:
+    if pose is None or ups is None:
         return False
-    cos = float(np.clip(np.dot(pose.up_in_mesh_frame, up), -1.0, 1.0))
+    cos = float(np.clip(np.max(ups @ np.asarray(pose.up_in_mesh_frame)), -1.0, 1.0))
     return math.degrees(math.acos(cos)) <= POSE_TOLERANCE_DEG
 
 
 def _line(record: LabelRecord, affordance: str, result: AffordanceResult) -> dict:
     label = bool(record.affordances[affordance])
-    up = _mesh_up(record)
+    up = _mesh_ups(record)
     failed = result.error is not None
     base_pose = result.stable_poses[0] if result.stable_poses else None
     return {

@@ -33,6 +33,7 @@ from rail_mj.dataset import (
     read_labels,
 )
 from rail_mj.errors import DatasetError
+from rail_mj.results import PoseInfo
 from rail_mj.shapes import GENERATORS, densify, uneven_bottom
 
 REPO = Path(__file__).resolve().parents[1]
@@ -476,8 +477,8 @@ def test_corruptions_change_the_mesh_as_labelled(corrupted):
             # the loader, honouring the label, sees the clean object's size (geometric ones: to scan error)
             tol = 1e-5 if c in ("scale10", "y_up") else 0.01
             assert np.allclose(loaded.extents, reference.extents, atol=tol), (c, name, loaded.extents, reference.extents)
-            up = rail_eval._mesh_up(r)
-            assert np.allclose(up, rail_eval._mesh_up(base), atol=1e-6), (c, name)
+            up = rail_eval._mesh_ups(r)
+            assert np.allclose(up, rail_eval._mesh_ups(base), atol=1e-6), (c, name)
             if c in ("holes", "open_shell"):
                 assert not raw.is_watertight, (c, name)
             else:
@@ -571,3 +572,26 @@ def test_eval_takes_the_family(tmp_path):
     assert [r.class_name for r in records] == ["goblet"] and records[0].affordances == {"cup": True}
     with pytest.raises(Exception, match="valid: armchair"):
         rail_eval._dataset(cfg.model_copy(update={"classes": ["cup"]}), tmp_path / "x", ["cup"])
+
+
+def test_an_object_that_is_itself_upside_down_is_functional_either_way_up():
+    """A pouf without feet and a console on a plinth are the same shape turned over, so no pose can tell their top
+    from their bottom: the label lists the other up too, and the evaluation takes either. Feet or legs tell."""
+    pouf = GENERATORS["ottoman"](np.random.default_rng([9, 0]))
+    pouf_on_feet = GENERATORS["ottoman"](np.random.default_rng([9, 5]))
+    plinth = GENERATORS["console"](np.random.default_rng([9, 0]))
+    legs = GENERATORS["console"](np.random.default_rng([9, 1]))
+    assert "feet" not in pouf.notes and "feet" in pouf_on_feet.notes
+    assert "plinth" in plinth.notes and "legs" in legs.notes
+    assert dataset.upside_down_is_itself(pouf.mesh) and dataset.upside_down_is_itself(plinth.mesh)
+    assert not dataset.upside_down_is_itself(pouf_on_feet.mesh) and not dataset.upside_down_is_itself(legs.mesh)
+    up = (0.0, 0.0, 1.0)
+    record = LabelRecord(mesh="m.obj", class_name="ottoman", affordances={"chair": True}, functional_up=up,
+                         equivalent_ups=[(0.0, 0.0, -1.0)], nominal_up=up)
+    upside_down = PoseInfo(index=0, pos=[0, 0, 0], quat=[0, 1, 0, 0], probability=1.0, half_extents=[0.2] * 3,
+                           up_in_mesh_frame=[0.0, 0.0, -1.0])
+    assert rail_eval._pose_correct(upside_down, rail_eval._mesh_ups(record))
+    plain = record.model_copy(update={"equivalent_ups": None})
+    assert not rail_eval._pose_correct(upside_down, rail_eval._mesh_ups(plain))
+    with pytest.raises(ValueError, match="equivalent_ups"):
+        LabelRecord(mesh="m.obj", class_name="box", affordances={"chair": False}, equivalent_ups=[up])
