@@ -99,6 +99,7 @@ def _pose_info(i: int, pose: StablePose) -> PoseInfo:
         half_extents=[float(v) for v in pose.half_extents],
         up_in_mesh_frame=[float(v) for v in pose.up_in_mesh_frame],
         rim=None if pose.rim is None else float(pose.rim),
+        opening=None if pose.opening is None else [float(v) for v in pose.opening],
     )
 
 
@@ -191,7 +192,7 @@ class Pipeline:
 
         agents = llm.agent_setup(profile)
         result.agent_offsets = agents.offsets.tolist()
-        trajectories = [llm.trajectory_array(profile, poses[i].half_extents) for i in kept]
+        trajectories = [llm.trajectory_array(profile, poses[i].half_extents, poses[i].opening) for i in kept]
         t = time.perf_counter()
         outcomes = imagine(obj, [poses[i] for i in kept], agents, trajectories, backend=self.backend)
         timings["imagination"] = time.perf_counter() - t

@@ -20,6 +20,8 @@ class PoseInfo(BaseModel):
     up_in_mesh_frame: list[float] = Field(description="mesh-frame unit vector pointing up in this pose")
     rim: float | None = Field(default=None, description="spill level of the pose's deepest basin above the ground, "
                               "m (a vessel's aspect is judged at it); None without a basin")
+    opening: list[float] | None = Field(default=None, description="x, y (m) of the middle of that basin from the "
+                                        "box centre (where pours aim); None without a basin")
 
 
 class PlanInfo(BaseModel):

@@ -16,6 +16,7 @@ from __future__ import annotations
 import hashlib
 import heapq
 import json
+from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
@@ -33,10 +34,11 @@ from rail_mj.paths import cache_dir
 from rail_mj.runfiles import atomic_write_text
 from rail_mj.types import RailObject, StablePose, StablePoses
 
-__all__ = ["find_stable_poses", "pose_from_up", "spill_level"]
+__all__ = ["Basin", "find_stable_poses", "pose_from_up", "spill_basin"]
 
-#: bump when the algorithm changes, so old cache entries are ignored (4: poses carry their spill level)
-_CACHE_VERSION = 4
+#: bump when the algorithm changes, so old cache entries are ignored (4: poses carry their spill level, 6: and
+#: where their basin opens, and how long it is)
+_CACHE_VERSION = 6
 #: two resting shapes match when their height signatures differ by less than this fraction of the object size
 _CONGRUENT = 0.02
 #: quasi-static poses are checked by setting the object down this much off the pose and simulating this long (s)
@@ -85,16 +87,29 @@ def pose_from_up(obj: RailObject, up: np.ndarray, probability: float,
     centre = (lo + hi) / 2
     pos = np.array([-centre[0], -centre[1], -lo[2]])
     samples = _surface_samples(obj) if samples is None else samples
-    rim = spill_level(samples @ rot.reshape(3, 3).T - lo)
-    return StablePose(pos=pos, quat=quat, probability=probability, half_extents=(hi - lo) / 2, rim=rim)
+    basin = spill_basin(samples @ rot.reshape(3, 3).T - lo)
+    half = (hi - lo) / 2
+    if basin is None:
+        return StablePose(pos=pos, quat=quat, probability=probability, half_extents=half)
+    return StablePose(pos=pos, quat=quat, probability=probability, half_extents=half, rim=basin.level,
+                      opening=basin.centre - half[:2], basin_length=basin.length)
 
 
-#: Points sampled on the mesh surface for :func:`spill_level` (fixed seed: the same poses give the same level).
+#: Points sampled on the mesh surface for :func:`spill_basin` (fixed seed: the same poses give the same level).
 _SAMPLES = 60000
-#: Cells across the larger side of the height map of :func:`spill_level` (a cell holds a dozen samples of a flat top).
+#: Cells across the larger side of the height map of :func:`spill_basin` (a cell holds a dozen samples of a flat top).
 _GRID = 48
 #: A basin is at least this deep (fraction of the object's height) where it is deepest.
 _MIN_BASIN = 0.1
+
+
+@dataclass(frozen=True)
+class Basin:
+    """An object's deepest basin in one pose (see :func:`spill_basin`)."""
+
+    level: float  # height (m) above the lowest point at which poured water spills over
+    centre: np.ndarray  # (2,) x, y (m) of the middle of the water surface, in the frame of the points given
+    length: float  # (m) the water surface's longer side along x or y at the spill level
 
 
 def _surface_samples(obj: RailObject) -> np.ndarray:
@@ -102,11 +117,12 @@ def _surface_samples(obj: RailObject) -> np.ndarray:
     return np.asarray(points, dtype=np.float64)
 
 
-def spill_level(points: np.ndarray) -> float | None:
-    """Height (above the lowest point) at which water poured into the object's deepest basin spills over: the lowest
-    point of the rim that surrounds it, as the object is seen from above. A handle rising above the rim or
-    reaching out beside it plays no part, nor do holes in the walls (unseen from above). None without a basin
-    at least :data:`_MIN_BASIN` of the height deep (a closed box, a slatted crate open to the floor).
+def spill_basin(points: np.ndarray) -> Basin | None:
+    """The deepest basin of an object seen from above: the height (above the lowest point) at which water poured
+    into it spills over (the lowest point of the rim that surrounds it), and where its water stands. A handle
+    rising above the rim or reaching out beside it plays no part, nor do holes in the walls (unseen from above).
+    None without a basin at least :data:`_MIN_BASIN` of the height deep (a closed box, a slatted crate open to the
+    floor).
 
     ``points``: surface samples in a pose's frame (z up, lowest point at 0). The height map keeps the highest
     sample per cell (empty cells are the floor); water floods in from the border over the lowest passes first
@@ -140,7 +156,16 @@ def spill_level(points: np.ndarray) -> float | None:
     deepest = np.unravel_index(int(np.argmax(depth)), shape)
     if depth[deepest] < _MIN_BASIN * hi[2]:
         return None
-    return float(level[deepest])
+    # where water stands at least half as deep as the deepest point: the opening a pour aims at (a saucepan's
+    # pan, not its box's centre over the handle's root)
+    wet, _ = scipy.ndimage.label(depth >= 0.5 * depth[deepest])
+    cells = np.argwhere(wet == wet[deepest])
+    centre = lo[:2] + (cells.mean(axis=0) - 0.5) * cell
+    # the water surface at the spill level, where it stands over 5% of the deepest: a divider as high as the
+    # walls (to a sample's noise) parts two basins
+    surface, _ = scipy.ndimage.label(depth > 0.05 * depth[deepest])
+    span = np.ptp(np.argwhere(surface == surface[deepest]), axis=0) + 1
+    return Basin(level=float(level[deepest]), centre=centre, length=float(span.max() * cell))
 
 
 def _cluster(ups: np.ndarray, tol: float) -> list[np.ndarray]:
@@ -280,14 +305,18 @@ def _to_json(poses: StablePoses) -> str:
         "n_drops": poses.n_drops,
         "n_unsettled": poses.n_unsettled,
         "poses": [{"pos": p.pos.tolist(), "quat": p.quat.tolist(), "probability": p.probability,
-                   "half_extents": p.half_extents.tolist(), "rim": p.rim} for p in poses],
+                   "half_extents": p.half_extents.tolist(), "rim": p.rim,
+                   "opening": None if p.opening is None else p.opening.tolist(),
+                   "basin_length": p.basin_length} for p in poses],
     })
 
 
 def _from_json(text: str) -> StablePoses:
     raw = json.loads(text)
     poses = tuple(StablePose(pos=np.array(p["pos"]), quat=np.array(p["quat"]), probability=float(p["probability"]),
-                             half_extents=np.array(p["half_extents"]), rim=p["rim"]) for p in raw["poses"])
+                             half_extents=np.array(p["half_extents"]), rim=p["rim"],
+                             opening=None if p["opening"] is None else np.array(p["opening"]),
+                             basin_length=p["basin_length"]) for p in raw["poses"])
     return StablePoses(poses=poses, n_drops=int(raw["n_drops"]), n_unsettled=int(raw["n_unsettled"]))
 
 

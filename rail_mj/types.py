@@ -70,6 +70,11 @@ class StablePose:
     #: height (m) above the ground at which water poured into its deepest basin spills over in this pose (the
     #: lowest point of the rim, unlike the box a handle may raise); None without a basin
     rim: float | None = None
+    #: (2,) x, y (m) of the middle of that basin's water surface from the box centre, in the pose's task frame: where
+    #: a pour aims (a long handle moves the box centre off it); None without a basin
+    opening: np.ndarray | None = None
+    #: (m) that basin's water surface at the spill level, its longer side; None without a basin
+    basin_length: float | None = None
 
     @property
     def up_in_mesh_frame(self) -> np.ndarray:

@@ -11,6 +11,7 @@ from rail_mj import shapes
 from rail_mj.affordances import get
 from rail_mj.affordances.kinds import kind_of
 from rail_mj.affordances.kinds.container import MIN_DEPTH
+from rail_mj.llm import generate_profile, trajectory_array
 from rail_mj.llm.schemas import CandidateInteraction, ResultSummary
 from rail_mj.objects import object_from_mesh
 from rail_mj.pipeline import Pipeline, RunConfig
@@ -108,6 +109,24 @@ def test_a_vessels_spill_level_is_its_rim_not_its_rising_handle() -> None:
     assert pose_from_up(box, np.array([0.0, 0.0, 1.0]), 1.0).rim is None
 
 
+def test_pours_aim_at_a_saucepans_pan_not_at_its_box_centre_over_the_handle():
+    """The pan's box reaches along the handle, so its centre lies near the rim by the handle; the basin map finds
+    the pan's middle, and the container's pours start over it, by the offset, in every plan."""
+    built = shapes.saucepan(np.random.default_rng(1))
+    pan = object_from_mesh(built.mesh, name="saucepan")
+    pose = pose_from_up(pan, np.array([0.0, 0.0, 1.0]), 1.0)
+    body = built.mesh.vertices[built.mesh.vertices[:, 2] < 0.02]  # the base: the pan's footprint, no handle
+    middle = (body.min(axis=0) + body.max(axis=0))[:2] / 2 - (pan.mesh.bounds.sum(axis=0) / 2)[:2]
+    assert np.linalg.norm(middle) > 0.05  # the box centre is far off the pan's middle
+    # the pose's yaw may turn the handle to -x or +x: compare lengths and the direction along x
+    assert abs(abs(pose.opening[0]) - np.linalg.norm(middle)) < 0.01 and abs(pose.opening[1]) < 0.01
+    profile = generate_profile("bowl", [float(v) for v in pan.obb_dims])
+    at_box = trajectory_array(profile, pose.half_extents)
+    at_opening = trajectory_array(profile, pose.half_extents, pose.opening)
+    for a, b in zip(at_box, at_opening):
+        assert np.allclose(b[:, :2] - a[:, :2], pose.opening) and np.allclose(b[:, 2], a[:, 2])
+
+
 def test_a_bowls_proportions_are_its_rims_a_deep_pot_stays_no_bowl() -> None:
     """Height/width at most 0.55 for a bowl: the saucepan's box says 0.64, its rim 0.47; a deep pot's rim 0.74."""
     bowl = get("bowl")
@@ -126,3 +145,69 @@ def test_a_scoop_whose_handle_rises_above_its_rim_is_a_bowl() -> None:
     r = _verdict(shapes.scoop(np.random.default_rng(1)).mesh, "scoop", "bowl")
     assert r.functional, r.analyzer_reasons
     assert r.functional_pose is not None and r.functional_pose.up_in_mesh_frame[2] > 0.95
+
+
+def _probe(mesh: trimesh.Trimesh, hulls: list[np.ndarray], at: list[float]) -> tuple[int, int]:
+    """The enclosure probe's widest free sector for one droplet resting at ``at`` (mesh frame), cast against the
+    mesh's surface and against ``hulls``."""
+    from rail_mj.imagination.batch import _open_sectors_hulls, open_sectors
+    from rail_mj.mjcf import compose_scene
+    from rail_mj.types import AgentSetup, RailObject
+
+    obj = RailObject(name="probe", mesh=mesh, hulls=tuple(hulls), mesh_hash="probe", obb_dims=mesh.extents,
+                     com=np.zeros(3), mass=1.0, density=500.0)
+    drop = '<mujoco><worldbody><body><geom type="sphere" size="0.01"/></body></worldbody></mujoco>'
+    scene = compose_scene(obj, AgentSetup(fragment=drop, offsets=np.zeros((1, 3))))
+    qpos = np.zeros((1, scene.model.nq))
+    qpos[0, scene.object_qpos + 3] = 1.0
+    a = int(scene.agent_qpos[0])
+    qpos[0, a : a + 3], qpos[0, a + 3] = at, 1.0
+    return int(open_sectors(scene, qpos)[0, 0]), int(_open_sectors_hulls(scene, qpos)[0, 0])
+
+
+def test_the_enclosure_probe_meets_the_surface_not_hulls_that_fill_it_out() -> None:
+    """An upturned desk's top with its two end panels, decomposed as CoACD may (one hull over top and panels):
+    a droplet on the top is walled all round by that hull, but its front and back are open."""
+    top = trimesh.creation.box(extents=(1.2, 0.6, 0.03))
+    panels = [trimesh.creation.box(extents=(0.03, 0.6, 0.5)) for _ in range(2)]
+    panels[0].apply_translation((-0.585, 0.0, 0.265))
+    panels[1].apply_translation((0.585, 0.0, 0.265))
+    desk = shapes._union([top, *panels])
+    free, free_in_hulls = _probe(desk, [np.asarray(desk.convex_hull.vertices)], [0.0, 0.0, 0.03])
+    assert free >= 4 and free_in_hulls == 0
+
+
+def test_the_enclosure_probe_does_not_leave_through_a_baskets_slots() -> None:
+    """Slats 2 cm wide with 1 cm slots between them, 12 cm round a droplet: every way meets a slat within the
+    spread of a direction's rays, so the basket walls it in; with a quarter of its slats gone it lies open."""
+    def ring(slats: int) -> trimesh.Trimesh:
+        parts = [trimesh.creation.cylinder(radius=0.125, height=0.008)]
+        n = 25  # 2 pi 0.12 / 3 cm
+        for k in range(slats):
+            slat = trimesh.creation.box(extents=(0.02, 0.006, 0.1))
+            slat.apply_translation((0.0, 0.12, 0.05))
+            slat.apply_transform(trimesh.transformations.rotation_matrix(2 * np.pi * k / n, (0, 0, 1)))
+            parts.append(slat)
+        return shapes._union(parts)
+
+    basket = ring(25)
+    assert _probe(basket, [np.asarray(basket.convex_hull.vertices)], [0.0, 0.0, 0.02])[0] < 4
+    broken = ring(18)
+    assert _probe(broken, [np.asarray(broken.convex_hull.vertices)], [0.0, 0.0, 0.02])[0] >= 4
+
+
+def test_a_console_on_its_back_holds_water_in_compartments_too_short_for_a_bather() -> None:
+    """On its back a TV console's open compartments face up and hold water, 0.5-0.9 m long each: no basin a person
+    lies in. A bathtub's one basin is 1.3 m long; the analyser refuses the console's pose and keeps the tub's."""
+    from rail_mj.llm import FunctionalPoseRequest, PoseCandidates, analyze_functional_poses
+
+    console = object_from_mesh(shapes.console(np.random.default_rng([9, 0])).mesh, name="console")
+    lying = pose_from_up(console, np.array([0.0, -1.0, 0.0]), 1.0)  # its open front up
+    tub = object_from_mesh(shapes.bathtub(np.random.default_rng(0)).mesh, name="bathtub")
+    upright = pose_from_up(tub, np.array([0.0, 0.0, 1.0]), 1.0)
+    assert lying.basin_length < 0.9 and upright.basin_length > 1.2
+    poses = [PoseCandidates(pose_index=i, probability=0.5, half_extents=[float(v) for v in p.half_extents], rim=p.rim,
+                            basin_length=p.basin_length, candidates=[_candidate("above", -0.8)])
+             for i, p in enumerate((lying, upright))]
+    verdict = analyze_functional_poses(FunctionalPoseRequest(affordance="bathtub", expected_outcome="", poses=poses))
+    assert [v.accept for v in verdict.poses] == [False, True] and "basin holds water" in verdict.poses[0].reason

@@ -163,7 +163,7 @@ def test_functional_pose_analyzer_through_the_client(provider_for):
     summary = ResultSummary(frac_inside_bbox=0.9, frac_on_ground=0.0, frac_touching_object=0.8, mean_height=-0.4,
                             object_tilt_deg=1.0, agent_tilt_deg=5.0, agent_speed=0.0)
     request = FunctionalPoseRequest(affordance="cup", expected_outcome="filled", poses=[PoseCandidates(
-        pose_index=3, probability=0.7, half_extents=[0.04, 0.04, 0.05],
+        pose_index=3, probability=0.7, half_extents=[0.04, 0.04, 0.05], rim=0.095, basin_length=0.07,
         candidates=[CandidateInteraction(plan="above", description="drop from above",
                                          via_poses=[[0.0, 0.0, 0.1], [0.0, 0.0, 0.06]], score=0.4, summary=summary)],
     )])

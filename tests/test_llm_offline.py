@@ -207,7 +207,7 @@ def _candidate(plan, start, score=0.4, **summary) -> CandidateInteraction:
 
 def test_functional_pose_rules_for_a_cup():
     h = [0.04, 0.04, 0.05]
-    upright = PoseCandidates(pose_index=0, probability=0.4, half_extents=h,
+    upright = PoseCandidates(pose_index=0, probability=0.4, half_extents=h, rim=0.095, basin_length=0.07,
                              candidates=[_candidate("above", [0.0, 0.0, 0.1])])
     tipped = PoseCandidates(pose_index=1, probability=0.5, half_extents=h,
                             candidates=[_candidate("above", [0.0, 0.0, 0.1], score=0.5, object_tilt_deg=80.0)])
@@ -296,8 +296,8 @@ def test_a_container_that_leaks_under_the_centre_pour_is_rejected():
     spilt = _candidate("above_front", [0.024, 0.0, 0.1], score=-1.0, frac_through_object=0.1,
                        frac_touching_object=0.0, frac_on_ground=0.3)
     cup = analyze_functional_poses(FunctionalPoseRequest(affordance="cup", expected_outcome="held", poses=[
-        PoseCandidates(pose_index=0, probability=1.0, half_extents=[0.06, 0.042, 0.05], candidates=[held],
-                       failed=[spilt])]))
+        PoseCandidates(pose_index=0, probability=1.0, half_extents=[0.06, 0.042, 0.05], rim=0.095, basin_length=0.075,
+                       candidates=[held], failed=[spilt])]))
     assert cup.best_pose == 0
 
 
@@ -388,3 +388,32 @@ def test_stage_7_request_from_one_batch():
     assert len(pose.failed) == n_plans - 1 and all(c.score == -1.0 for c in pose.failed)
     (c,) = pose.candidates
     assert c.summary == result_summary(batch, n_plans + 1) and c.via_poses == trajectories[1][1][:, :3].tolist()
+
+
+def test_a_liquid_holder_needs_a_basin_in_its_pose():
+    """An upturned desk's knee hole keeps droplets (spheres on a flat board) walled on three sides, but seen from
+    above it has no basin: water runs out of its open front. A cup needs one; a basket, which holds items, not."""
+    h = [0.7, 0.36, 0.38]
+    pour = _candidate("above", [0.0, 0.0, 0.45])
+    no_basin = PoseCandidates(pose_index=0, probability=1.0, half_extents=[0.05, 0.04, 0.05], candidates=[pour])
+    cup = analyze_functional_poses(FunctionalPoseRequest(affordance="cup", expected_outcome="held", poses=[no_basin]))
+    assert cup.best_pose is None and "no basin" in cup.poses[0].reason
+    basket = analyze_functional_poses(FunctionalPoseRequest(affordance="basket", expected_outcome="held", poses=[
+        PoseCandidates(pose_index=0, probability=1.0, half_extents=[0.15, 0.1, 0.08], candidates=[pour])]))
+    assert basket.best_pose == 0
+    desk = PoseCandidates(pose_index=0, probability=1.0, half_extents=h, candidates=[pour])
+    tub = analyze_functional_poses(FunctionalPoseRequest(affordance="bathtub", expected_outcome="held", poses=[desk]))
+    assert tub.best_pose is None and "no basin" in tub.poses[0].reason
+
+
+def test_a_bowl_on_its_side_holds_a_puddle_not_a_cup_of_water():
+    """A 14 cm bowl tipped on its side keeps droplets in the curve of its wall, a basin 2 cm deep at the bottom of
+    a 13 cm pose; upright a cup's water stands up to its rim."""
+    pour = _candidate("above", [0.0, 0.0, 0.2])
+    side = PoseCandidates(pose_index=0, probability=0.6, half_extents=[0.07, 0.066, 0.066], rim=0.02,
+                          basin_length=0.05, candidates=[pour])
+    upright = PoseCandidates(pose_index=1, probability=0.4, half_extents=[0.045, 0.045, 0.05], rim=0.1,
+                             basin_length=0.08, candidates=[pour])
+    verdict = analyze_functional_poses(FunctionalPoseRequest(affordance="cup", expected_outcome="held",
+                                                             poses=[side, upright]))
+    assert [v.accept for v in verdict.poses] == [False, True] and "puddle" in verdict.poses[0].reason

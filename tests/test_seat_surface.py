@@ -119,8 +119,8 @@ def test_a_chair_lying_on_its_back_is_not_its_seat():
     """Lying on its back a chair bears the pelvis on its box's top from every approach; standing, its back rises
     behind the seat and stops the approach from behind. The lying pose is the likelier one."""
     lying, standing = [0.45, 0.25, 0.21], [0.25, 0.21, 0.45]
-    verdict = _verdict("chair", _pose(0, 0.35, lying, CENTRE + AREA[:2], 0.42),
-                       _pose(5, 0.03, standing, CENTRE[:4] + AREA[:2], 0.45))
+    verdict = _verdict("chair", _pose(0, 0.35, lying, CENTRE + AREA, 0.42),
+                       _pose(5, 0.03, standing, CENTRE[:4] + AREA, 0.45))
     assert [v.accept for v in verdict.poses] == [True, True] and verdict.best_pose == 5
 
 
@@ -135,15 +135,16 @@ def test_a_console_upside_down_on_its_legs_is_not_its_table_pose():
     assert "free space above" in verdict.poses[0].reason and verdict.best_pose == 1
 
 
-def test_a_pouf_chooses_the_pose_whose_seat_has_an_area_both_ways():
+def test_a_pouf_on_its_side_is_a_ridge_its_seat_has_an_area_both_ways():
     """Rolled on its side a pouf nearly as tall as it is wide bears the pelvis on its ridge at the centre and off
-    it along the ridge, not across it; upright its top bears it off the centre every way. The side pose is the
-    likelier one and holds as many centre plans."""
+    it along the ridge, not across it: no seat area; upright its top bears it off the centre every way. The side
+    pose is the likelier one and holds as many centre plans."""
     side_box, up_box = [0.207, 0.204, 0.207], [0.207, 0.207, 0.201]
     side = _pose(0, 0.29, side_box, CENTRE + AREA[2:], 0.41)
     upright = _pose(2, 0.11, up_box, CENTRE + AREA, 0.41)
     verdict = _verdict("chair", side, upright)
-    assert [v.accept for v in verdict.poses] == [True, True] and verdict.best_pose == 2
+    assert [v.accept for v in verdict.poses] == [False, True] and verdict.best_pose == 2
+    assert "only along one axis" in verdict.poses[0].reason
 
 
 def test_a_bar_chair_seat_is_a_chair_but_not_a_seat_on_a_back():
@@ -167,6 +168,14 @@ def test_a_desk_deeper_than_high_is_a_table_a_bathtub_on_its_side_is_not():
     lying.failed.extend(_slid(f"under_{side}", tub, under=False) for side in ("front", "back", "left", "right"))
     verdict = _verdict("table", lying)
     assert verdict.best_pose is None and "no room for feet" in verdict.poses[0].reason
+
+
+def test_a_pouf_on_its_feet_is_its_seat_not_upside_down_among_them():
+    """Upside down, a pouf on feet bears the pelvis on its bottom, 4 cm below the tops of the feet that rise round
+    it; upright, on its cushion, the top of the object. Both hold every plan, and upside down is the likelier."""
+    box = [0.29, 0.29, 0.22]
+    verdict = _verdict("chair", _pose(1, 0.23, box, CENTRE + AREA, 0.40), _pose(2, 0.22, box, CENTRE + AREA, 0.44))
+    assert [v.accept for v in verdict.poses] == [True, True] and verdict.best_pose == 2
 
 
 def test_a_high_seat_with_nothing_behind_it_is_no_chair():

@@ -74,6 +74,11 @@ class Affordance:
     droplets: Droplets = Droplets()  # container kind only
     persons: int = 1  # seat kind only: people who sit on it side by side (1: a seat for one)
     legroom: bool = False  # surface kind only: used from beside it, so a person's feet go under its top's edge
+    #: container kind only: it holds liquid, so a pose has a basin on the spill map (water poured in stays; an
+    #: upturned desk's knee hole, walled but for its open front, lets it run out), at least ``basin_length`` (m)
+    #: long at its spill level
+    holds_water: bool = False
+    basin_length: float = 0.0
     #: seat kind only: a seat higher than this (m, the sitter's bottom) has a back rising behind the sitter (a bar
     #: chair; a high seat without one is a stool, or a table's top)
     perch: float = math.inf
@@ -116,7 +121,7 @@ class Affordance:
         envelope = Envelope(height=times(env.height), width=times(env.width), length=times(env.length),
                             aspect=env.aspect, rest=times(env.rest))
         return replace(self, largest=times(self.largest), smallest=times(self.smallest), envelope=envelope,
-                       perch=self.perch * factor, scale=self.scale * factor)
+                       perch=self.perch * factor, basin_length=self.basin_length * factor, scale=self.scale * factor)
 
 
 def _rows() -> tuple[Affordance, ...]:
@@ -126,17 +131,22 @@ def _rows() -> tuple[Affordance, ...]:
                    "filled from above and keeps the liquid while resting on a table; it is held in one hand (rim at "
                    "most 12.5 cm across, 6-16 cm tall, taller than about half its width).",
                    (0.06, 0.2), (0.03, 0.15), aliases=("mug",), paper=True, droplets=_LIQUID,
+                   holds_water=True,
                    envelope=Envelope(height=(0.06, 0.16), width=(0.03, 0.15), length=(0.03, 0.2),
                                      aspect=(0.5, inf))),
         Affordance("bowl", "container", "A bowl holds food or liquid in a wide, open, upward-facing cavity reachable "
-                   "from above (rim 12.5-35 cm across, at least 4 cm deep, height at most 0.55 of the rim).",
-                   (0.125, 0.4), (0.04, 0.2), paper=True, droplets=_LIQUID,
-                   envelope=Envelope(height=(0.04, 0.2), width=(0.125, 0.4), length=(0.125, 0.4),
+                   "from above (rim 12.5-35 cm across, up to 50 cm long with a handle, at least 4 cm deep, height at "
+                   "most 0.55 of the rim).",
+                   # a saucepan's 15-22 cm pan and its 16-22 cm handle make 31-44 cm; the rim bounds the width
+                   (0.125, 0.5), (0.04, 0.2), paper=True, droplets=_LIQUID,
+                   holds_water=True,
+                   envelope=Envelope(height=(0.04, 0.2), width=(0.125, 0.4), length=(0.125, 0.5),
                                      aspect=(0.0, 0.55))),
         Affordance("vase", "container", "A vase holds water and flower stems in a deep cavity with an opening at the "
                    "top, often narrower than its body (15-80 cm tall, clearly taller than wide, its body rarely over "
                    "23 cm across).", (0.15, 0.85), (0.03, 0.23), paper=True,
                    droplets=Droplets(scale=0.035, max_radius=LIQUID_RADIUS),
+                   holds_water=True,
                    envelope=Envelope(height=(0.15, 0.8), width=(0.03, 0.23), aspect=(1.2, inf))),
         Affordance("pot", "container", "A pot holds food or soil in an open cavity, filled from above (rim 15-45 cm, "
                    "10-30 cm tall).", (0.15, 0.5), (0.1, 0.45), droplets=_LIQUID,
@@ -157,6 +167,9 @@ def _rows() -> tuple[Affordance, ...]:
         Affordance("bathtub", "container", "A bathtub holds enough water for a person to bathe in a long open basin "
                    "on the floor (over 1.2 m long inside, 0.35-0.8 m tall).", (1.25, 2.5), (0.35, 1.2),
                    aliases=("bath tub", "tub"), paper=True, droplets=Droplets(scale=0.05, max_radius=LIQUID_RADIUS),
+                   # a person lies in one basin, knees bent in a short one; a console on its back, whose
+                   # compartments hold water, parts it into basins 0.6-0.9 m long
+                   holds_water=True, basin_length=1.0,
                    envelope=Envelope(height=(0.35, 0.8), width=(0.5, 2.5), length=(1.25, 2.5))),
         Affordance("plate", "dish", "A plate holds food on a low, level, nearly flat surface (15-32 cm across, 1-4 cm "
                    "tall).", (0.15, 0.32), (0.01, 0.045), aliases=("dish",), paper=True,
@@ -195,10 +208,12 @@ def _rows() -> tuple[Affordance, ...]:
                    "flat base, filled from above and keeping its load while standing (opening 15-40 cm across, "
                    "15-45 cm tall, about as tall as wide).", (0.15, 0.45), (0.14, 0.4), aliases=("pail",),
                    droplets=_LIQUID,
+                   holds_water=True,
                    envelope=Envelope(height=(0.15, 0.45), width=(0.14, 0.4), aspect=(0.6, 2.0))),
         Affordance("jar", "container", "A jar stores food or liquid in a standing cavity with a wide mouth at the "
                    "top, filled from above and keeping its contents (5-16 cm across, 7-30 cm tall, at least as "
                    "tall as wide).", (0.07, 0.3), (0.05, 0.16), aliases=("mason jar", "jam jar"), droplets=_LIQUID,
+                   holds_water=True,
                    envelope=Envelope(height=(0.07, 0.3), width=(0.05, 0.16), aspect=(1.0, inf))),
         Affordance("saucer", "dish", "A saucer holds a cup or a little food on a small, low dish with a shallow "
                    "well inside a rim (10-18 cm across, 1-3.5 cm tall).", (0.1, 0.18), (0.01, 0.035),

@@ -35,6 +35,11 @@ __all__ = [
 
 #: Horizontal directions of the enclosure probe, evenly spaced (22.5 deg apart).
 PROBE_DIRECTIONS = 16
+#: Rays spread evenly across each probe direction's sector (world frame, (16 * 4, 3)).
+_SUB_RAYS = 4
+_SUB_ANGLES = (2 * np.pi * (np.arange(PROBE_DIRECTIONS * _SUB_RAYS) - (_SUB_RAYS - 1) / 2)
+               / (PROBE_DIRECTIONS * _SUB_RAYS))
+_SUB_VEC = np.stack([np.cos(_SUB_ANGLES), np.sin(_SUB_ANGLES), np.zeros_like(_SUB_ANGLES)], axis=1)
 _PROBE_VEC = np.stack([np.cos(2 * np.pi * np.arange(PROBE_DIRECTIONS) / PROBE_DIRECTIONS),
                        np.sin(2 * np.pi * np.arange(PROBE_DIRECTIONS) / PROBE_DIRECTIONS),
                        np.zeros(PROBE_DIRECTIONS)], axis=1).ravel()
@@ -289,12 +294,39 @@ def _longest_run(escaped: np.ndarray) -> np.ndarray:
 
 def open_sectors(scene: Scene, qpos: np.ndarray) -> np.ndarray:
     """The enclosure probe on final states (B, nq): for each agent, the most consecutive of
-    :data:`PROBE_DIRECTIONS` horizontal rays from its centre that leave without meeting the object (B, N).
+    :data:`PROBE_DIRECTIONS` horizontal directions from its centre that leave without meeting the object (B, N).
 
     Droplets in a cavity meet a wall every way (0); on an upturned table, between its legs, or on a seat open
-    at the front, a whole sector is free. The agents are moved out of the way first, so only the object
-    (never the static ground) is cast against.
+    at the front, a whole sector is free. Rays meet the object's own surface (:attr:`Scene.surface`): its hulls
+    fill out thin parts, and an upturned desk's hull-thickened top walls droplets in that its open front lets
+    go. A direction is free only when all :data:`_SUB_RAYS` rays across its sector are, so a slot narrower
+    than their spread at the wall (a basket's, between its slats) is no way out.
     """
+    if scene.surface is None:
+        return _open_sectors_hulls(scene, qpos)
+    data = mujoco.MjData(scene.surface)
+    mujoco.mj_kinematics(scene.surface, data)
+    n_rays = PROBE_DIRECTIONS * _SUB_RAYS
+    out = np.zeros((qpos.shape[0], scene.n_agents), dtype=np.int64)
+    geomid = np.zeros(n_rays, dtype=np.int32)
+    dist = np.zeros(n_rays)
+    rot = np.zeros(9)
+    o = scene.object_qpos
+    for b in range(qpos.shape[0]):
+        mujoco.mju_quat2Mat(rot, qpos[b, o + 3 : o + 7])
+        to_object = rot.reshape(3, 3).T  # world -> object frame, where the surface model holds the mesh
+        vecs = np.ascontiguousarray((_SUB_VEC @ to_object.T).ravel())
+        escaped = np.zeros((scene.n_agents, n_rays), dtype=bool)
+        for i, a in enumerate(scene.agent_qpos):
+            p = to_object @ (qpos[b, a : a + 3] - qpos[b, o : o + 3])
+            mujoco.mj_multiRay(scene.surface, data, p, vecs, None, 1, -1, geomid, dist, None, n_rays, 100.0)
+            escaped[i] = geomid < 0
+        out[b] = _longest_run(escaped.reshape(scene.n_agents, PROBE_DIRECTIONS, _SUB_RAYS).all(axis=2))
+    return out
+
+
+def _open_sectors_hulls(scene: Scene, qpos: np.ndarray) -> np.ndarray:
+    """:func:`open_sectors` cast against the object's hulls, for a scene whose mesh MuJoCo would not compile."""
     m = scene.model
     data = mujoco.MjData(m)
     out = np.zeros((qpos.shape[0], scene.n_agents), dtype=np.int64)

@@ -127,11 +127,17 @@ def check_layout(layout: AgentLayout, radius: float) -> None:
         raise InvalidAnswerError(f"agents overlap along {', '.join(tight)}; make the spacing at least the diameter")
 
 
-def via_positions(trajectory_via: list, half_extents: np.ndarray) -> np.ndarray:
-    """Positions (K, 3) in metres of via-poses for the half extents ``h`` of one pose."""
+def via_positions(trajectory_via: list, half_extents: np.ndarray,
+                  opening: np.ndarray | None = None) -> np.ndarray:
+    """Positions (K, 3) in metres of via-poses for the half extents ``h`` of one pose and its ``opening`` (x, y
+    of its basin from the box centre, m; None without one)."""
     rel = np.array([v.rel for v in trajectory_via], dtype=float)
     off = np.array([v.offset_m for v in trajectory_via], dtype=float)
-    return rel * np.asarray(half_extents, dtype=float) + off
+    pos = rel * np.asarray(half_extents, dtype=float) + off
+    if opening is not None:
+        at_opening = np.array([v.anchor == "opening" for v in trajectory_via])
+        pos[at_opening, :2] += np.asarray(opening, dtype=float)
+    return pos
 
 
 def candidate_half_extents(obb_dims: list[float]) -> list[np.ndarray]:

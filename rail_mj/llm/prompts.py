@@ -40,9 +40,11 @@ PROMPT_VERSION: dict[str, str] = {
     "agent_model": "2",
     "agent_configuration": "2",
     "motion_planner": "2",
-    "trajectory": "2",
+    # 3: a via-pose may be anchored at the pose's opening
+    "trajectory": "3",
     "scoring": "2",
-    "functional_pose": "2",
+    # 3: the poses carry their basin's length
+    "functional_pose": "3",
     "request_parser": "1",
 }
 
@@ -94,8 +96,10 @@ agents are released at their first contact with anything, or at the end of the t
 and with the same name, give 2-8 via-poses of the LAYOUT CENTRE. Each via-pose position is rel * h + offset_m in \
 the task frame: rel in units of the object's half extents h (so one answer fits every stable pose; (0, 0, 1) is \
 the centre of the top face, (0, 0, -1) the ground below the centre), offset_m in metres for clearances that depend \
-on the agent. The first via-pose must keep the whole agent grid outside the object's box and above the ground; \
-keep every via-pose within 3 max(h) + 1 m of the origin. quat is a unit quaternion (w, x, y, z)."""),
+on the agent. With anchor "opening", x and y are measured from the middle of the pose's deepest basin instead of \
+the box centre (aim pours there: a handle moves the box centre off the opening). The first via-pose must keep \
+the whole agent grid outside the object's box and above the ground; keep every via-pose within 3 max(h) + 1 m \
+of the origin. quat is a unit quaternion (w, x, y, z)."""),
         StageSpec("scoring", ScoringCode, f"""You are the Scoring Function Generator. Write Python source of \
 def score({", ".join(SCORING_ARGS)}): returning one float per rollout, shape (B,), > 0 meaning success. Inputs are \
 numpy arrays over a batch of B rollouts and N agents, all in the task frame at the end of the rollout: agent_pos \

@@ -159,11 +159,16 @@ class TrajectoryRequest(_Model):
 
 
 class ViaPose(_Model):
-    """A via-pose of the layout centre: position ``rel * h + offset_m`` in the task frame."""
+    """A via-pose of the layout centre: position ``rel * h + offset_m`` in the task frame, from the box centre or
+    from the pose's opening."""
 
     rel: Vec3 = Field(description="position in units of the object's half extents h (task frame)")
     offset_m: Vec3 = Field(description="additional offset in metres (agent-size clearances)")
     quat: Quat
+    anchor: Literal["box", "opening"] = Field(
+        "box", description="'box': x and y from the centre of the object's box; 'opening': from the middle of the "
+                           "pose's deepest basin seen from above (where a pour aims; a long handle moves the box "
+                           "centre off it), or the box centre in a pose without a basin")
 
 
 class PlanTrajectory(_Model):
@@ -239,6 +244,8 @@ class PoseCandidates(_Model):
     rim: float | None = Field(None, description="height (m) at which water poured into the object's deepest basin "
                                                 "spills over in this pose (its rim's lowest point, below a rising "
                                                 "handle); null without a basin")
+    basin_length: float | None = Field(None, description="longer side (m) of that basin's water surface at the "
+                                                         "spill level; null without a basin")
     candidates: list[CandidateInteraction]
     failed: list[CandidateInteraction] = Field(
         default_factory=list, description="the pose's plans that the scoring function called failures: evidence"

@@ -228,8 +228,10 @@ def generate_profile(
 
 
 def trajectory_array(profile_or_traj: ImaginationProfile | Trajectories | PlanTrajectory,
-                     half_extents: Sequence[float] | np.ndarray) -> list[np.ndarray]:
-    """Via-poses per plan as (K, 7) arrays (task-frame position xyz, quat wxyz) for one pose's ``h``."""
+                     half_extents: Sequence[float] | np.ndarray,
+                     opening: Sequence[float] | np.ndarray | None = None) -> list[np.ndarray]:
+    """Via-poses per plan as (K, 7) arrays (task-frame position xyz, quat wxyz) for one pose's ``h`` and
+    ``opening`` (:attr:`rail_mj.types.StablePose.opening`)."""
     h = np.asarray(half_extents, dtype=float)
     if h.shape != (3,) or not np.all(np.isfinite(h)) or np.any(h <= 0):
         raise ConfigError(f"half_extents must be three positive finite values; got {h.tolist()}")
@@ -243,7 +245,7 @@ def trajectory_array(profile_or_traj: ImaginationProfile | Trajectories | PlanTr
     for t in trajs:
         quat = np.array([v.quat for v in t.via_poses], dtype=float)
         quat /= np.linalg.norm(quat, axis=1, keepdims=True)
-        out.append(np.concatenate([via_positions(t.via_poses, h), quat], axis=1))
+        out.append(np.concatenate([via_positions(t.via_poses, h, opening), quat], axis=1))
     return out
 
 
@@ -326,6 +328,7 @@ def functional_pose_request(
                 probability=float(poses[i].probability),
                 half_extents=[float(v) for v in poses[i].half_extents],
                 rim=poses[i].rim,
+                basin_length=poses[i].basin_length,
                 candidates=[c for c in tried if c.score > 0],
                 failed=[c for c in tried if c.score <= 0],
             )

@@ -54,6 +54,7 @@ __all__ = [
     "ScenePhysics",
     "Scene",
     "compose_scene",
+    "surface_model",
     "build_scene",
     "add_object",
     "add_agent",
@@ -109,6 +110,9 @@ class Scene:
     agent_qpos: np.ndarray  # (N,) qpos address of each agent's free joint
     agent_dof: np.ndarray  # (N,)
     geom_owner: np.ndarray  # (ngeom,) agent index, OWNER_GROUND or OWNER_OBJECT
+    #: the object's own surface in its frame, for ray probes (:func:`surface_model`); None in a scene without
+    #: agents, or when MuJoCo cannot compile the mesh (the probes then cast against the hulls)
+    surface: mujoco.MjModel | None = None
 
     @property
     def free_dofs(self) -> np.ndarray:
@@ -394,4 +398,20 @@ def compose_scene(
         owner[model.geom_bodyid == model.jnt_bodyid[jid]] = i
     jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, OBJECT_JOINT)
     return Scene(model=model, n_agents=n_agents, object_qpos=int(model.jnt_qposadr[jid]),
-                 object_dof=int(model.jnt_dofadr[jid]), agent_qpos=agent_qpos, agent_dof=agent_dof, geom_owner=owner)
+                 object_dof=int(model.jnt_dofadr[jid]), agent_qpos=agent_qpos, agent_dof=agent_dof, geom_owner=owner,
+                 surface=None if agents is None else surface_model(obj))
+
+
+def surface_model(obj: RailObject) -> mujoco.MjModel | None:
+    """The object's mesh as one static, non-colliding geom in its own frame: rays cast in it meet the surface
+    itself, where the convex hulls fill a desk's 3 cm top out to 5-9 cm or bridge a basket's slots. None when
+    MuJoCo refuses the mesh (a scan too degenerate for its mesh compiler)."""
+    spec = mujoco.MjSpec()
+    spec.add_mesh(name="surface", uservert=np.asarray(obj.mesh.vertices, dtype=np.float64).ravel().tolist(),
+                  userface=np.asarray(obj.mesh.faces, dtype=np.int32).ravel().tolist(),
+                  inertia=mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL)
+    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname="surface", contype=0, conaffinity=0)
+    try:
+        return spec.compile()
+    except ValueError:
+        return None

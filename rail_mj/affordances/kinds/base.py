@@ -112,8 +112,9 @@ class Kind(ABC):
         evidence: (candidates still accepted, why the pose is rejected or "")."""
         return accepted, ""
 
-    def rank(self, accepted: list[CandidateInteraction]) -> int:
-        """First key in choosing the best pose, before the number of accepted plans; 0 unless a kind cares."""
+    def rank(self, aff: Affordance, accepted: list[CandidateInteraction], h: Sequence[float]) -> int:
+        """First key in choosing the best pose (half extents ``h``), before the number of accepted plans; 0 unless
+        a kind cares."""
         return 0
 
 
@@ -124,8 +125,9 @@ def box_agent(label: str, half: tuple[float, float, float]) -> AgentShape:
     return AgentShape(f'type="box" size="{size}"', math.sqrt(sum(v * v for v in half)), half[2], mass, label)
 
 
-def via(rel: tuple[float, float, float], off: tuple[float, float, float]) -> ViaPose:
-    return ViaPose(rel=[float(v) for v in rel], offset_m=[round(float(v), 5) for v in off], quat=IDENTITY)
+def via(rel: tuple[float, float, float], off: tuple[float, float, float], anchor: str = "box") -> ViaPose:
+    return ViaPose(rel=[float(v) for v in rel], offset_m=[round(float(v), 5) for v in off], quat=IDENTITY,
+                   anchor=anchor)
 
 
 def side_offset(plan: str, amount: float) -> tuple[float, float]:

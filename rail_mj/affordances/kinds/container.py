@@ -32,8 +32,9 @@ __all__ = ["BENEATH_MIDDLE", "MIN_DEPTH", "OPEN_SECTOR", "MAX_OPEN", "Container"
 #: (run in the sandbox, so it cannot import this) has it formatted in; stage 7's ``frac_through_object`` reads it.
 BENEATH_MIDDLE = 0.25
 
-#: Horizontal offset (units of h) of the above_<side> plans: a handle shifts the box centre off the cavity's
-#: axis by a fraction of the half size, so the grid must move by about that much, not onto the rim.
+#: Horizontal offset (units of h) of the above_<side> plans from the pose's opening (or its box centre, in a pose
+#: without a basin): a handle the basin map missed shifts the box centre off the cavity's axis by a fraction of
+#: the half size, so the grid must move by about that much, not onto the rim.
 _OFFSET = 0.3
 
 #: Least depth of the droplets' mean centre below the rim, as a fraction of the pose's box height. A closed box
@@ -74,8 +75,8 @@ def _leaked(c: CandidateInteraction) -> bool:
     ground lie beneath the object's middle, so they came through it rather than over the rim.
 
     Landed: most droplets rest on the object, or, poured at the centre, most stayed off the ground (they plug a
-    hole in the base). Droplets that fell past a handle (a saucepan's box centre lies over its handle) reach the
-    ground or pile there touching nothing; one that spills over the rim by a handle lands beside the body.
+    hole in the base). Droplets that fell past a handle reach the ground or pile there touching nothing; one that
+    spills over the rim by a handle lands beside the body.
     """
     s = c.summary
     landed = s.frac_touching_object >= _LANDED or (c.plan == "above" and s.frac_on_ground < 0.5)
@@ -86,9 +87,9 @@ class Container(Kind):
     name = "container"
     agent_description = ("Small spheres standing for droplets of liquid (or items bigger than the holes of a "
                          "basket), sized to the object's opening, in a 3x3x3 grid.")
-    interaction_description = ("The grid of droplets is brought above the object's opening and released so the "
-                               "droplets fall in; alternatives release it above the rim offset to the front, back, "
-                               "left and right.")
+    interaction_description = ("The grid of droplets is brought above the object's opening (its deepest basin seen "
+                               "from above) and released so the droplets fall in; alternatives release it offset "
+                               "from there to the front, back, left and right.")
     expected_outcome = ("Most droplets end inside the {name}'s bounding box, below its rim, not touching the ground, "
                         "and the {name} stays upright.")
 
@@ -109,15 +110,18 @@ class Container(Kind):
         plans = [MotionPlan(name="above", description="Hold the droplet grid centred above the opening, just over "
                                                      "the rim; release it so the droplets fall in.")]
         plans += [MotionPlan(name=f"above_{side}", description=f"Hold the droplet grid above the rim, offset to the "
-                                                               f"{side} by {_OFFSET:g} of the half size (the opening "
-                                                               "may be off the box centre); release it.")
+                                                               f"{side} of the opening by {_OFFSET:g} of the half "
+                                                               "size (the basin map may have missed it); release it.")
                   for side, _, _ in SIDES]
         return plans
 
     def via_poses(self, plan: str, shape: AgentShape, layout: AgentLayout) -> list[ViaPose]:
         spread_z = (layout.nz - 1) / 2.0 * layout.sz + shape.radius  # grid half height
         ox, oy = side_offset(plan, _OFFSET)
-        return [via((ox, oy, 1), (0, 0, spread_z + clearance(shape))), via((ox, oy, 1), (0, 0, spread_z + 0.002))]
+        # poured at the opening: over a saucepan's pan, not its box's centre by the handle, where the droplets
+        # bounce off the rim and fall beside the body
+        return [via((ox, oy, 1), (0, 0, spread_z + clearance(shape)), "opening"),
+                via((ox, oy, 1), (0, 0, spread_z + 0.002), "opening")]
 
     def scoring(self, aff: Affordance, shape: AgentShape) -> ScoringCode:
         envelope = aff.envelope.doc()

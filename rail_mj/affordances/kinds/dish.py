@@ -50,7 +50,7 @@ class Dish(Lowering):
                         f"the half height), not below a rim; a {aff.name} holds food below its rim")
         return accepted, ""
 
-    def rank(self, accepted: list[CandidateInteraction]) -> int:
+    def rank(self, aff: Affordance, accepted: list[CandidateInteraction], h: Sequence[float]) -> int:
         """Plans whose food stayed below the top of the box: held by a rim. An upturned plate's flat bottom also
         holds a disc, but nothing keeps it there."""
         return sum(c.summary.mean_height < 1.0 for c in accepted)

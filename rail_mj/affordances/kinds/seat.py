@@ -46,6 +46,9 @@ _BACK = 0.5
 #: A back behind a high seat rises at least this far (m, a person's) above the seated pelvis's centre: a bar chair's
 #: back rises 0.25-0.35 m, a small table's top has nothing above it.
 _PERCH_BACK = 0.2
+#: A seat is the object's top when the pelvis rests at most this far (m, a person's) below the top of the pose's
+#: box: a cushion's seams and an uneven scan stay within it, a pouf's feet rise 3-6 cm round it upside down.
+_ON_TOP = 0.015
 #: Where a second sitter sits (m from the centre along the object's length, a person's): a pelvis resting
 #: there is supported only by a seat over 0.7 m long, the widest seat for one (0.9 m make a bench for two).
 _BESIDE = 0.35
@@ -132,6 +135,11 @@ class Seat(Kind):
         if not area:
             return [], (f"the pelvis rests only where it is placed at the centre, not {_AREA * aff.scale:g} m off it "
                         "to any side: a post or a ridge, no seat area")
+        placed = {c.plan for c in area}
+        along = [pair for pair in _AXES if not any(f"above_{side}" in placed for side in pair)]
+        if along:
+            return [], (f"the pelvis rests {_AREA * aff.scale:g} m off the centre only along one axis, not to the "
+                        f"{' or '.join(along[0])}: a ridge (a divider's edge, a pouf on its side), no seat area")
         level = sorted(c.summary.mean_height for c in centre)[len(centre) // 2]
         beside = {c.plan for c in accepted
                   if c.plan in dict(_BESIDE_PLANS) and abs(c.summary.mean_height - level) <= _SAME_LEVEL}
@@ -144,16 +152,19 @@ class Seat(Kind):
                         f"along its length: a {aff.name} seats people side by side")
         return centre + area, ""
 
-    def rank(self, accepted: list[CandidateInteraction]) -> int:
-        """A seat with a back first, then one with an area both ways: of two poses that seat the pelvis, the one
-        where the object rises behind it (a chair standing, not lying on its back or side, whose box is the longer
-        for it), then the one that bears it off the centre along both horizontal axes (a pouf standing, not
-        rolled on its side, whose ridge bears it only along its axis). 3 x back (0 or 1) + axes (0-2)."""
+    def rank(self, aff: Affordance, accepted: list[CandidateInteraction], h: Sequence[float]) -> int:
+        """A seat with a back first, then one with an area both ways, then one on top: of two poses that seat the
+        pelvis, the one where the object rises behind it (a chair standing, not lying on its back or side, whose
+        box is the longer for it), then the one that bears it off the centre along both horizontal axes (a pouf
+        standing, not rolled on its side, whose ridge bears it only along its axis), then the one whose seat is
+        the object's top (a pouf on its feet, not upside down with its feet rising round the sitter).
+        6 x back (0 or 1) + 2 x axes (0-2) + top (0 or 1)."""
         centre = [c for c in accepted if c.plan in _CENTRE]
         if not centre:
             return 0
         level = sorted(c.summary.mean_height for c in centre)[len(centre) // 2]
         plans = {c.plan for c in accepted}
         axes = sum(any(f"above_{side}" in plans for side in pair) for pair in _AXES)
-        return 3 * int(level <= 1.0 - _BACK) + axes
+        seat = (level - 1.0) * h[2] - _HALF[2] * aff.scale  # of the pelvis's bottom above the object's top
+        return 6 * int(level <= 1.0 - _BACK) + 2 * axes + int(seat > -_ON_TOP * aff.scale)
 
