@@ -132,7 +132,9 @@ def _rows() -> tuple[Affordance, ...]:
                    "most 12.5 cm across, 6-16 cm tall, taller than about half its width).",
                    (0.06, 0.2), (0.03, 0.15), aliases=("mug",), paper=True, droplets=_LIQUID,
                    holds_water=True,
-                   envelope=Envelope(height=(0.06, 0.16), width=(0.03, 0.15), length=(0.03, 0.2),
+                   # the rim's 12.5 cm is the width's bound (a handle lengthens the box, never widens it): a
+                   # 13 cm bowl 7 cm deep is no cup
+                   envelope=Envelope(height=(0.06, 0.16), width=(0.03, 0.125), length=(0.03, 0.2),
                                      aspect=(0.5, inf))),
         Affordance("bowl", "container", "A bowl holds food or liquid in a wide, open, upward-facing cavity reachable "
                    "from above (rim 12.5-35 cm across, up to 50 cm long with a handle, at least 4 cm deep, height at "
