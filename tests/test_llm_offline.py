@@ -407,10 +407,10 @@ def test_a_liquid_holder_needs_a_basin_in_its_pose():
 
 
 def test_a_bowl_on_its_side_holds_a_puddle_not_a_cup_of_water():
-    """A 14 cm bowl tipped on its side keeps droplets in the curve of its wall, a basin 2 cm deep at the bottom of
-    a 13 cm pose; upright a cup's water stands up to its rim."""
+    """A 12 cm bowl tipped on its side keeps droplets in the curve of its wall, a basin 2 cm deep at the bottom of
+    a 12 cm pose; upright a cup's water stands up to its rim."""
     pour = _candidate("above", [0.0, 0.0, 0.2])
-    side = PoseCandidates(pose_index=0, probability=0.6, half_extents=[0.07, 0.066, 0.066], rim=0.02,
+    side = PoseCandidates(pose_index=0, probability=0.6, half_extents=[0.062, 0.06, 0.06], rim=0.02,
                           basin_length=0.05, candidates=[pour])
     upright = PoseCandidates(pose_index=1, probability=0.4, half_extents=[0.045, 0.045, 0.05], rim=0.1,
                              basin_length=0.08, candidates=[pour])
