@@ -32,6 +32,8 @@ class PoseExplanation(BaseModel):
     up_in_mesh_frame: list[float]
     box_size_m: list[float] = Field(description="full extents of the pose's box, x y z (z up), m")
     envelope: str = Field(description="'fits', or which pose-envelope size is outside its range")
+    basin: str = Field("", description="seen from above, where poured water stands: its spill level and length, "
+                                       "'none' without a basin")
     scores: dict[str, float] = Field(description="plan -> score (> 0 succeeded; -1 also when not imagined)")
     analyzer: str = Field(description="the Functional Pose Analyzer's reasons for this pose, '' when none")
     functional: bool = Field(description="whether this is the functional pose")
@@ -88,6 +90,8 @@ def explain(r: AffordanceResult) -> Explanation:
             up_in_mesh_frame=[round(v, 4) for v in p.up_in_mesh_frame],
             box_size_m=[round(2.0 * v, 4) for v in p.half_extents],
             envelope=_envelope(r.affordance, p.half_extents, p.rim),
+            basin="none" if p.rim is None else (f"water stands up to {p.rim:.3f} m"
+                                                + (f", {p.basin_length:.2f} m long" if p.basin_length else "")),
             scores={name: round(s, 4) for name, s in zip(r.plans, row, strict=False)},
             analyzer="; ".join(per_pose.get(p.index, [])), functional=p.index == best,
         ))
@@ -113,6 +117,8 @@ def format_explanation(e: Explanation) -> str:
         size = " x ".join(f"{v:.3f}" for v in p.box_size_m)
         lines.append(f"  pose {p.index}: p={p.probability:.2f}, up {p.up}, box {size} m{mark}")
         lines.append(f"    envelope: {p.envelope}")
+        if p.basin:
+            lines.append(f"    basin: {p.basin}")
         if p.scores:
             lines.append("    scores: " + ", ".join(f"{k} {v:+.2f}" for k, v in p.scores.items()))
         if p.analyzer:

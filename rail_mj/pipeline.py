@@ -100,6 +100,7 @@ def _pose_info(i: int, pose: StablePose) -> PoseInfo:
         up_in_mesh_frame=[float(v) for v in pose.up_in_mesh_frame],
         rim=None if pose.rim is None else float(pose.rim),
         opening=None if pose.opening is None else [float(v) for v in pose.opening],
+        basin_length=None if pose.basin_length is None else float(pose.basin_length),
     )
 
 

@@ -533,7 +533,7 @@ def render_contact_sheet(
     plans = [_best_plan(result, i) for i in range(n)]
     poses = [StablePose(pos=np.asarray(p.pos), quat=np.asarray(p.quat), probability=p.probability,
                         half_extents=np.asarray(p.half_extents), rim=p.rim,
-                        opening=None if p.opening is None else np.asarray(p.opening))
+                        opening=None if p.opening is None else np.asarray(p.opening), basin_length=p.basin_length)
              for p in result.stable_poses]
     trajectories = [[llm.trajectory_array(profile, p.half_extents, p.opening)[j]] for p, j in zip(poses, plans)]
     outcomes = imagine(obj, poses, llm.agent_setup(profile), trajectories, backend=result.backend or "native")

@@ -22,6 +22,8 @@ class PoseInfo(BaseModel):
                               "m (a vessel's aspect is judged at it); None without a basin")
     opening: list[float] | None = Field(default=None, description="x, y (m) of the middle of that basin from the "
                                         "box centre (where pours aim); None without a basin")
+    basin_length: float | None = Field(default=None, description="longer side (m) of that basin's water surface at "
+                                       "the spill level; None without a basin")
 
 
 class PlanInfo(BaseModel):

@@ -61,6 +61,17 @@ def test_explain_judges_a_vessels_aspect_at_its_rim_as_the_analyser_does() -> No
     assert AffordanceResult.model_validate_json(r.model_dump_json()).stable_poses[0].rim == 0.07
 
 
+def test_explain_shows_where_poured_water_stands_in_each_pose() -> None:
+    """The liquid rules read the pose's basin: its spill level and length are shown, 'none' without one."""
+    pose = _pose(0, [0, 0, 1], [0.8, 0.35, 0.28], 1.0, rim=0.52).model_copy(update={"basin_length": 0.58})
+    r = AffordanceResult(object="console", affordance="bathtub", requested="bathtub", dims_fit=True,
+                         stable_poses=[pose, _pose(1, [0, 0, -1], [0.8, 0.35, 0.28], 0.0)],
+                         plans=["above"], scores=[[0.5], [-1.0]])
+    e = explain(r)
+    assert e.poses[0].basin == "water stands up to 0.520 m, 0.58 m long" and e.poses[1].basin == "none"
+    assert "    basin: water stands up to 0.520 m, 0.58 m long" in format_explanation(e)
+
+
 def test_up_axis_names_an_axis_or_prints_the_vector() -> None:
     assert up_axis([0.0, 0.0, -1.0]) == "-z"
     assert up_axis([0.6, 0.0, 0.8]) == "[0.60, 0.00, 0.80]"
