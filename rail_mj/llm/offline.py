@@ -26,7 +26,6 @@ from rail_mj.llm.schemas import (
     FunctionalPoseVerdict,
     MotionPlans,
     PlanTrajectory,
-    PoseCandidates,
     PoseVerdict,
     Request,
     RequestText,
@@ -160,10 +159,7 @@ def offline_functional_poses(request: FunctionalPoseRequest) -> FunctionalPoseVe
         if not pose.candidates:
             reasons.append("no plan succeeded")
         if kind is not None and aff is not None and accepted:
-            accepted, why_not = kind.accept_pose(aff, accepted, pose.candidates + pose.failed)
-            if not why_not and aff.holds_water:
-                why_not = _basin_fault(aff, pose)
-                accepted = [] if why_not else accepted
+            accepted, why_not = kind.accept_pose(aff, accepted, pose)
             if why_not:
                 reasons.append(why_not)
         top = max(accepted, key=lambda c: c.score) if accepted else None
@@ -179,26 +175,6 @@ def offline_functional_poses(request: FunctionalPoseRequest) -> FunctionalPoseVe
     return FunctionalPoseVerdict(poses=verdicts, best_pose=best[4], best_plan=best[5],
                                  reason=f"pose {best[4]} works with the most plans ({best[1]}); plan {best[5]!r} "
                                         f"has its best accepted score ({best[2]:.3f})")
-
-
-#: A liquid holder's spill level stands at least this fraction of the pose's height: an upright vessel's is its rim
-#: (a scoop's 0.5-0.7 under its rising handle); a bowl on its side holds a puddle in its wall at 0.15-0.2.
-_FILL = 0.35
-
-
-def _basin_fault(aff: Affordance, pose: PoseCandidates) -> str:
-    """Why a pose of a liquid holder holds no water, from its spill map; "" when it does."""
-    if pose.rim is None or pose.basin_length is None:
-        return (f"water poured into it runs out: seen from above the pose has no basin (walls all round), and a "
-                f"{aff.name} holds liquid")
-    height = 2.0 * pose.half_extents[2]
-    if pose.rim < _FILL * height:
-        return (f"water poured into it stands {pose.rim:.3f} m deep at most, under {_FILL:.2f} of its {height:.2f} m "
-                f"height: a puddle in a wall (a vessel on its side), not a {aff.name} filled from above")
-    if pose.basin_length < aff.basin_length:
-        return (f"its basin holds water {pose.basin_length:.2f} m long; a {aff.name}'s is at least "
-                f"{aff.basin_length:g} m")
-    return ""
 
 
 def offline_request(request: RequestText) -> Request:

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 from rail_mj.affordances.registry import Affordance, KindName
-from rail_mj.llm.schemas import AgentLayout, CandidateInteraction, MotionPlan, ScoringCode, ViaPose
+from rail_mj.llm.schemas import AgentLayout, CandidateInteraction, MotionPlan, PoseCandidates, ScoringCode, ViaPose
 
 __all__ = [
     "SIDES",
@@ -106,10 +106,10 @@ class Kind(ABC):
         """The kind's own rules for a candidate whose pose fits the envelope and whose object did not tip."""
 
     def accept_pose(
-        self, aff: Affordance, accepted: list[CandidateInteraction], tried: list[CandidateInteraction]
+        self, aff: Affordance, accepted: list[CandidateInteraction], pose: PoseCandidates
     ) -> tuple[list[CandidateInteraction], str]:
-        """Rules over a pose's accepted candidates (never empty) together, with every plan ``tried`` in it as
-        evidence: (candidates still accepted, why the pose is rejected or "")."""
+        """Rules over a pose's accepted candidates (never empty) together, with the pose (its every plan tried,
+        its basin) as evidence: (candidates still accepted, why the pose is rejected or "")."""
         return accepted, ""
 
     def rank(self, aff: Affordance, accepted: list[CandidateInteraction], h: Sequence[float]) -> int:

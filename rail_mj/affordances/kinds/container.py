@@ -23,7 +23,7 @@ from rail_mj.affordances.kinds.base import (
     via,
 )
 from rail_mj.affordances.registry import Affordance
-from rail_mj.llm.schemas import AgentLayout, CandidateInteraction, MotionPlan, ScoringCode, ViaPose
+from rail_mj.llm.schemas import AgentLayout, CandidateInteraction, MotionPlan, PoseCandidates, ScoringCode, ViaPose
 
 __all__ = ["BENEATH_MIDDLE", "MIN_DEPTH", "OPEN_SECTOR", "MAX_OPEN", "Container"]
 
@@ -81,6 +81,26 @@ def _leaked(c: CandidateInteraction) -> bool:
     s = c.summary
     landed = s.frac_touching_object >= _LANDED or (c.plan == "above" and s.frac_on_ground < 0.5)
     return landed and s.frac_through_object > 0 and s.frac_through_object >= 0.5 * s.frac_on_ground
+
+
+#: A liquid holder's spill level stands at least this fraction of the pose's height: an upright vessel's is its rim
+#: (a scoop's 0.5-0.7 under its rising handle); a bowl on its side holds a puddle in its wall at 0.15-0.2.
+_FILL = 0.35
+
+
+def _basin_fault(aff: Affordance, pose: PoseCandidates) -> str:
+    """Why a pose of a liquid holder holds no water, from its spill map; "" when it does."""
+    if pose.rim is None or pose.basin_length is None:
+        return (f"water poured into it runs out: seen from above the pose has no basin (walls all round), and a "
+                f"{aff.name} holds liquid")
+    height = 2.0 * pose.half_extents[2]
+    if pose.rim < _FILL * height:
+        return (f"water poured into it stands {pose.rim:.3f} m deep at most, under {_FILL:.2f} of its {height:.2f} m "
+                f"height: a puddle in a wall (a vessel on its side), not a {aff.name} filled from above")
+    if pose.basin_length < aff.basin_length:
+        return (f"its basin holds water {pose.basin_length:.2f} m long; a {aff.name}'s is at least "
+                f"{aff.basin_length:g} m")
+    return ""
 
 
 class Container(Kind):
@@ -152,11 +172,12 @@ class Container(Kind):
                       "the rim, walled all round")
 
     def accept_pose(
-        self, aff: Affordance, accepted: list[CandidateInteraction], tried: list[CandidateInteraction]
+        self, aff: Affordance, accepted: list[CandidateInteraction], pose: PoseCandidates
     ) -> tuple[list[CandidateInteraction], str]:
         # whichever pour it was: a slatted crate leaks from its side pours too
-        leaks = [c.plan for c in tried if _leaked(c)]
+        leaks = [c.plan for c in pose.candidates + pose.failed if _leaked(c)]
         if leaks:
             return [], (f"droplets poured into the object ({', '.join(leaks)}) came through it to the ground "
                         f"beneath; a {aff.name} that leaks does not hold")
-        return accepted, ""
+        why = _basin_fault(aff, pose) if aff.holds_water else ""
+        return ([], why) if why else (accepted, "")

@@ -9,7 +9,7 @@ from collections.abc import Sequence
 from rail_mj.affordances.kinds.base import AgentShape, rest_scoring
 from rail_mj.affordances.kinds.lowering import Lowering
 from rail_mj.affordances.registry import Affordance
-from rail_mj.llm.schemas import CandidateInteraction, ScoringCode
+from rail_mj.llm.schemas import CandidateInteraction, PoseCandidates, ScoringCode
 
 __all__ = ["Dish"]
 
@@ -38,7 +38,7 @@ class Dish(Lowering):
         return -math.inf, math.inf
 
     def accept_pose(
-        self, aff: Affordance, accepted: list[CandidateInteraction], tried: list[CandidateInteraction]
+        self, aff: Affordance, accepted: list[CandidateInteraction], pose: PoseCandidates
     ) -> tuple[list[CandidateInteraction], str]:
         centre = next((c for c in accepted if c.plan == "above"), None)
         if centre is None:

@@ -26,7 +26,7 @@ from rail_mj.affordances.kinds.base import (
     via,
 )
 from rail_mj.affordances.registry import Affordance
-from rail_mj.llm.schemas import AgentLayout, CandidateInteraction, MotionPlan, ScoringCode, ViaPose
+from rail_mj.llm.schemas import AgentLayout, CandidateInteraction, MotionPlan, PoseCandidates, ScoringCode, ViaPose
 
 __all__ = ["Seat"]
 
@@ -126,7 +126,7 @@ class Seat(Kind):
         return ok, why
 
     def accept_pose(
-        self, aff: Affordance, accepted: list[CandidateInteraction], tried: list[CandidateInteraction]
+        self, aff: Affordance, accepted: list[CandidateInteraction], pose: PoseCandidates
     ) -> tuple[list[CandidateInteraction], str]:
         centre = [c for c in accepted if c.plan in _CENTRE]
         area = [c for c in accepted if c.plan in _AREA_PLANS]

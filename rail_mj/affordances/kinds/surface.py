@@ -22,7 +22,7 @@ from rail_mj.affordances.kinds.base import (
 )
 from rail_mj.affordances.kinds.lowering import Lowering
 from rail_mj.affordances.registry import Affordance
-from rail_mj.llm.schemas import AgentLayout, CandidateInteraction, MotionPlan, ScoringCode, ViaPose
+from rail_mj.llm.schemas import AgentLayout, CandidateInteraction, MotionPlan, PoseCandidates, ScoringCode, ViaPose
 
 __all__ = ["Surface"]
 
@@ -93,14 +93,15 @@ class Surface(Lowering):
         return ok, why
 
     def accept_pose(
-        self, aff: Affordance, accepted: list[CandidateInteraction], tried: list[CandidateInteraction]
+        self, aff: Affordance, accepted: list[CandidateInteraction], pose: PoseCandidates
     ) -> tuple[list[CandidateInteraction], str]:
         if len(accepted) < _MIN_PLANS:
             return [], (f"only {len(accepted)} of the placements hold the box; a {aff.name} top holds it at the "
                         f"centre and off centre ({_MIN_PLANS} needed)")
         # under the top: the slid box ends under the middle of the footprint, not in a recess at its edge (a
         # bathtub on its side, whose feet stick out sideways, leaves 10 cm between them)
-        if aff.legroom and not any(c.plan in _SLIDES and c.summary.frac_beneath_middle > 0 for c in tried):
+        if aff.legroom and not any(c.plan in _SLIDES and c.summary.frac_beneath_middle > 0
+                                   for c in pose.candidates + pose.failed):
             return [], (f"the box slid in {_SLIDE_LIFT:g} m above the floor from every side stops at the object's "
                         f"edge: no room for feet under the top, which a {aff.name} is used from beside")
         return accepted, ""
