@@ -149,9 +149,12 @@ def test_a_scoop_whose_handle_rises_above_its_rim_is_a_bowl() -> None:
 
 def _probe(mesh: trimesh.Trimesh, hulls: list[np.ndarray], at: list[float]) -> tuple[int, int]:
     """The enclosure probe's widest free sector for one droplet resting at ``at`` (mesh frame), cast against the
-    mesh's surface and against ``hulls``."""
-    from rail_mj.imagination.batch import _open_sectors_hulls, open_sectors
+    mesh's surface and against ``hulls`` (what the probe casts against where MuJoCo refuses the mesh)."""
+    from dataclasses import replace
+
+    from rail_mj.imagination.batch import open_sectors
     from rail_mj.mjcf import compose_scene
+    from rail_mj.mjcf.compose import _static_meshes
     from rail_mj.types import AgentSetup, RailObject
 
     obj = RailObject(name="probe", mesh=mesh, hulls=tuple(hulls), mesh_hash="probe", obb_dims=mesh.extents,
@@ -162,7 +165,8 @@ def _probe(mesh: trimesh.Trimesh, hulls: list[np.ndarray], at: list[float]) -> t
     qpos[0, scene.object_qpos + 3] = 1.0
     a = int(scene.agent_qpos[0])
     qpos[0, a : a + 3], qpos[0, a + 3] = at, 1.0
-    return int(open_sectors(scene, qpos)[0, 0]), int(_open_sectors_hulls(scene, qpos)[0, 0])
+    in_hulls = replace(scene, surface=_static_meshes([(h, None) for h in hulls]))
+    return int(open_sectors(scene, qpos)[0, 0]), int(open_sectors(in_hulls, qpos)[0, 0])
 
 
 def test_the_enclosure_probe_meets_the_surface_not_hulls_that_fill_it_out() -> None:

@@ -40,9 +40,6 @@ _SUB_RAYS = 4
 _SUB_ANGLES = (2 * np.pi * (np.arange(PROBE_DIRECTIONS * _SUB_RAYS) - (_SUB_RAYS - 1) / 2)
                / (PROBE_DIRECTIONS * _SUB_RAYS))
 _SUB_VEC = np.stack([np.cos(_SUB_ANGLES), np.sin(_SUB_ANGLES), np.zeros_like(_SUB_ANGLES)], axis=1)
-_PROBE_VEC = np.stack([np.cos(2 * np.pi * np.arange(PROBE_DIRECTIONS) / PROBE_DIRECTIONS),
-                       np.sin(2 * np.pi * np.arange(PROBE_DIRECTIONS) / PROBE_DIRECTIONS),
-                       np.zeros(PROBE_DIRECTIONS)], axis=1).ravel()
 
 
 @dataclass(frozen=True)
@@ -302,12 +299,12 @@ def open_sectors(scene: Scene, qpos: np.ndarray) -> np.ndarray:
     go. A direction is free only when all :data:`_SUB_RAYS` rays across its sector are, so a slot narrower
     than their spread at the wall (a basket's, between its slats) is no way out.
     """
-    if scene.surface is None:
-        return _open_sectors_hulls(scene, qpos)
+    out = np.zeros((qpos.shape[0], scene.n_agents), dtype=np.int64)
+    if scene.surface is None:  # a scene without agents: nothing to probe
+        return out
     data = mujoco.MjData(scene.surface)
     mujoco.mj_kinematics(scene.surface, data)
     n_rays = PROBE_DIRECTIONS * _SUB_RAYS
-    out = np.zeros((qpos.shape[0], scene.n_agents), dtype=np.int64)
     geomid = np.zeros(n_rays, dtype=np.int32)
     dist = np.zeros(n_rays)
     rot = np.zeros(9)
@@ -322,25 +319,4 @@ def open_sectors(scene: Scene, qpos: np.ndarray) -> np.ndarray:
             mujoco.mj_multiRay(scene.surface, data, p, vecs, None, 1, -1, geomid, dist, None, n_rays, 100.0)
             escaped[i] = geomid < 0
         out[b] = _longest_run(escaped.reshape(scene.n_agents, PROBE_DIRECTIONS, _SUB_RAYS).all(axis=2))
-    return out
-
-
-def _open_sectors_hulls(scene: Scene, qpos: np.ndarray) -> np.ndarray:
-    """:func:`open_sectors` cast against the object's hulls, for a scene whose mesh MuJoCo would not compile."""
-    m = scene.model
-    data = mujoco.MjData(m)
-    out = np.zeros((qpos.shape[0], scene.n_agents), dtype=np.int64)
-    geomid = np.zeros(PROBE_DIRECTIONS, dtype=np.int32)
-    dist = np.zeros(PROBE_DIRECTIONS)
-    for b in range(qpos.shape[0]):
-        q = qpos[b].copy()
-        centres = np.stack([q[a : a + 3] for a in scene.agent_qpos])
-        q[scene.agent_qpos + 2] = -1e3
-        data.qpos[:] = q
-        mujoco.mj_kinematics(m, data)
-        escaped = np.zeros((scene.n_agents, PROBE_DIRECTIONS), dtype=bool)
-        for i, p in enumerate(centres):
-            mujoco.mj_multiRay(m, data, p, _PROBE_VEC, None, 0, -1, geomid, dist, None, PROBE_DIRECTIONS, 100.0)
-            escaped[i] = geomid < 0
-        out[b] = _longest_run(escaped)
     return out

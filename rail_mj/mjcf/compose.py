@@ -111,7 +111,7 @@ class Scene:
     agent_dof: np.ndarray  # (N,)
     geom_owner: np.ndarray  # (ngeom,) agent index, OWNER_GROUND or OWNER_OBJECT
     #: the object's own surface in its frame, for ray probes (:func:`surface_model`); None in a scene without
-    #: agents, or when MuJoCo cannot compile the mesh (the probes then cast against the hulls)
+    #: agents
     surface: mujoco.MjModel | None = None
 
     @property
@@ -402,16 +402,23 @@ def compose_scene(
                  surface=None if agents is None else surface_model(obj))
 
 
-def surface_model(obj: RailObject) -> mujoco.MjModel | None:
+def surface_model(obj: RailObject) -> mujoco.MjModel:
     """The object's mesh as one static, non-colliding geom in its own frame: rays cast in it meet the surface
-    itself, where the convex hulls fill a desk's 3 cm top out to 5-9 cm or bridge a basket's slots. None when
-    MuJoCo refuses the mesh (a scan too degenerate for its mesh compiler)."""
-    spec = mujoco.MjSpec()
-    spec.add_mesh(name="surface", uservert=np.asarray(obj.mesh.vertices, dtype=np.float64).ravel().tolist(),
-                  userface=np.asarray(obj.mesh.faces, dtype=np.int32).ravel().tolist(),
-                  inertia=mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL)
-    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname="surface", contype=0, conaffinity=0)
+    itself, where the convex hulls fill a desk's 3 cm top out to 5-9 cm or bridge a basket's slots. When MuJoCo
+    refuses the mesh (a scan too degenerate for its mesh compiler) the hulls, which the scene compiled, stand in."""
     try:
-        return spec.compile()
+        return _static_meshes([(obj.mesh.vertices, obj.mesh.faces)])
     except ValueError:
-        return None
+        return _static_meshes([(hull, None) for hull in obj.hulls])
+
+
+def _static_meshes(meshes: Sequence[tuple[np.ndarray, np.ndarray | None]]) -> mujoco.MjModel:
+    """A model of static, non-colliding mesh geoms (vertices, faces; no faces: their convex hull)."""
+    spec = mujoco.MjSpec()
+    for i, (vertices, faces) in enumerate(meshes):
+        mesh = spec.add_mesh(name=f"surface{i}", uservert=np.asarray(vertices, dtype=np.float64).ravel().tolist(),
+                             inertia=mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL)
+        if faces is not None:
+            mesh.userface = np.asarray(faces, dtype=np.int32).ravel().tolist()
+        spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh.name, contype=0, conaffinity=0)
+    return spec.compile()
