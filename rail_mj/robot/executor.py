@@ -197,11 +197,16 @@ def _agent_extent(fragment: str) -> np.ndarray:
     return hi - lo
 
 
-def _grasp_depth(extent: np.ndarray, grasp: np.ndarray) -> float:
-    """Half the agent's box (full size ``extent``, its own frame) along the hand's z for the grasp ``grasp``."""
+def _hand_z(grasp: np.ndarray) -> np.ndarray:
+    """The hand's z axis (where the fingers point) in the agent's frame, for the grasp ``grasp``."""
     rot = np.empty(9)
     mujoco.mju_quat2Mat(rot, np.asarray(grasp, dtype=np.float64))
-    return float(np.abs(rot.reshape(3, 3)[2]) @ extent / 2)  # row 2: the hand's z in the agent's frame
+    return rot.reshape(3, 3)[2]
+
+
+def _grasp_depth(extent: np.ndarray, grasp: np.ndarray) -> float:
+    """Half the agent's box (full size ``extent``, its own frame) along the hand's z for the grasp ``grasp``."""
+    return float(np.abs(_hand_z(grasp)) @ extent / 2)
 
 
 def side_grasp(direction: np.ndarray, fingers_vertical: bool = False) -> np.ndarray:
@@ -672,9 +677,7 @@ def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: 
     pos, quat = sim.site_pose()
     away = np.array([0.0, 0.0, 1.0])
     if grasp is not _GRASP_QUAT:
-        rot = np.empty(9)
-        mujoco.mju_quat2Mat(rot, np.asarray(grasp, dtype=np.float64))
-        away = -quat_rotate(path[-1][1], rot.reshape(3, 3)[2])  # the hand's z, agent frame -> task frame
+        away = -quat_rotate(path[-1][1], _hand_z(grasp))  # agent frame -> task frame
     _follow(sim, [(pos + cfg.lift_after_release * away, quat)], [sim.posture[None]], "lift", -1)
 
     pos, quat = sim.site_pose()
