@@ -10,7 +10,7 @@ from the labels), or, with neither, on four generated household shapes with know
 
 Every run uses a fresh temporary cache, so CoACD really runs. Per mesh it prints the load wall
 time (as ``load_object``), the CoACD part of it, faces in the file, after repair (decimation) and
-as CoACD saw them, the hull count, and the quality of the hulls (``rail_mj.objects.hull_quality``):
+as CoACD saw them, the hull count, and the quality of the hulls (``rail_mj.mesh.objects.hull_quality``):
 the union volume over the mesh volume (closed meshes), the probe-ray excess (hulls standing in
 front of the mesh: a filled cavity) and missing (mesh no hull covers); for the generated shapes
 also the fraction of sample points inside the cavity that some hull covers (should be ~0). Then
@@ -106,8 +106,8 @@ GENERATED = {
 
 
 def items_from(args: argparse.Namespace) -> list[Item]:
-    from rail_mj.dataset import read_labels
-    from rail_mj.objects import SUPPORTED_EXTENSIONS
+    from rail_mj.dataset.procedural import read_labels
+    from rail_mj.mesh.objects import SUPPORTED_EXTENSIONS
 
     if args.labels:
         root = args.labels if args.labels.is_dir() else args.labels.parent
@@ -122,7 +122,7 @@ def items_from(args: argparse.Namespace) -> list[Item]:
 
 def measure(item: Item) -> dict:
     """Load one object cold (the cache is empty) and measure its hulls."""
-    import rail_mj.objects as objects
+    import rail_mj.mesh.objects as objects
 
     seen: dict[str, float] = {"coacd_s": 0.0, "coacd_faces": 0}
     run_coacd = objects._run_coacd

@@ -28,10 +28,10 @@ import time
 from pathlib import Path
 
 from cpu_time import cpu_seconds  # benchmarks/cpu_time.py, beside this script
-from rail_mj import eval as rail_eval
-from rail_mj.dataset import CLASSES, generate
+from rail_mj.eval import run as rail_eval
+from rail_mj.dataset.procedural import CLASSES, generate
 from rail_mj.affordances import PAPER_AFFORDANCES
-from rail_mj.paths import CACHE_ENV
+from rail_mj.core.paths import CACHE_ENV
 
 VERDICT = ("predicted", "correct", "pose_correct", "pose_correct_without_analyzer", "error")
 

@@ -1,7 +1,7 @@
 """Time and accuracy of the simulated wrist-camera scan (``rail_mj.robot.scan``) on generated objects.
 
 Scans the robot demo's table-top objects (``rail_mj.robot.demo.make_object``) and the procedural dataset's
-table-top generators (``rail_mj.shapes.GENERATORS``), each standing upright on the robot's table, and prints
+table-top generators (``rail_mj.dataset.shapes.GENERATORS``), each standing upright on the robot's table, and prints
 per object the seconds of each phase (plan: IK for the views; render; fuse: TSDF; extract: plane, cluster,
 mesh, carving, cap), the scan total, the Chamfer distance to the true mesh (mm), the views used and the
 bounding-box error, then the median and worst. Objects larger than the fused workspace are listed apart::
@@ -26,11 +26,11 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 import numpy as np  # noqa: E402
 
-from rail_mj.objects import mesh_hash  # noqa: E402
+from rail_mj.mesh.objects import mesh_hash  # noqa: E402
 from rail_mj.robot.demo import make_object, upright_pose  # noqa: E402
 from rail_mj.robot.scan import ScanConfig, ScanError, scan_object, true_mesh_world  # noqa: E402
-from rail_mj.shapes import GENERATORS  # noqa: E402
-from rail_mj.types import RailObject  # noqa: E402
+from rail_mj.dataset.shapes import GENERATORS  # noqa: E402
+from rail_mj.core.types import RailObject  # noqa: E402
 
 DEMO = ("cup", "bowl", "vase", "pen_holder", "pot", "basket", "tray", "plate", "stool", "chair", "table")
 SHAPES = ("cup", "bowl", "vase", "plate", "pot", "tray", "goblet", "saucepan", "bowl_real", "ashtray")
@@ -53,7 +53,7 @@ def _fits(obj: RailObject, config: ScanConfig) -> bool:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--demo", default=",".join(DEMO), help="demo object kinds, comma separated ('' for none)")
-    parser.add_argument("--shapes", default=",".join(SHAPES), help="rail_mj.shapes generators ('' for none)")
+    parser.add_argument("--shapes", default=",".join(SHAPES), help="rail_mj.dataset.shapes generators ('' for none)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--noise", type=float, default=0.0, help="depth noise, standard deviation per metre")
     parser.add_argument("--dropout", type=float, default=0.0)

@@ -17,7 +17,7 @@ import os
 # unless the user chose one.
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from rail_mj.errors import RailError
+from rail_mj.core.errors import RailError
 
 __all__ = [
     "RailError",
@@ -34,13 +34,13 @@ __all__ = [
 __version__ = "0.1.0"
 
 _LAZY = {
-    "classify": "rail_mj.pipeline",
-    "ObjectInput": "rail_mj.pipeline",
-    "RunConfig": "rail_mj.pipeline",
-    "AffordanceResult": "rail_mj.results",
+    "classify": "rail_mj.pipeline.chain",
+    "ObjectInput": "rail_mj.pipeline.chain",
+    "RunConfig": "rail_mj.pipeline.chain",
+    "AffordanceResult": "rail_mj.core.results",
     "imagine": "rail_mj.imagination",
-    "find_stable_poses": "rail_mj.stable_poses",
-    "load_object": "rail_mj.objects",
+    "find_stable_poses": "rail_mj.stable_poses.poses",
+    "load_object": "rail_mj.mesh.objects",
 }
 
 

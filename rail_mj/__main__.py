@@ -1,6 +1,6 @@
 """``python -m rail_mj MESH --affordance NAME``: one object, one verdict, for people.
 
-Exit status and error output follow rail_mj.cli: 0 every case succeeded, 1 some case failed (its
+Exit status and error output follow rail_mj.core.cli: 0 every case succeeded, 1 some case failed (its
 ``error:`` line on stderr; with ``--json`` also its result line, carrying ``error``), 2 the command
 line was wrong (an empty or unknown affordance, a bad option value) and nothing ran, 130 interrupted.
 A picture asked for (``--render``, ``--contact-sheet``) of a result that has nothing to draw (its
@@ -17,8 +17,8 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from rail_mj.cli import EXIT_FAILED, EXIT_OK, report_error
-from rail_mj.errors import RailError
+from rail_mj.core.cli import EXIT_FAILED, EXIT_OK, report_error
+from rail_mj.core.errors import RailError
 
 __all__ = ["main"]
 
@@ -62,7 +62,7 @@ def _picture_path(text: str) -> Path:
 def _pictures(args: argparse.Namespace, results) -> None:
     """Write the requested pictures of the first functional result, else the first one with a rollout to
     draw; when no result has one, say why (that is an answer, not an error)."""
-    from rail_mj.render import nothing_to_draw, render_contact_sheet, render_result
+    from rail_mj.render.images import nothing_to_draw, render_contact_sheet, render_result
 
     targets = [p for p in (args.render, args.contact_sheet) if p is not None]
     done = [r for r in results if not r.error]
@@ -74,7 +74,7 @@ def _pictures(args: argparse.Namespace, results) -> None:
         for r in done:
             print(f"no picture written: {nothing_to_draw(r)}", file=sys.stderr)
         return
-    from rail_mj.objects import load_object
+    from rail_mj.mesh.objects import load_object
 
     obj = load_object(args.mesh, units=args.units, up=args.up)
     if args.render:
@@ -106,8 +106,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                    help="draw the original mesh in the pictures instead of its CoACD hulls")
     args = p.parse_args(argv)
 
-    from rail_mj.explain import explain, format_explanation
-    from rail_mj.pipeline import ObjectInput, classify
+    from rail_mj.render.explain import explain, format_explanation
+    from rail_mj.pipeline.chain import ObjectInput, classify
 
     try:
         results = classify(

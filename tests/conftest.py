@@ -12,7 +12,7 @@ jax.config.update("jax_cpu_enable_async_dispatch", False)
 
 import pytest  # noqa: E402
 
-from rail_mj.errors import RobotError  # noqa: E402
+from rail_mj.core.errors import RobotError  # noqa: E402
 from rail_mj.robot.model import panda_dir  # noqa: E402
 
 

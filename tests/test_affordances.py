@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
-from rail_mj import dataset
+from rail_mj.dataset import procedural as dataset
 from rail_mj.affordances import (
     PAPER_AFFORDANCES,
     REGISTRY,
@@ -23,7 +23,7 @@ from rail_mj.affordances import (
     normalize,
 )
 from rail_mj.affordances.kinds import KINDS, kind_of
-from rail_mj.errors import UnknownAffordanceError
+from rail_mj.core.errors import UnknownAffordanceError
 from rail_mj.llm.checks import check_agent
 from rail_mj.llm.offline import offline_agent
 from rail_mj.llm.schemas import TaskDescription

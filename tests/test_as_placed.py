@@ -7,11 +7,11 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from rail_mj.errors import ConfigError
-from rail_mj.objects import mesh_hash
-from rail_mj.pipeline import classify
+from rail_mj.core.errors import ConfigError
+from rail_mj.mesh.objects import mesh_hash
+from rail_mj.pipeline.chain import classify
 from rail_mj.robot.demo import make_object
-from rail_mj.types import RailObject
+from rail_mj.core.types import RailObject
 
 
 def _upside_down(obj: RailObject) -> RailObject:

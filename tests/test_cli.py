@@ -1,4 +1,4 @@
-"""The error rule of rail_mj.cli in every command line: exit 0/1/2/130, ``error:`` on stderr, JSON errors."""
+"""The error rule of rail_mj.core.cli in every command line: exit 0/1/2/130, ``error:`` on stderr, JSON errors."""
 
 from __future__ import annotations
 
@@ -9,12 +9,13 @@ import numpy as np
 import pytest
 import trimesh
 
-import rail_mj.objects as objects
-import rail_mj.pipeline as pipeline
-from rail_mj import dataset, llm
+import rail_mj.mesh.objects as objects
+import rail_mj.pipeline.chain as pipeline
+from rail_mj import llm
+from rail_mj.dataset import procedural as dataset
 from rail_mj.__main__ import main as rail_main
-from rail_mj.errors import ConfigError, DatasetError, RobotError
-from rail_mj.pipeline import classify
+from rail_mj.core.errors import ConfigError, DatasetError, RobotError
+from rail_mj.pipeline.chain import classify
 from rail_mj.robot import __main__ as robot_cli
 
 

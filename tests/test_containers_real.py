@@ -7,15 +7,15 @@ import numpy as np
 import pytest
 import trimesh
 
-from rail_mj import shapes
+from rail_mj.dataset import shapes
 from rail_mj.affordances import get
 from rail_mj.affordances.kinds import kind_of
 from rail_mj.affordances.kinds.container import MIN_DEPTH
 from rail_mj.llm import generate_profile, trajectory_array
 from rail_mj.llm.schemas import CandidateInteraction, ResultSummary
-from rail_mj.objects import object_from_mesh
-from rail_mj.pipeline import Pipeline, RunConfig
-from rail_mj.stable_poses import pose_from_up
+from rail_mj.mesh.objects import object_from_mesh
+from rail_mj.pipeline.chain import Pipeline, RunConfig
+from rail_mj.stable_poses.poses import pose_from_up
 
 
 @pytest.fixture(autouse=True)
@@ -155,7 +155,7 @@ def _probe(mesh: trimesh.Trimesh, hulls: list[np.ndarray], at: list[float]) -> t
     from rail_mj.imagination.batch import open_sectors
     from rail_mj.mjcf import compose_scene
     from rail_mj.mjcf.compose import _static_meshes
-    from rail_mj.types import AgentSetup, RailObject
+    from rail_mj.core.types import AgentSetup, RailObject
 
     obj = RailObject(name="probe", mesh=mesh, hulls=tuple(hulls), mesh_hash="probe", obb_dims=mesh.extents,
                      com=np.zeros(3), mass=1.0, density=500.0)

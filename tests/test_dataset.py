@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 import trimesh
 
-from rail_mj import dataset
-from rail_mj import eval as rail_eval
-from rail_mj.dataset import (
+from rail_mj.dataset import procedural as dataset
+from rail_mj.eval import run as rail_eval
+from rail_mj.dataset.procedural import (
     AFFORDANCES,
     ALL_CLASSES,
     CLASS_SPECS,
@@ -32,9 +32,9 @@ from rail_mj.dataset import (
     plan_diameter,
     read_labels,
 )
-from rail_mj.errors import DatasetError
-from rail_mj.results import PoseInfo
-from rail_mj.shapes import GENERATORS, densify, uneven_bottom
+from rail_mj.core.errors import DatasetError
+from rail_mj.core.results import PoseInfo
+from rail_mj.dataset.shapes import GENERATORS, densify, uneven_bottom
 
 REPO = Path(__file__).resolve().parents[1]
 ALL_AFFORDANCES = list(AFFORDANCES)
@@ -168,7 +168,7 @@ def test_meshes_are_watertight_centred_and_in_range(full):
 
 
 def test_meshes_load_with_the_project_loader(full):
-    objects = pytest.importorskip("rail_mj.objects", reason="rail_mj.objects.load_mesh not written yet")
+    objects = pytest.importorskip("rail_mj.mesh.objects", reason="rail_mj.mesh.objects.load_mesh not written yet")
     root, records = full
     for r in records:
         mesh = objects.load_mesh(r.mesh_path(root), units=r.units, up=r.up)
@@ -456,7 +456,7 @@ def corrupted(tmp_path_factory) -> dict[str, tuple[Path, dict[str, LabelRecord]]
 
 
 def _loaded(root: Path, r: LabelRecord) -> trimesh.Trimesh:
-    from rail_mj.objects import load_mesh
+    from rail_mj.mesh.objects import load_mesh
 
     return load_mesh(r.mesh_path(root), units=r.units, up=r.up)
 

@@ -9,11 +9,11 @@ from pathlib import Path
 
 import pytest
 
-from rail_mj import eval as rail_eval
-from rail_mj.dataset import generate, read_labels
-from rail_mj.errors import UnknownAffordanceError
-from rail_mj.pipeline import ObjectInput, classify
-from rail_mj.runfiles import folder_lock
+from rail_mj.eval import run as rail_eval
+from rail_mj.dataset.procedural import generate, read_labels
+from rail_mj.core.errors import UnknownAffordanceError
+from rail_mj.pipeline.chain import ObjectInput, classify
+from rail_mj.core.runfiles import folder_lock
 
 SUMMARY_KEYS = {"classification", "functional_pose", "baseline_dims", "timing", "config"}
 

@@ -20,9 +20,9 @@ from pathlib import Path
 import pytest
 
 from eval_procs import GUARD_S, output, start_eval, wait_until
-from rail_mj import eval as rail_eval
-from rail_mj.paths import CACHE_ENV
-from rail_mj.runfiles import HOLDER_FILE, STAGING_PREFIX, staging_dir
+from rail_mj.eval import run as rail_eval
+from rail_mj.core.paths import CACHE_ENV
+from rail_mj.core.runfiles import HOLDER_FILE, STAGING_PREFIX, staging_dir
 
 CLASSES, PER_CLASS, AFFORDANCE = ["solid_box", "cone", "solid_cylinder"], 8, "bathtub"
 N_CASES = len(CLASSES) * PER_CLASS

@@ -85,7 +85,7 @@ def test_a_plan_on_a_scan_turned_half_a_turn_is_carried_out_on_the_real_object_t
 
     from rail_mj.robot.control import RobotConfig
     from rail_mj.robot.experiment import plan_in_true_frame
-    from rail_mj.types import StablePose
+    from rail_mj.core.types import StablePose
 
     robot = RobotConfig()
     half = np.array([0.1, 0.06, 0.05])

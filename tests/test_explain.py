@@ -9,8 +9,8 @@ import pytest
 import trimesh
 
 from rail_mj.__main__ import main as rail_main
-from rail_mj.explain import explain, format_explanation, up_axis
-from rail_mj.results import AffordanceResult, PoseInfo
+from rail_mj.render.explain import explain, format_explanation, up_axis
+from rail_mj.core.results import AffordanceResult, PoseInfo
 
 
 @pytest.fixture(autouse=True)

@@ -6,7 +6,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from rail_mj.errors import RobotError
+from rail_mj.core.errors import RobotError
 from rail_mj.robot import RobotConfig, build_scene
 from rail_mj.robot.control import HOME_QPOS, ArmIndex, quat_error, solve_ik
 from rail_mj.robot.ik import ArmIK

@@ -7,7 +7,7 @@ import json
 import pytest
 from messages_server import MessagesServer, Reply, error_reply, offline_answer, schema_title, text_reply
 
-from rail_mj.errors import FragmentError, ProviderError, StageError
+from rail_mj.core.errors import FragmentError, ProviderError, StageError
 from rail_mj.llm import (
     AgentLayout,
     AgentModel,
@@ -149,7 +149,7 @@ def test_timeout_is_a_provider_error(provider_for):
 
 
 def test_missing_key_is_a_config_error(monkeypatch):
-    from rail_mj.errors import ConfigError
+    from rail_mj.core.errors import ConfigError
 
     monkeypatch.delenv("ANTHROPIC_API_KEY", raising=False)
     with pytest.raises(ConfigError, match="ANTHROPIC_API_KEY"):

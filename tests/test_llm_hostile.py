@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 from messages_server import MessagesServer, Reply, offline_answer, schema_title, text_reply
 
-from rail_mj.errors import StageError
+from rail_mj.core.errors import StageError
 from rail_mj.llm import (
     AgentModel,
     AgentModelRequest,
@@ -168,9 +168,9 @@ def _imports_after(statement: str) -> set[str]:
 
 def test_the_anthropic_sdk_is_imported_only_by_its_provider():
     """``import rail_mj.llm`` (and so the pipeline) loaded the SDK eagerly."""
-    modules = _imports_after("import rail_mj.pipeline; from rail_mj.llm import AnthropicProvider, get_provider; "
+    modules = _imports_after("import rail_mj.pipeline.chain; from rail_mj.llm import AnthropicProvider, get_provider; "
                              "get_provider('offline')")
-    assert "anthropic" not in modules and "rail_mj.pipeline" in modules
+    assert "anthropic" not in modules and "rail_mj.pipeline.chain" in modules
     used = _imports_after("from rail_mj.llm import get_provider; get_provider('anthropic', api_key='k')")
     assert "anthropic" in used
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from rail_mj.affordances import LIQUID_RADIUS, PAPER_AFFORDANCES, REGISTRY
-from rail_mj.errors import ConfigError, UnknownAffordanceError
+from rail_mj.core.errors import ConfigError, UnknownAffordanceError
 from rail_mj.llm import (
     AgentLayout,
     CandidateInteraction,
@@ -34,7 +34,7 @@ from rail_mj.llm.checks import (
     layout_offsets,
 )
 from rail_mj.scoring import compile_scoring
-from rail_mj.types import Outcomes, StablePose
+from rail_mj.core.types import Outcomes, StablePose
 
 
 def _dims(name: str, where: float) -> list[float]:

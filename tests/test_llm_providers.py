@@ -8,7 +8,7 @@ import dataclasses
 import pytest
 from messages_server import MessagesServer, offline_answer, request_payload, schema_title, text_reply
 
-from rail_mj.errors import ConfigError, StageError, UnknownAffordanceError
+from rail_mj.core.errors import ConfigError, StageError, UnknownAffordanceError
 from rail_mj.llm import (
     AnthropicConfig,
     OfflineProvider,
@@ -17,7 +17,7 @@ from rail_mj.llm import (
     get_provider,
     task_description,
 )
-from rail_mj.pipeline import Pipeline, RunConfig
+from rail_mj.pipeline.chain import Pipeline, RunConfig
 
 CUP_DIMS = [0.12, 0.09, 0.09]
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from rail_mj.errors import FragmentError, SceneError
+from rail_mj.core.errors import FragmentError, SceneError
 from rail_mj.mjcf import (
     AGENT_BIT,
     GROUND_BIT,
@@ -22,8 +22,8 @@ from rail_mj.mjcf import (
     check_fragment,
     hull_geom_name,
 )
-from rail_mj.objects import reduce_hull
-from rail_mj.types import AgentSetup, RailObject
+from rail_mj.mesh.objects import reduce_hull
+from rail_mj.core.types import AgentSetup, RailObject
 
 ONE = '<worldbody><body><geom size="0.01"/></body></worldbody>'  # a minimal agent body, inlined below
 BALL = '<mujoco><worldbody><body name="ball"><geom type="sphere" size="0.02" mass="0.01"/></body></worldbody></mujoco>'
@@ -383,7 +383,7 @@ def test_fragment_caps_are_checked_before_mujoco_parses(kind: str, pattern: str,
 def test_robot_executor_refuses_a_flexcomp_fragment(obj: RailObject, tmp_path) -> None:
     """rail_mj.robot.execute compiled agent fragments without the fragment rules."""
     from rail_mj.robot import execute
-    from rail_mj.types import StablePose
+    from rail_mj.core.types import StablePose
 
     trimesh.creation.box().export(tmp_path / "box.stl")
     pose = StablePose(pos=np.zeros(3), quat=np.array([1.0, 0, 0, 0]), probability=1.0,
@@ -395,7 +395,7 @@ def test_robot_executor_refuses_a_flexcomp_fragment(obj: RailObject, tmp_path) -
 
 @pytest.fixture(scope="module")
 def cup(tmp_path_factory: pytest.TempPathFactory) -> RailObject:
-    from rail_mj.objects import DecompositionConfig, object_from_mesh
+    from rail_mj.mesh.objects import DecompositionConfig, object_from_mesh
 
     profile = np.array([[0, 0], [0.03, 0], [0.03, 0.08], [0.026, 0.08], [0.026, 0.005], [0, 0.005]])
     config = DecompositionConfig(threshold=0.15, max_convex_hull=16, resolution=200, mcts_nodes=4, mcts_iterations=8)

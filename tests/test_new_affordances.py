@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from rail_mj.affordances import PAPER_AFFORDANCES, REGISTRY, for_request
-from rail_mj.pipeline import classify
+from rail_mj.pipeline.chain import classify
 from rail_mj.robot.demo import make_object, object_from_parts
 from rail_mj.robot.request import parse_request
 

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 import trimesh
 
-import rail_mj.objects as objects
-from rail_mj.errors import ConfigError, DecompositionError, DecompositionTimeout, MeshError
-from rail_mj.objects import (
+import rail_mj.mesh.objects as objects
+from rail_mj.core.errors import ConfigError, DecompositionError, DecompositionTimeout, MeshError
+from rail_mj.mesh.objects import (
     SUPPORTED_EXTENSIONS,
     DecompositionConfig,
     decompose,
@@ -598,8 +598,8 @@ def test_dense_meshes_get_the_faster_settings() -> None:
 
 
 def test_meshes_up_to_the_dense_limit_keep_the_defaults() -> None:
-    # the procedural dataset's meshes stay within rail_mj.dataset.MAX_FACES: their hulls must not change
-    from rail_mj.dataset import MAX_FACES
+    # the procedural dataset's meshes stay within rail_mj.dataset.procedural.MAX_FACES: their hulls must not change
+    from rail_mj.dataset.procedural import MAX_FACES
 
     assert MAX_FACES <= objects.DENSE_FACES
     sphere = trimesh.creation.icosphere(subdivisions=4)  # 5,120 faces

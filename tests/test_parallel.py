@@ -1,4 +1,4 @@
-"""Objects spread over worker processes (rail_mj.parallel): the same results as one process, crashes and kills.
+"""Objects spread over worker processes (rail_mj.pipeline.parallel): the same results as one process, crashes and kills.
 
 Cheap convex objects (no CoACD) whose "bathtub" dimension check fails keep most runs to loading and stable
 poses; the physics of a cup is checked with the thread counts instead.
@@ -20,17 +20,17 @@ import pytest
 import trimesh
 
 from eval_procs import CRASHER, GUARD_S, REPO, start_eval, wait_until
-from rail_mj import eval as rail_eval
-from rail_mj.eval import cases_without_timings as _cases
+from rail_mj.eval import run as rail_eval
+from rail_mj.eval.run import cases_without_timings as _cases
 from rail_mj import llm
-from rail_mj.errors import ConfigError
+from rail_mj.core.errors import ConfigError
 from rail_mj.imagination import ImaginationConfig, get_backend, imagine
 from rail_mj.imagination.config import THREADS_ENV
-from rail_mj.objects import load_object
-from rail_mj.parallel import largest_first, object_task, plan_workers, run_tasks
-from rail_mj.paths import CACHE_ENV
-from rail_mj.pipeline import ObjectInput, RunConfig, classify
-from rail_mj.stable_poses import find_stable_poses
+from rail_mj.mesh.objects import load_object
+from rail_mj.pipeline.parallel import largest_first, object_task, plan_workers, run_tasks
+from rail_mj.core.paths import CACHE_ENV
+from rail_mj.pipeline.chain import ObjectInput, RunConfig, classify
+from rail_mj.stable_poses.poses import find_stable_poses
 
 CLASSES, PER_CLASS, AFFORDANCE = ["solid_box", "cone", "solid_cylinder"], 4, "bathtub"
 N_CASES = len(CLASSES) * PER_CLASS
@@ -205,7 +205,7 @@ def test_a_crashed_worker_is_an_error_line_and_the_run_goes_on(cache, tmp_path, 
 def test_workers_do_not_load_the_anthropic_sdk_or_jax(cache, tmp_path):
     path = _box(tmp_path / "b.stl", (0.2, 0.1, 0.05))
     code = (
-        "import sys; from rail_mj.parallel import object_task, run_object; from rail_mj.pipeline import RunConfig; "
+        "import sys; from rail_mj.pipeline.parallel import object_task, run_object; from rail_mj.pipeline.chain import RunConfig; "
         f"print(run_object(object_task(0, {str(path)!r}, ['cup'], "
         "RunConfig(provider='offline', backend='native', n_drops=8)))[:12]); "
         "print(sorted(m for m in ('anthropic', 'jax') if m in sys.modules))"
@@ -233,7 +233,7 @@ def test_run_tasks_checks_its_options():
 
 
 def test_ray_missing_is_a_usage_error_before_any_work(tmp_path, monkeypatch, capsys):
-    import rail_mj.parallel as parallel
+    import rail_mj.pipeline.parallel as parallel
 
     real = parallel.importlib.util.find_spec
     monkeypatch.setattr(parallel.importlib.util, "find_spec", lambda name: None if name == "ray" else real(name))

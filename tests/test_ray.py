@@ -14,10 +14,10 @@ import pytest
 import trimesh
 
 from eval_procs import CRASHER
-from rail_mj import eval as rail_eval
-from rail_mj.eval import cases_without_timings as _cases
-from rail_mj.paths import CACHE_ENV
-from rail_mj.pipeline import RunConfig, classify
+from rail_mj.eval import run as rail_eval
+from rail_mj.eval.run import cases_without_timings as _cases
+from rail_mj.core.paths import CACHE_ENV
+from rail_mj.pipeline.chain import RunConfig, classify
 
 ray = pytest.importorskip("ray")
 

@@ -10,9 +10,9 @@ import trimesh
 from PIL import Image
 
 from rail_mj import llm
-from rail_mj.dataset import LabelRecord
-from rail_mj.errors import RailError
-from rail_mj.render import (
+from rail_mj.dataset.procedural import LabelRecord
+from rail_mj.core.errors import RailError
+from rail_mj.render.images import (
     AGENT_RGBA,
     caption,
     nothing_to_draw,
@@ -21,9 +21,9 @@ from rail_mj.render import (
     write_frames,
     write_image,
 )
-from rail_mj.results import AffordanceResult, PlanInfo, PoseInfo
-from rail_mj.shapes import _revolve
-from rail_mj.types import RailObject
+from rail_mj.core.results import AffordanceResult, PlanInfo, PoseInfo
+from rail_mj.dataset.shapes import _revolve
+from rail_mj.core.types import RailObject
 
 R_TOP, HEIGHT, WALL, BASE = 0.04, 0.07, 0.004, 0.006
 DROPLET_R = 0.005
@@ -175,10 +175,10 @@ def _sector_hulls(mesh: trimesh.Trimesh, config=None) -> tuple[np.ndarray, ...]:
 
 def test_eval_report_draws_millimetre_y_up_meshes_like_metre_z_up(tmp_path, monkeypatch):
     """write_report reads each mesh with its label's units and up axis (it drew every mesh as metres, z up)."""
-    import rail_mj.objects
-    from rail_mj import eval as rail_eval
+    import rail_mj.mesh.objects
+    from rail_mj.eval import run as rail_eval
 
-    monkeypatch.setattr(rail_mj.objects, "decompose", _sector_hulls)
+    monkeypatch.setattr(rail_mj.mesh.objects, "decompose", _sector_hulls)
 
     root = tmp_path / "ds"
     root.mkdir()

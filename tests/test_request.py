@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from rail_mj.affordances import FIGURE_HEIGHTS, PERSON_HEIGHT, for_request, get, request_scale
-from rail_mj.errors import ConfigError, UnknownAffordanceError
+from rail_mj.core.errors import ConfigError, UnknownAffordanceError
 from rail_mj.llm import TaskDescription, get_provider, parse_request_text, task_profile
 from rail_mj.llm.prompts import STAGES, system_prompt
 from rail_mj.llm.schemas import Request, RequestText

@@ -15,8 +15,8 @@ try:
 except _ScanError:  # the [scan] extra is not installed: .ci/run's extras step runs these
     pytest.skip("the [scan] extra (open3d-cpu) is not installed", allow_module_level=True)
 
-from rail_mj.errors import ConfigError, RailError, RobotError  # noqa: E402
-from rail_mj.objects import load_mesh, mesh_hash  # noqa: E402
+from rail_mj.core.errors import ConfigError, RailError, RobotError  # noqa: E402
+from rail_mj.mesh.objects import load_mesh, mesh_hash  # noqa: E402
 from rail_mj.robot.demo import upright_pose  # noqa: E402
 from rail_mj.robot.scan import (  # noqa: E402
     CAMERA_NAME,
@@ -31,7 +31,7 @@ from rail_mj.robot.scan import (  # noqa: E402
     true_mesh_world,
 )
 from rail_mj.robot.scan import _reach_views  # noqa: E402
-from rail_mj.types import RailObject, StablePose  # noqa: E402
+from rail_mj.core.types import RailObject, StablePose  # noqa: E402
 
 BOX = np.array([0.08, 0.06, 0.10])  # x, y, z: m
 

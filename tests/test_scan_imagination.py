@@ -13,11 +13,11 @@ try:
 except _ScanError:  # the [scan] extra is not installed: .ci/run's extras step runs these
     pytest.skip("the [scan] extra (open3d-cpu) is not installed", allow_module_level=True)
 
-from rail_mj.objects import object_from_mesh, repair_mesh  # noqa: E402
-from rail_mj.pipeline import classify  # noqa: E402
+from rail_mj.mesh.objects import object_from_mesh, repair_mesh  # noqa: E402
+from rail_mj.pipeline.chain import classify  # noqa: E402
 from rail_mj.robot.demo import make_object, upright_pose  # noqa: E402
 from rail_mj.robot.scan import ScanConfig, scan_object  # noqa: E402
-from rail_mj.types import StablePose  # noqa: E402
+from rail_mj.core.types import StablePose  # noqa: E402
 
 
 def _upside_down(obj) -> StablePose:
@@ -101,7 +101,7 @@ def test_a_scanned_plate_is_a_plate_as_placed():
     # closing, chosen because the fans lay where views saw through, keeps the plate a plate
     from rail_mj.robot.experiment import TASKS, task_object
 
-    from rail_mj.pipeline import as_placed_pose
+    from rail_mj.pipeline.chain import as_placed_pose
 
     plate = task_object(next(t for t in TASKS if t.name == "plate"))
     result = scan_object(plate, as_placed_pose(plate)[0])  # as the experiment places it

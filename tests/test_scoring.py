@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rail_mj.errors import ConfigError, ScoringRuntimeError, UnsafeCodeError
+from rail_mj.core.errors import ConfigError, ScoringRuntimeError, UnsafeCodeError
 from rail_mj.scoring import (
     RejectedCodeError,
     close_workers,
@@ -15,7 +15,7 @@ from rail_mj.scoring import (
     worker_count,
 )
 from rail_mj.scoring.pool import _worker_env
-from rail_mj.types import SCORING_ARGS, Outcomes
+from rail_mj.core.types import SCORING_ARGS, Outcomes
 
 SIGNATURE = f"def score({', '.join(SCORING_ARGS)}):"
 

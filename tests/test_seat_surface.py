@@ -17,7 +17,7 @@ from rail_mj.llm import (
     generate_profile,
 )
 from rail_mj.scoring import compile_scoring
-from rail_mj.types import Outcomes
+from rail_mj.core.types import Outcomes
 
 #: An upholstered armchair as it stands: rolled arms and a back make its box 0.91 m wide around a 0.55 m seat.
 ARMCHAIR = [0.455, 0.375, 0.395]

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 import trimesh
 
-from rail_mj.errors import ConfigError
-from rail_mj.stable_poses import find_stable_poses, pose_from_up
-from rail_mj.types import RailObject
+from rail_mj.core.errors import ConfigError
+from rail_mj.stable_poses.poses import find_stable_poses, pose_from_up
+from rail_mj.core.types import RailObject
 
 
 def _object(name: str, hulls: list[np.ndarray], density: float = 500.0) -> RailObject:

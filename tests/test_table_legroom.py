@@ -7,9 +7,9 @@ from __future__ import annotations
 import pytest
 import trimesh
 
-from rail_mj import shapes
-from rail_mj.objects import object_from_mesh
-from rail_mj.pipeline import Pipeline, RunConfig
+from rail_mj.dataset import shapes
+from rail_mj.mesh.objects import object_from_mesh
+from rail_mj.pipeline.chain import Pipeline, RunConfig
 
 
 @pytest.fixture(autouse=True)

@@ -1,7 +1,7 @@
 """The one backend interface: a physics engine, its config locked at construction, runs a prepared batch.
 
 Every backend takes the same :class:`~rail_mj.imagination.batch.RolloutBatch` and returns the same
-:class:`~rail_mj.types.Outcomes`; it composes its own scene of the object (native: hull meshes; mjx: the
+:class:`~rail_mj.core.types.Outcomes`; it composes its own scene of the object (native: hull meshes; mjx: the
 hull-box bucket) with :mod:`rail_mj.mjcf`. ``get_backend`` keeps one instance per (name, config), so what a
 backend caches (MJX's compiled rollouts) lives as long as the process.
 """
@@ -13,11 +13,11 @@ import functools
 from collections.abc import Callable
 from typing import ClassVar
 
-from rail_mj.errors import ImaginationError, SceneError
+from rail_mj.core.errors import ImaginationError, SceneError
 from rail_mj.imagination.batch import RolloutBatch
 from rail_mj.imagination.config import ImaginationConfig
 from rail_mj.mjcf import Scene, ScenePhysics, compose_scene
-from rail_mj.types import AgentSetup, Outcomes, RailObject
+from rail_mj.core.types import AgentSetup, Outcomes, RailObject
 
 __all__ = ["BACKENDS", "Backend", "Progress", "resolve_backend", "get_backend"]
 

@@ -6,13 +6,13 @@ import os
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from rail_mj.errors import ConfigError
+from rail_mj.core.errors import ConfigError
 from rail_mj.mjcf import FRICTION, SOLREF_TIMECONST_FACTOR, ScenePhysics
 
 __all__ = ["THREADS_ENV", "ImaginationConfig"]
 
 #: MuJoCo batch threads of this process when a config does not name ``nthread`` (0 or unset: all CPUs).
-#: rail_mj.parallel sets it in its workers so that workers x threads = cores; outcomes do not depend on it.
+#: rail_mj.pipeline.parallel sets it in its workers so that workers x threads = cores; outcomes do not depend on it.
 THREADS_ENV = "RAIL_MJ_THREADS"
 
 

@@ -10,7 +10,7 @@ from typing import Any
 
 import pydantic
 
-from rail_mj.errors import ConfigError, ProviderError, StageError
+from rail_mj.core.errors import ConfigError, ProviderError, StageError
 from rail_mj.llm.cache import ResponseCache, cache_enabled, cache_key
 from rail_mj.llm.prompts import StageSpec, repair_prompt, system_prompt, user_prompt
 from rail_mj.llm.provider_base import REJECTIONS, Provider, ProviderConfig

@@ -2,7 +2,7 @@
 
 Key: SHA-256 of the canonical JSON of (provider, model, prompt version, stage,
 request). Value: a JSON file holding those fields and the answer's JSON text.
-``RAIL_MJ_CACHE`` moves the root (see :mod:`rail_mj.paths`); ``RAIL_MJ_NO_CACHE=1``
+``RAIL_MJ_CACHE`` moves the root (see :mod:`rail_mj.core.paths`); ``RAIL_MJ_NO_CACHE=1``
 or ``cache=False`` turns it off.
 """
 
@@ -15,7 +15,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from rail_mj.paths import cache_dir
+from rail_mj.core.paths import cache_dir
 
 __all__ = ["NO_CACHE_ENV", "cache_enabled", "cache_key", "ResponseCache"]
 

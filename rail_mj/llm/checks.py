@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from rail_mj.errors import LLMError
+from rail_mj.core.errors import LLMError
 from rail_mj.llm.schemas import (
     AffordanceAnalysis,
     AgentLayout,
@@ -199,7 +199,7 @@ def check_scoring(scoring: ScoringCode, request: ScoringRequest) -> None:
     The batch (:func:`rail_mj.scoring.probe_outcomes`) has the request's number of agents and plans over
     every axis-aligned orientation of its object's box; the code must return one finite score per rollout.
     """
-    from rail_mj.errors import ScoringRuntimeError
+    from rail_mj.core.errors import ScoringRuntimeError
     from rail_mj.scoring import WorkerStartError, compile_scoring, probe_outcomes
 
     score = compile_scoring(scoring.source)

@@ -16,7 +16,7 @@ from collections.abc import Sequence
 # the kinds module, not its names: the kind files import rail_mj.llm.schemas, whose package imports this module
 from rail_mj.affordances import REGISTRY, Affordance, get, known_affordances, kinds
 from rail_mj.affordances import normalize as normalize_affordance
-from rail_mj.errors import UnknownAffordanceError
+from rail_mj.core.errors import UnknownAffordanceError
 from rail_mj.llm.schemas import (
     AffordanceAnalysis,
     AgentLayout,

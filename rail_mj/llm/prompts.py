@@ -30,7 +30,7 @@ from rail_mj.llm.schemas import (
     TrajectoryRequest,
     Trajectories,
 )
-from rail_mj.types import SCORING_ARGS
+from rail_mj.core.types import SCORING_ARGS
 
 __all__ = ["StageSpec", "PROMPT_VERSION", "STAGES", "system_prompt", "user_prompt", "repair_prompt"]
 

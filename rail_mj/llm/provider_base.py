@@ -19,7 +19,7 @@ from typing import Any, ClassVar
 from pydantic import BaseModel
 
 from rail_mj.affordances import normalize
-from rail_mj.errors import ConfigError, FragmentError, UnknownAffordanceError, UnsafeCodeError
+from rail_mj.core.errors import ConfigError, FragmentError, UnknownAffordanceError, UnsafeCodeError
 from rail_mj.llm.checks import InvalidAnswerError
 from rail_mj.llm.prompts import StageSpec
 

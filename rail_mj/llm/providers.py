@@ -6,7 +6,7 @@ import os
 from dataclasses import fields
 from typing import Any
 
-from rail_mj.errors import ConfigError, StageError
+from rail_mj.core.errors import ConfigError, StageError
 from rail_mj.llm import offline
 from rail_mj.llm.provider_base import REJECTIONS, Provider, ProviderConfig
 from rail_mj.llm.schemas import (

@@ -1,7 +1,7 @@
 """Typed inputs and outputs of the seven LLM stages, and the imagination profile.
 
 Trajectories are pose-independent: every via-pose position is
-``rel * h + offset_m`` in the task frame (see :mod:`rail_mj.types`), where
+``rel * h + offset_m`` in the task frame (see :mod:`rail_mj.core.types`), where
 ``h`` are the half extents of the object's bounding box in the stable pose
 being imagined. ``rel`` is in units of ``h`` (``(0, 0, 1)`` is the centre of
 the top face, ``(0, 0, -1)`` the ground under the centre), ``offset_m`` is in

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from rail_mj.errors import ConfigError, UnknownAffordanceError
+from rail_mj.core.errors import ConfigError, UnknownAffordanceError
 from rail_mj.llm.checks import (
     InvalidAnswerError,
     agent_geometry,
@@ -55,7 +55,7 @@ from rail_mj.llm.schemas import (
     TrajectoryRequest,
     Trajectories,
 )
-from rail_mj.types import AgentSetup, Outcomes, StablePose
+from rail_mj.core.types import AgentSetup, Outcomes, StablePose
 
 __all__ = [
     "analyze_affordance",
@@ -231,7 +231,7 @@ def trajectory_array(profile_or_traj: ImaginationProfile | Trajectories | PlanTr
                      half_extents: Sequence[float] | np.ndarray,
                      opening: Sequence[float] | np.ndarray | None = None) -> list[np.ndarray]:
     """Via-poses per plan as (K, 7) arrays (task-frame position xyz, quat wxyz) for one pose's ``h`` and
-    ``opening`` (:attr:`rail_mj.types.StablePose.opening`)."""
+    ``opening`` (:attr:`rail_mj.core.types.StablePose.opening`)."""
     h = np.asarray(half_extents, dtype=float)
     if h.shape != (3,) or not np.all(np.isfinite(h)) or np.any(h <= 0):
         raise ConfigError(f"half_extents must be three positive finite values; got {h.tolist()}")

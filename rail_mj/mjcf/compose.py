@@ -30,7 +30,7 @@ import numpy as np
 import trimesh
 from scipy.spatial import ConvexHull
 
-from rail_mj.errors import SceneError
+from rail_mj.core.errors import SceneError
 from rail_mj.mjcf.scene import (
     AGENT_BIT,
     FRICTION,
@@ -45,7 +45,7 @@ from rail_mj.mjcf.scene import (
     check_fragment,
     hull_geom_name,
 )
-from rail_mj.types import AgentSetup, RailObject
+from rail_mj.core.types import AgentSetup, RailObject
 
 __all__ = [
     "OWNER_GROUND",
@@ -186,7 +186,7 @@ def add_object(
     and pads the object to that many geoms (the MJX-JAX shape buckets).
     """
     if not obj.hulls:
-        raise SceneError(f"object {obj.name!r} has no hulls; build it with rail_mj.objects")
+        raise SceneError(f"object {obj.name!r} has no hulls; build it with rail_mj.mesh.objects")
     if hull_boxes and len(obj.hulls) > hull_boxes:
         raise SceneError(f"object {obj.name!r} has {len(obj.hulls)} hulls, more than the bucket of {hull_boxes}")
     solref = physics.solref
@@ -299,7 +299,7 @@ def _spec(
     object_pos, object_quat = _pose("object_pos", object_pos, 3), _pose("object_quat", object_quat, 4)
     agents_pos, agents_quat = _pose("agents_pos", agents_pos, 3), _pose("agents_quat", agents_quat, 4)
     if not obj.hulls:
-        raise SceneError(f"object {obj.name!r} has no hulls; build it with rail_mj.objects")
+        raise SceneError(f"object {obj.name!r} has no hulls; build it with rail_mj.mesh.objects")
     spec = mujoco.MjSpec()
     spec.modelname = f"rail_{obj.name}"
     spec.option.timestep = physics.timestep

@@ -10,7 +10,7 @@ import xml.etree.ElementTree as ET
 import mujoco
 import numpy as np
 
-from rail_mj.errors import FragmentError
+from rail_mj.core.errors import FragmentError
 
 __all__ = [
     "GROUND_GEOM",

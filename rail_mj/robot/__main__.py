@@ -1,6 +1,6 @@
 """``python -m rail_mj.robot``: fetch the Panda model, or run the execution demo.
 
-Exit status and error output follow rail_mj.cli: 0 the command ran (failed trials are results, counted
+Exit status and error output follow rail_mj.core.cli: 0 the command ran (failed trials are results, counted
 in the success rate), 1 it could not run (the model could not be fetched, an execution could not be set
 up), 2 the command line was wrong and nothing ran, 130 interrupted; errors are ``error:`` lines on stderr.
 ``--json`` names the summary file, so there is no JSON error object on stdout.
@@ -13,8 +13,8 @@ import math
 import sys
 from pathlib import Path
 
-from rail_mj.cli import EXIT_OK, report_error
-from rail_mj.errors import RailError
+from rail_mj.core.cli import EXIT_OK, report_error
+from rail_mj.core.errors import RailError
 from rail_mj.robot.control import RobotConfig
 from rail_mj.robot.demo import DEMO_AFFORDANCES, run_demo
 from rail_mj.robot.model import fetch_panda

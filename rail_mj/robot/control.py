@@ -18,7 +18,7 @@ import mujoco
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from rail_mj.errors import RobotError
+from rail_mj.core.errors import RobotError
 
 __all__ = [
     "RobotConfig",

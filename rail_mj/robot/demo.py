@@ -1,6 +1,6 @@
 """The robot demo: table-top objects × affordances, imagined, executed by the Panda and judged.
 
-By default each trial runs the whole chain: ``rail_mj.pipeline.classify``
+By default each trial runs the whole chain: ``rail_mj.pipeline.chain.classify``
 (stable poses → offline profile → batched imagination → scoring → functional
 pose) on an object built here from convex parts, sized for the Panda's
 table-top workspace, then executes the best imagined plan in the functional
@@ -21,12 +21,12 @@ import numpy as np
 import trimesh
 
 from rail_mj.affordances import get
-from rail_mj.errors import ConfigError
-from rail_mj.objects import mesh_hash
+from rail_mj.core.errors import ConfigError
+from rail_mj.mesh.objects import mesh_hash
 from rail_mj.robot.control import RobotConfig
 from rail_mj.robot.executor import ExecutionResult, ScoringFunction, execute
 from rail_mj.robot.request import parse_request
-from rail_mj.types import Outcomes, RailObject, StablePose
+from rail_mj.core.types import Outcomes, RailObject, StablePose
 
 __all__ = ["OBJECT_KINDS", "DEMO_AFFORDANCES", "DEMO_REQUESTS", "DemoCase", "make_object", "object_from_parts",
            "upright_pose", "plan_offline", "case_from_result", "imagined_case", "run_demo"]
@@ -224,7 +224,7 @@ DEMO_REQUESTS: dict[str, str] = {
 
 @dataclass(frozen=True)
 class DemoCase:
-    """The fields of rail_mj.results.AffordanceResult that execution needs, for one object."""
+    """The fields of rail_mj.core.results.AffordanceResult that execution needs, for one object."""
 
     object: str
     affordance: str
@@ -273,7 +273,7 @@ def imagined_case(obj: RailObject, affordance: str, backend: str = "auto", *, ag
                   ) -> DemoCase | None:
     """Classify the object for the affordance with the offline provider, at the scale of the request's ``agent``;
     the executable result or None."""
-    from rail_mj.pipeline import classify
+    from rail_mj.pipeline.chain import classify
 
     return case_from_result(classify([obj], [affordance], provider="offline", backend=backend, progress=False,
                                      agent=agent, workers=1)[0])

@@ -10,7 +10,7 @@ or retreat) and the agent is released there, as the imagination releases agents
 on first collision. A via-pose that only a hand in contact reaches (the plan
 presses the agent onto a surface) is kept as the impedance target, and the force
 limit ends that press. The
-end state is turned into a one-rollout :class:`rail_mj.types.Outcomes` (N = 1,
+end state is turned into a one-rollout :class:`rail_mj.core.types.Outcomes` (N = 1,
 the table plays the ground) and scored with the plan's scoring function.
 """
 
@@ -25,8 +25,8 @@ from typing import Callable
 import mujoco
 import numpy as np
 
-from rail_mj.errors import FragmentError, RobotError
-from rail_mj.geometry import quat_angle, quat_conj, quat_rotate, slerp
+from rail_mj.core.errors import FragmentError, RobotError
+from rail_mj.core.geometry import quat_angle, quat_conj, quat_rotate, slerp
 from rail_mj.imagination.batch import Placement, assemble_outcomes
 from rail_mj.mjcf import (
     OBJECT_BODY,
@@ -52,7 +52,7 @@ from rail_mj.robot.control import (
 )
 from rail_mj.robot.ik import ArmIK
 from rail_mj.robot.model import load_panda_spec
-from rail_mj.types import Outcomes, RailObject, StablePose
+from rail_mj.core.types import Outcomes, RailObject, StablePose
 
 __all__ = [
     "ScoringFunction",
@@ -377,7 +377,7 @@ def _video_camera(scene: RobotScene, sols: np.ndarray, targets: list[tuple[np.nd
                   ) -> mujoco.MjvCamera:
     """One fixed camera for the whole video: from the side of the base-to-object line, a little in front,
     fitted to the arm in its home posture and at every IK solution, the agent's path and the object."""
-    from rail_mj.render import fit_camera
+    from rail_mj.render.images import fit_camera
 
     model = scene.model
     data = mujoco.MjData(model)
@@ -587,7 +587,7 @@ def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: 
     """Carry the agent along ``trajectory`` ((K, 7) via-poses of its centre, task frame), release, judge.
 
     ``render`` records the execution: an mp4 when it ends in .mp4, else a folder of PNG frames
-    (:func:`rail_mj.render.write_frames`), seen by one fixed camera that keeps the arm and the agent in view,
+    (:func:`rail_mj.render.images.write_frames`), seen by one fixed camera that keeps the arm and the agent in view,
     each frame captioned (:func:`caption_lines`: the object, ``affordance``, the verdict, the peak force
     against the limit, and the phase and hand force at that frame).
     """
@@ -726,7 +726,7 @@ def caption_lines(object_name: str, affordance: str | None, res: ExecutionResult
 
 def _write_video(sim: _Sim, path: Path, lines: list[str], success: bool) -> None:
     """Every frame with the caption under it: the fixed lines, then the frame's time, phase and hand force."""
-    from rail_mj.render import with_caption, write_frames
+    from rail_mj.render.images import with_caption, write_frames
 
     limit = sim.cfg.force_limit
     ok = (30, 150, 60) if success else (190, 40, 30)

@@ -28,16 +28,16 @@ import numpy as np
 import trimesh
 
 from rail_mj.affordances import PAPER_AFFORDANCES, request_scale
-from rail_mj.errors import RailError
-from rail_mj.geometry import quat_conj, quat_mul, quat_rotate, task_origin
-from rail_mj.objects import object_from_mesh
-from rail_mj.pipeline import as_placed_pose, classify
+from rail_mj.core.errors import RailError
+from rail_mj.core.geometry import quat_conj, quat_mul, quat_rotate, task_origin
+from rail_mj.mesh.objects import object_from_mesh
+from rail_mj.pipeline.chain import as_placed_pose, classify
 from rail_mj.robot.control import RobotConfig
 from rail_mj.robot.demo import case_from_result, make_object
 from rail_mj.robot.executor import execute
 from rail_mj.robot.request import parse_request
-from rail_mj.runfiles import atomic_write_text
-from rail_mj.types import RailObject, StablePose
+from rail_mj.core.runfiles import atomic_write_text
+from rail_mj.core.types import RailObject, StablePose
 
 __all__ = ["Task", "TASKS", "task_object", "scan_available", "plan_in_true_frame", "run_task", "run_experiment",
            "summarize", "format_table"]
@@ -48,7 +48,7 @@ class Task:
     """One experiment task: an object to build and the request a person makes of it."""
 
     name: str  # unique: the JSONL key
-    builder: str  # "demo:KIND" (rail_mj.robot.demo.make_object) or "shapes:BUILDER" (rail_mj.shapes)
+    builder: str  # "demo:KIND" (rail_mj.robot.demo.make_object) or "shapes:BUILDER" (rail_mj.dataset.shapes)
     seed: int
     request: str
     scale: float = 1.0  # for shapes builders: their real-world mesh scaled to the robot's table
@@ -91,7 +91,7 @@ def task_object(task: Task) -> RailObject:
         obj = make_object(kind, task.seed)
         return RailObject(name=task.name, mesh=obj.mesh, hulls=obj.hulls, mesh_hash=obj.mesh_hash,
                           obb_dims=obj.obb_dims, com=obj.com, mass=obj.mass, density=obj.density)
-    from rail_mj import shapes
+    from rail_mj.dataset import shapes
 
     mesh = getattr(shapes, kind)(np.random.default_rng(task.seed)).mesh.copy()
     mesh.apply_scale(task.scale)
@@ -307,7 +307,7 @@ def run_experiment(*, tasks: tuple[Task, ...] = TASKS, scan: bool = True, json_p
     ends; a rerun keeps the rows already there and runs the rest. Without open3d (or ``rail_mj.robot.scan``),
     ``scan=True`` is refused with the install hint; ``scan=False`` imagines on the true mesh and says so.
     """
-    from rail_mj.errors import ConfigError
+    from rail_mj.core.errors import ConfigError
 
     note = scan_available()
     if scan and note is not None:

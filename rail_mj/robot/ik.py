@@ -24,7 +24,7 @@ import mink
 import mujoco
 import numpy as np
 
-from rail_mj.errors import RobotError
+from rail_mj.core.errors import RobotError
 from rail_mj.mjcf import OBJECT_BODY
 from rail_mj.robot.control import HOME_QPOS, ArmIndex, quat_error
 

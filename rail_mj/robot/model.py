@@ -21,8 +21,8 @@ from pathlib import Path
 
 import mujoco
 
-from rail_mj.errors import RobotError
-from rail_mj.paths import cache_dir
+from rail_mj.core.errors import RobotError
+from rail_mj.core.paths import cache_dir
 
 __all__ = [
     "MENAGERIE_ENV",

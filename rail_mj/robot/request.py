@@ -13,7 +13,7 @@ from __future__ import annotations
 import re
 
 from rail_mj.affordances import known_affordances, normalize
-from rail_mj.errors import ConfigError, UnknownAffordanceError
+from rail_mj.core.errors import ConfigError, UnknownAffordanceError
 from rail_mj.llm.schemas import Request, RequestText
 
 __all__ = ["Request", "parse_request", "parse_words", "singular"]

@@ -8,11 +8,11 @@ import math
 
 import numpy as np
 
-from rail_mj.errors import ConfigError, UnsafeCodeError
+from rail_mj.core.errors import ConfigError, UnsafeCodeError
 from rail_mj.scoring.pool import run_in_worker
 from rail_mj.scoring.sandbox import SOURCE_FILENAME
 from rail_mj.scoring.validate import check_source
-from rail_mj.types import SCORING_ARGS, Outcomes
+from rail_mj.core.types import SCORING_ARGS, Outcomes
 
 __all__ = ["ScoringFunction", "compile_scoring", "MAX_TIMEOUT_S", "MIN_MEMORY_MB"]
 
@@ -23,8 +23,8 @@ MIN_MEMORY_MB = 16
 class ScoringFunction:
     """A generated ``score`` function, checked against the allow-list, run in a worker process.
 
-    Call it with an :class:`~rail_mj.types.Outcomes` or with the arrays of
-    :data:`~rail_mj.types.SCORING_ARGS` by name; it returns float64 scores of
+    Call it with an :class:`~rail_mj.core.types.Outcomes` or with the arrays of
+    :data:`~rail_mj.core.types.SCORING_ARGS` by name; it returns float64 scores of
     shape (B,) (success when > 0) or raises ``ScoringRuntimeError``. Each call
     may run ``timeout_s`` seconds of wall time and allocate at least ``memory_mb``
     MB (at most :data:`~rail_mj.scoring.pool.RESTING_SLACK_MB` more) beyond
@@ -66,7 +66,7 @@ def _scoring_arrays(outcomes: Outcomes | None, arrays: dict) -> dict[str, np.nda
         if arrays:
             raise ConfigError(f"pass either an Outcomes or the arrays by name, not both (got also {sorted(arrays)})")
         if not isinstance(outcomes, Outcomes):
-            raise ConfigError(f"outcomes must be rail_mj.types.Outcomes, got {type(outcomes).__name__}")
+            raise ConfigError(f"outcomes must be rail_mj.core.types.Outcomes, got {type(outcomes).__name__}")
         arrays = outcomes.scoring_kwargs()
     missing = [n for n in SCORING_ARGS if n not in arrays]
     unknown = sorted(set(arrays) - set(SCORING_ARGS))

@@ -30,7 +30,7 @@ from multiprocessing.connection import Connection
 
 import numpy as np
 
-from rail_mj.errors import ScoringRuntimeError
+from rail_mj.core.errors import ScoringRuntimeError
 from rail_mj.scoring import sandbox
 
 __all__ = ["run_in_worker", "warm_up", "close_workers", "worker_count", "RESTING_SLACK_MB", "WorkerStartError"]

@@ -1,7 +1,7 @@
 """A small synthetic batch shaped exactly like the imagination's, to try generated scoring code on before use.
 
 The arrays have the names, dtypes and per-rollout shapes of the
-:class:`~rail_mj.types.Outcomes` that :func:`rail_mj.imagination.imagine`
+:class:`~rail_mj.core.types.Outcomes` that :func:`rail_mj.imagination.imagine`
 returns (float64 positions, quaternions, velocities, tilts and half extents;
 int64 contact counts), pose-major over stable poses × plans like the real
 batch. Their values are plausible end states — agents inside the object's
@@ -15,9 +15,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from rail_mj.errors import ConfigError
+from rail_mj.core.errors import ConfigError
 from rail_mj.imagination.batch import PROBE_DIRECTIONS
-from rail_mj.types import Outcomes
+from rail_mj.core.types import Outcomes
 
 __all__ = ["probe_outcomes"]
 

@@ -26,13 +26,13 @@ import scipy.ndimage
 import scipy.spatial
 import trimesh
 
-from rail_mj.errors import ConfigError, StablePoseError
-from rail_mj.geometry import rotation_to_z, up_in_mesh_frame
+from rail_mj.core.errors import ConfigError, StablePoseError
+from rail_mj.core.geometry import rotation_to_z, up_in_mesh_frame
 from rail_mj.imagination.config import ImaginationConfig
 from rail_mj.mjcf import compose_scene
-from rail_mj.paths import cache_dir
-from rail_mj.runfiles import atomic_write_text
-from rail_mj.types import RailObject, StablePose, StablePoses
+from rail_mj.core.paths import cache_dir
+from rail_mj.core.runfiles import atomic_write_text
+from rail_mj.core.types import RailObject, StablePose, StablePoses
 
 __all__ = ["Basin", "find_stable_poses", "pose_from_up", "spill_basin"]
 

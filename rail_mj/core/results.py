@@ -8,7 +8,7 @@ __all__ = ["PoseInfo", "PlanInfo", "AffordanceResult"]
 
 
 class PoseInfo(BaseModel):
-    """A stable pose of the object (see rail_mj.types for the frames)."""
+    """A stable pose of the object (see rail_mj.core.types for the frames)."""
 
     model_config = ConfigDict(frozen=True)
 

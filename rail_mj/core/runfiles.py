@@ -27,7 +27,7 @@ from pathlib import Path
 
 from filelock import FileLock, Timeout
 
-from rail_mj.errors import FolderInUseError
+from rail_mj.core.errors import FolderInUseError
 
 __all__ = [
     "LOCK_FILE",

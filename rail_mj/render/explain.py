@@ -1,6 +1,6 @@
 """Why a result came out as it did: every stable pose, each plan's score in it, the rules that fired, the verdict.
 
-Built from an :class:`~rail_mj.results.AffordanceResult` alone (its stable poses, score grid and analyser
+Built from an :class:`~rail_mj.core.results.AffordanceResult` alone (its stable poses, score grid and analyser
 reasons) plus the registry row's pose envelope, so any stored result (an eval's ``results.jsonl`` line too)
 can be explained after the fact. ``python -m rail_mj MESH -a NAME --explain`` prints :func:`format_explanation`;
 with ``--json`` the result line carries :func:`explain` under ``"explain"``.
@@ -13,8 +13,8 @@ import re
 from pydantic import BaseModel, Field
 
 from rail_mj.affordances.registry import get
-from rail_mj.errors import UnknownAffordanceError
-from rail_mj.results import AffordanceResult
+from rail_mj.core.errors import UnknownAffordanceError
+from rail_mj.core.results import AffordanceResult
 
 __all__ = ["PoseExplanation", "Explanation", "explain", "format_explanation", "up_axis"]
 

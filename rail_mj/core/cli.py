@@ -20,7 +20,7 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any
 
-from rail_mj.errors import ConfigError, RailError, UnknownAffordanceError
+from rail_mj.core.errors import ConfigError, RailError, UnknownAffordanceError
 
 __all__ = ["EXIT_OK", "EXIT_FAILED", "EXIT_USAGE", "EXIT_INTERRUPTED", "exit_code", "report_error", "object_bar"]
 

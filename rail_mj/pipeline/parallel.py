@@ -1,7 +1,7 @@
 """Batch classification spread over processes or a Ray cluster: one task per object.
 
 A task is one object with every requested affordance of it: loading (CoACD included), stable poses, then
-each affordance (:meth:`rail_mj.pipeline.Pipeline.classify_object`). :func:`run_tasks` yields each task's
+each affordance (:meth:`rail_mj.pipeline.chain.Pipeline.classify_object`). :func:`run_tasks` yields each task's
 results as the task finishes; callers place them by :attr:`ObjectTask.index` and write them from one process,
 so a results file has a single writer.
 
@@ -51,12 +51,12 @@ from multiprocessing.connection import Connection, wait
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from rail_mj.errors import ConfigError, WorkerError
+from rail_mj.core.errors import ConfigError, WorkerError
 from rail_mj.imagination.config import THREADS_ENV
 
 if TYPE_CHECKING:
-    from rail_mj.pipeline import RunConfig
-    from rail_mj.results import AffordanceResult
+    from rail_mj.pipeline.chain import RunConfig
+    from rail_mj.core.results import AffordanceResult
 
 __all__ = [
     "EXECUTORS", "ObjectTask", "object_task", "cpu_count", "plan_workers", "check_executor", "run_object",
@@ -87,7 +87,7 @@ class ObjectTask:
 
 def object_task(index: int, item: Any, affordances: Sequence[str], config: RunConfig) -> ObjectTask:
     """A task, labelled as :meth:`Pipeline.classify_object` names the object in its error results."""
-    from rail_mj.types import RailObject
+    from rail_mj.core.types import RailObject
 
     label = item.name if isinstance(item, RailObject) else str(getattr(item, "path", item))
     return ObjectTask(index=index, item=item, label=label, affordances=tuple(affordances), config=config)
@@ -117,8 +117,8 @@ def plan_workers(workers: int | None, n_tasks: int) -> tuple[int, int]:
 
 def run_object(task: ObjectTask) -> str:
     """Classify one object; JSON ``{"results": [...]}``, or ``{"error": ...}`` when something other than a
-    :class:`~rail_mj.errors.RailError` stopped it (those are per-case error results already)."""
-    from rail_mj.pipeline import Pipeline
+    :class:`~rail_mj.core.errors.RailError` stopped it (those are per-case error results already)."""
+    from rail_mj.pipeline.chain import Pipeline
 
     try:
         results = Pipeline(task.config).classify_object(task.item, list(task.affordances))
@@ -129,7 +129,7 @@ def run_object(task: ObjectTask) -> str:
 
 def _failed(task: ObjectTask, message: str) -> list[AffordanceResult]:
     """Error results for every case of ``task`` (no check ran: ``dims_fit`` stays None)."""
-    from rail_mj.results import AffordanceResult
+    from rail_mj.core.results import AffordanceResult
 
     return [
         AffordanceResult(object=task.label, affordance=a, requested=a, dims_fit=None, error=message,
@@ -139,7 +139,7 @@ def _failed(task: ObjectTask, message: str) -> list[AffordanceResult]:
 
 
 def _decode(task: ObjectTask, text: str) -> list[AffordanceResult]:
-    from rail_mj.results import AffordanceResult
+    from rail_mj.core.results import AffordanceResult
 
     reply = json.loads(text)
     if "error" in reply:
@@ -184,8 +184,8 @@ def run_tasks(
 def _size(item: Any) -> int:
     """A task's expected cost: the mesh's bytes on disk (CoACD and the stable poses grow with the mesh), or its
     array bytes for an in-memory object; 0 when unknown."""
-    from rail_mj.pipeline import ObjectInput
-    from rail_mj.types import RailObject
+    from rail_mj.pipeline.chain import ObjectInput
+    from rail_mj.core.types import RailObject
 
     if isinstance(item, RailObject):
         return int(item.mesh.vertices.nbytes + item.mesh.faces.nbytes)
@@ -219,7 +219,7 @@ def serve(fd: int) -> None:
         os._exit(1)  # orphaned (the parent was killed): stop computing for nobody
 
     threading.Thread(target=watch_parent, daemon=True).start()
-    import rail_mj.pipeline  # noqa: F401 - the slow imports, before saying ready
+    import rail_mj.pipeline.chain  # noqa: F401 - the slow imports, before saying ready
 
     conn.send_bytes(_READY)
     while True:
@@ -236,12 +236,12 @@ class _Worker:
     def __init__(self, threads: int):
         ours, theirs = socket.socketpair()
         self.log = tempfile.TemporaryFile()
-        package_root = str(Path(__file__).resolve().parents[1])  # the rail_mj this process runs
+        package_root = str(Path(__file__).resolve().parents[2])  # the rail_mj this process runs
         env = {**os.environ, THREADS_ENV: str(threads), **{v: str(threads) for v in _THREAD_VARS}}
         env["PYTHONPATH"] = os.pathsep.join(p for p in (package_root, env.get("PYTHONPATH")) if p)
         try:
             self.proc = subprocess.Popen(
-                [sys.executable, "-c", "import sys; from rail_mj.parallel import serve; serve(int(sys.argv[1]))",
+                [sys.executable, "-c", "import sys; from rail_mj.pipeline.parallel import serve; serve(int(sys.argv[1]))",
                  str(theirs.fileno())],
                 pass_fds=(theirs.fileno(),), env=env, stdin=subprocess.DEVNULL, stdout=self.log,
                 stderr=subprocess.STDOUT, start_new_session=True,

@@ -1,7 +1,7 @@
 """Quaternions, up vectors and the task frame: the geometry every stage shares.
 
 Quaternions are MuJoCo's ``(w, x, y, z)``; every function broadcasts over leading axes. The frames (mesh
-frame, world, stable pose, task frame) are defined in :mod:`rail_mj.types`.
+frame, world, stable pose, task frame) are defined in :mod:`rail_mj.core.types`.
 """
 
 from __future__ import annotations

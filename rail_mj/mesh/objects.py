@@ -35,9 +35,9 @@ import numpy as np
 import trimesh
 from scipy.spatial import ConvexHull, QhullError
 
-from rail_mj.errors import ConfigError, DecompositionError, DecompositionTimeout, MeshError
-from rail_mj.paths import cache_dir
-from rail_mj.types import RailObject
+from rail_mj.core.errors import ConfigError, DecompositionError, DecompositionTimeout, MeshError
+from rail_mj.core.paths import cache_dir
+from rail_mj.core.types import RailObject
 
 __all__ = [
     "SUPPORTED_EXTENSIONS",
@@ -89,7 +89,7 @@ MAX_FILE_BYTES = 256 * 2**20
 # of the largest extent: beyond it the surface may move more than CoACD's own concavity tolerance.
 _MAX_SIMPLIFY_TOLERANCE = 0.02
 #: Meshes with more faces are dense (scans, CAD exports): :func:`decomposition_for` gives them faster
-#: settings. The procedural dataset stays at or under it (``rail_mj.dataset.MAX_FACES``), so its hulls
+#: settings. The procedural dataset stays at or under it (``rail_mj.dataset.procedural.MAX_FACES``), so its hulls
 #: and their cache keys are those of the defaults.
 DENSE_FACES = 5_000
 #: The quality guard (:func:`object_from_mesh`): most of :attr:`HullQuality.excess` and
@@ -551,7 +551,7 @@ class _CoacdCrash(Exception):
 
 
 def _coacd_child(vertices: np.ndarray, faces: np.ndarray, options: dict, time_limit_s: float) -> list[np.ndarray]:
-    """One CoACD run in a child process (:mod:`rail_mj.coacd_child`): its hulls' vertices.
+    """One CoACD run in a child process (:mod:`rail_mj.mesh.coacd_child`): its hulls' vertices.
 
     The child may use ``time_limit_s`` seconds of CPU (a limit that holds however loaded the machine is),
     and :data:`_WALL_PER_CPU` times that plus :data:`_WALL_SLACK_S` of wall time, in case it stalls without

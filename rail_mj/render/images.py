@@ -29,10 +29,10 @@ from pathlib import Path
 
 import numpy as np
 
-from rail_mj.errors import ConfigError, RailError
-from rail_mj.geometry import quat_mul, quat_rotate
-from rail_mj.results import AffordanceResult
-from rail_mj.types import AgentSetup, RailObject, StablePose
+from rail_mj.core.errors import ConfigError, RailError
+from rail_mj.core.geometry import quat_mul, quat_rotate
+from rail_mj.core.results import AffordanceResult
+from rail_mj.core.types import AgentSetup, RailObject, StablePose
 
 __all__ = [
     "AGENT_RGBA",
@@ -159,7 +159,7 @@ def nothing_to_draw(result: AffordanceResult) -> str | None:
 def _load(obj: RailObject | str | Path, units: float, up: str) -> RailObject:
     if isinstance(obj, RailObject):
         return obj
-    from rail_mj.objects import load_object
+    from rail_mj.mesh.objects import load_object
 
     return load_object(Path(obj), units=units, up=up)
 
@@ -446,7 +446,7 @@ def _placement_state(result: AffordanceResult, pose: int, agent_pos: np.ndarray,
     """World state from task-frame agents; ``object_move`` = (displacement of the task-frame origin,
     rotation relative to placement) puts the object and the frame where the rollout left them."""
     info = result.stable_poses[pose]
-    origin0 = np.array([0.0, 0.0, info.half_extents[2]])  # the task frame at placement (rail_mj.types)
+    origin0 = np.array([0.0, 0.0, info.half_extents[2]])  # the task frame at placement (rail_mj.core.types)
     obj_pos, obj_quat = np.asarray(info.pos, dtype=np.float64), np.asarray(info.quat, dtype=np.float64)
     agent_pos = np.asarray(agent_pos, dtype=np.float64).reshape(-1, 3)
     quats = np.tile([1.0, 0.0, 0.0, 0.0], (len(agent_pos), 1)) if agent_quat is None else np.asarray(agent_quat)

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from rail_mj.geometry import up_in_mesh_frame
+from rail_mj.core.geometry import up_in_mesh_frame
 
 __all__ = [
     "RailObject",

@@ -7,7 +7,7 @@ misclassified case). A kill at any moment, SIGKILL included, loses at most the
 case in progress:
 
 * one run per ``OUT``: a second one fails at once, naming the holder
-  (:func:`rail_mj.runfiles.folder_lock`; the kernel frees the lock of a killed run);
+  (:func:`rail_mj.core.runfiles.folder_lock`; the kernel frees the lock of a killed run);
 * the procedural dataset appears in ``OUT/dataset`` only when whole, and one that
   does not match the command (an older run killed while writing it) is rebuilt;
 * ``--resume`` drops torn and repeated lines by writing a new file and
@@ -17,7 +17,7 @@ case in progress:
   is true when the file holds every expected case exactly once.
 
 Objects are spread over ``--workers`` processes (default: every core), or run as
-Ray tasks with ``--ray [ADDRESS]`` (see :mod:`rail_mj.parallel`; the caches are
+Ray tasks with ``--ray [ADDRESS]`` (see :mod:`rail_mj.pipeline.parallel`; the caches are
 keyed by content, so shared storage in ``RAIL_MJ_CACHE`` serves a cluster). This
 process stays the only writer of ``results.jsonl``. Each case's result is the same
 however the objects were spread. ``--shard i/n`` evaluates every n-th object
@@ -56,13 +56,13 @@ import numpy as np
 from pydantic import Field, ValidationError
 
 from rail_mj.affordances import PAPER_AFFORDANCES
-from rail_mj.cli import EXIT_FAILED, EXIT_OK, report_error
-from rail_mj.dataset import AFFORDANCES, DEFECTS, FAMILIES, LabelRecord, generate, normalize_affordance, read_labels
-from rail_mj.errors import ConfigError, DatasetError, RailError
-from rail_mj.parallel import check_executor, cpu_count, object_task, plan_workers, run_tasks
-from rail_mj.pipeline import ObjectInput, Pipeline, RunConfig
-from rail_mj.results import AffordanceResult, PoseInfo
-from rail_mj.runfiles import atomic_write_text, folder_lock
+from rail_mj.core.cli import EXIT_FAILED, EXIT_OK, report_error
+from rail_mj.dataset.procedural import AFFORDANCES, DEFECTS, FAMILIES, LabelRecord, generate, normalize_affordance, read_labels
+from rail_mj.core.errors import ConfigError, DatasetError, RailError
+from rail_mj.pipeline.parallel import check_executor, cpu_count, object_task, plan_workers, run_tasks
+from rail_mj.pipeline.chain import ObjectInput, Pipeline, RunConfig
+from rail_mj.core.results import AffordanceResult, PoseInfo
+from rail_mj.core.runfiles import atomic_write_text, folder_lock
 
 __all__ = [
     "POSE_TOLERANCE_DEG", "PLAN_FILE", "EvalConfig", "run_eval", "merge_runs", "parse_shard", "summarize",
@@ -81,7 +81,7 @@ class EvalConfig(RunConfig):
     dataset: str = "procedural"
     per_class: int = Field(3, ge=1)
     dataset_seed: int = 0
-    family: Literal["core", "world", "all"] = "core"  # procedural class family (rail_mj.dataset.FAMILIES)
+    family: Literal["core", "world", "all"] = "core"  # procedural class family (rail_mj.dataset.procedural.FAMILIES)
     affordances: list[str] | None = None
     classes: list[str] | None = None
     render: bool = True
@@ -275,7 +275,7 @@ DATASET_SPEC = "dataset_spec.json"
 def _dataset_spec(cfg: EvalConfig, classes: Sequence[str], affordances: Sequence[str]) -> dict:
     import hashlib
 
-    from rail_mj import dataset, shapes
+    from rail_mj.dataset import procedural as dataset, shapes
 
     code = hashlib.sha256(Path(dataset.__file__).read_bytes() + Path(shapes.__file__).read_bytes()).hexdigest()
     return {"family": cfg.family, "classes": list(classes), "per_class": cfg.per_class, "seed": cfg.dataset_seed,
@@ -359,9 +359,9 @@ def run_eval(
 ) -> dict:
     """Run (or resume) an evaluation into ``out``; returns the summary.
 
-    ``workers``, ``executor`` and ``ray_address`` say where the objects run (:func:`rail_mj.parallel.run_tasks`;
+    ``workers``, ``executor`` and ``ray_address`` say where the objects run (:func:`rail_mj.pipeline.parallel.run_tasks`;
     ``workers=None``: every core). ``shard=(i, n)`` takes every n-th labelled object from the i-th (1-based).
-    Raises :class:`~rail_mj.errors.FolderInUseError` when another live run holds ``out``.
+    Raises :class:`~rail_mj.core.errors.FolderInUseError` when another live run holds ``out``.
     """
     check_executor(executor, ray_address, workers)  # before any work
     if shard is not None:
@@ -473,7 +473,7 @@ def write_report(out: Path, summary: dict, lines: Sequence[dict], root: Path, *,
         f"\n## Misclassified cases ({len(wrong)})\n",
     ]
     if render and wrong:
-        from rail_mj.render import nothing_to_draw, render_result
+        from rail_mj.render.images import nothing_to_draw, render_result
 
         (out / "renders").mkdir(exist_ok=True)
         how = {r.mesh: r for r in read_labels(root)}  # each mesh is drawn read as it was classified
@@ -674,7 +674,7 @@ def _merge_main(argv: Sequence[str]) -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """CLI entry point; exit status by the rule in :mod:`rail_mj.cli`. ``merge ...`` joins shard runs."""
+    """CLI entry point; exit status by the rule in :mod:`rail_mj.core.cli`. ``merge ...`` joins shard runs."""
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv[:1] == ["merge"]:
         return _merge_main(argv[1:])
@@ -692,7 +692,3 @@ def main(argv: Sequence[str] | None = None) -> int:
     except RailError as exc:
         return report_error(exc)
     return _print_outcome(summary, args.out)
-
-
-if __name__ == "__main__":
-    sys.exit(main())

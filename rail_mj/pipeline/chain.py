@@ -19,14 +19,14 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from rail_mj import llm
 from rail_mj.affordances import request_scale
-from rail_mj.errors import ConfigError, RailError
+from rail_mj.core.errors import ConfigError, RailError
 from rail_mj.imagination import imagine, resolve_backend
 from rail_mj.llm.schemas import ImaginationProfile
-from rail_mj.objects import load_object, mesh_notes
-from rail_mj.results import AffordanceResult, PlanInfo, PoseInfo
+from rail_mj.mesh.objects import load_object, mesh_notes
+from rail_mj.core.results import AffordanceResult, PlanInfo, PoseInfo
 from rail_mj.scoring import ScoringFunction, compile_scoring
-from rail_mj.stable_poses import find_stable_poses, pose_from_up
-from rail_mj.types import RailObject, StablePose, StablePoses
+from rail_mj.stable_poses.poses import find_stable_poses, pose_from_up
+from rail_mj.core.types import RailObject, StablePose, StablePoses
 
 __all__ = ["PoseMode", "RunConfig", "ObjectInput", "Pipeline", "classify", "as_placed_pose"]
 
@@ -313,10 +313,10 @@ def classify(
 
     Objects are spread over ``workers`` processes (None: every core; 1: this process), or run as
     Ray tasks with ``executor="ray"`` on the cluster at ``ray_address`` (None: a local Ray); see
-    :mod:`rail_mj.parallel`. A worker that crashes on an object gives error results for it. Each
+    :mod:`rail_mj.pipeline.parallel`. A worker that crashes on an object gives error results for it. Each
     result is the same however the objects were spread.
     """
-    from rail_mj.parallel import object_task, run_tasks
+    from rail_mj.pipeline.parallel import object_task, run_tasks
 
     _check_names(affordances)
     update = {"provider": provider, "backend": backend}

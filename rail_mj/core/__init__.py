@@ -1,0 +1,1 @@
+"""The small core every stage shares: data types and frames, results, geometry, errors, paths, run files."""

@@ -1,0 +1,5 @@
+"""``python -m rail_mj.dataset``: generate the procedural dataset or fetch the real-mesh set."""
+
+from rail_mj.dataset.procedural import main
+
+raise SystemExit(main())

@@ -1,0 +1,1 @@
+"""Pictures and explanations of results: captioned renders, contact sheets, ``--explain``."""

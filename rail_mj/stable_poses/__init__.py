@@ -1,0 +1,1 @@
+"""Stable poses: batched drops, verified quasi-static poses, clustering, the spill basin of each pose."""
