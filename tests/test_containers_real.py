@@ -7,10 +7,11 @@ import numpy as np
 import pytest
 import trimesh
 
-from rail_mj.dataset import shapes
 from rail_mj.affordances import get
 from rail_mj.affordances.kinds import kind_of
 from rail_mj.affordances.kinds.container import MIN_DEPTH
+from rail_mj.core.results import BasinInfo
+from rail_mj.dataset import shapes
 from rail_mj.llm import generate_profile, trajectory_array
 from rail_mj.llm.schemas import CandidateInteraction, ResultSummary
 from rail_mj.mesh.objects import object_from_mesh
@@ -104,9 +105,9 @@ def test_a_vessels_spill_level_is_its_rim_not_its_rising_handle() -> None:
     """A saucepan's handle rises 4 cm above its rim; water spills at the rim. A closed box has no basin."""
     pan = object_from_mesh(shapes.saucepan(np.random.default_rng(1)).mesh, name="saucepan")
     pose = pose_from_up(pan, np.array([0.0, 0.0, 1.0]), 1.0)
-    assert 2 * pose.half_extents[2] > 0.115 and pose.rim == pytest.approx(0.088, abs=0.004)
+    assert 2 * pose.half_extents[2] > 0.115 and pose.basin.rim == pytest.approx(0.088, abs=0.004)
     box = object_from_mesh(trimesh.creation.box(extents=(0.2, 0.15, 0.1)), name="box")
-    assert pose_from_up(box, np.array([0.0, 0.0, 1.0]), 1.0).rim is None
+    assert pose_from_up(box, np.array([0.0, 0.0, 1.0]), 1.0).basin is None
 
 
 def test_pours_aim_at_a_saucepans_pan_not_at_its_box_centre_over_the_handle():
@@ -119,12 +120,12 @@ def test_pours_aim_at_a_saucepans_pan_not_at_its_box_centre_over_the_handle():
     middle = (body.min(axis=0) + body.max(axis=0))[:2] / 2 - (pan.mesh.bounds.sum(axis=0) / 2)[:2]
     assert np.linalg.norm(middle) > 0.05  # the box centre is far off the pan's middle
     # the pose's yaw may turn the handle to -x or +x: compare lengths and the direction along x
-    assert abs(abs(pose.opening[0]) - np.linalg.norm(middle)) < 0.01 and abs(pose.opening[1]) < 0.01
+    assert abs(abs(pose.basin.opening[0]) - np.linalg.norm(middle)) < 0.01 and abs(pose.basin.opening[1]) < 0.01
     profile = generate_profile("bowl", [float(v) for v in pan.obb_dims])
     at_box = trajectory_array(profile, pose.half_extents)
-    at_opening = trajectory_array(profile, pose.half_extents, pose.opening)
+    at_opening = trajectory_array(profile, pose.half_extents, pose.basin)
     for a, b in zip(at_box, at_opening):
-        assert np.allclose(b[:, :2] - a[:, :2], pose.opening) and np.allclose(b[:, 2], a[:, 2])
+        assert np.allclose(b[:, :2] - a[:, :2], pose.basin.opening) and np.allclose(b[:, 2], a[:, 2])
 
 
 def test_a_bowls_proportions_are_its_rims_a_deep_pot_stays_no_bowl() -> None:
@@ -152,10 +153,10 @@ def _probe(mesh: trimesh.Trimesh, hulls: list[np.ndarray], at: list[float]) -> t
     mesh's surface and against ``hulls`` (what the probe casts against where MuJoCo refuses the mesh)."""
     from dataclasses import replace
 
+    from rail_mj.core.types import AgentSetup, RailObject
     from rail_mj.imagination.batch import open_sectors
     from rail_mj.mjcf import compose_scene
     from rail_mj.mjcf.compose import _static_meshes
-    from rail_mj.core.types import AgentSetup, RailObject
 
     obj = RailObject(name="probe", mesh=mesh, hulls=tuple(hulls), mesh_hash="probe", obb_dims=mesh.extents,
                      com=np.zeros(3), mass=1.0, density=500.0)
@@ -203,15 +204,19 @@ def test_the_enclosure_probe_does_not_leave_through_a_baskets_slots() -> None:
 def test_a_console_on_its_back_holds_water_in_compartments_too_short_for_a_bather() -> None:
     """On its back a TV console's open compartments face up and hold water, 0.5-0.9 m long each: no basin a person
     lies in. A bathtub's one basin is 1.3 m long; the analyser refuses the console's pose and keeps the tub's."""
-    from rail_mj.llm import FunctionalPoseRequest, PoseCandidates, analyze_functional_poses
+    from rail_mj.llm import (
+        FunctionalPoseRequest,
+        PoseCandidates,
+        analyze_functional_poses,
+    )
 
     console = object_from_mesh(shapes.console(np.random.default_rng([9, 0])).mesh, name="console")
     lying = pose_from_up(console, np.array([0.0, -1.0, 0.0]), 1.0)  # its open front up
     tub = object_from_mesh(shapes.bathtub(np.random.default_rng(0)).mesh, name="bathtub")
     upright = pose_from_up(tub, np.array([0.0, 0.0, 1.0]), 1.0)
-    assert lying.basin_length < 0.9 and upright.basin_length > 1.2
-    poses = [PoseCandidates(pose_index=i, probability=0.5, half_extents=[float(v) for v in p.half_extents], rim=p.rim,
-                            basin_length=p.basin_length, candidates=[_candidate("above", -0.8)])
+    assert lying.basin.length < 0.9 and upright.basin.length > 1.2
+    poses = [PoseCandidates(pose_index=i, probability=0.5, half_extents=[float(v) for v in p.half_extents],
+                            basin=BasinInfo.of(p.basin), candidates=[_candidate("above", -0.8)])
              for i, p in enumerate((lying, upright))]
     verdict = analyze_functional_poses(FunctionalPoseRequest(affordance="bathtub", expected_outcome="", poses=poses))
     assert [v.accept for v in verdict.poses] == [False, True] and "basin holds water" in verdict.poses[0].reason

@@ -9,8 +9,8 @@ import pytest
 import trimesh
 
 from rail_mj.__main__ import main as rail_main
+from rail_mj.core.results import AffordanceResult, BasinInfo, PoseInfo
 from rail_mj.render.explain import explain, format_explanation, up_axis
-from rail_mj.core.results import AffordanceResult, PoseInfo
 
 
 @pytest.fixture(autouse=True)
@@ -26,9 +26,11 @@ def block(tmp_path: Path) -> Path:
     return path
 
 
-def _pose(i: int, up: list[float], half: list[float], p: float, rim: float | None = None) -> PoseInfo:
+def _pose(i: int, up: list[float], half: list[float], p: float, rim: float | None = None,
+          length: float = 0.1) -> PoseInfo:
+    basin = None if rim is None else BasinInfo(rim=rim, opening=[0.0, 0.0], length=length)
     return PoseInfo(index=i, pos=[0, 0, 0], quat=[1, 0, 0, 0], probability=p, half_extents=half,
-                    up_in_mesh_frame=up, rim=rim)
+                    up_in_mesh_frame=up, basin=basin)
 
 
 def test_explain_splits_the_reasons_by_pose_and_names_the_envelope() -> None:
@@ -58,12 +60,12 @@ def test_explain_judges_a_vessels_aspect_at_its_rim_as_the_analyser_does() -> No
     e = explain(r)
     assert e.poses[0].envelope == "fits"
     assert e.poses[1].envelope.startswith("in this pose its height/width is 0.778")
-    assert AffordanceResult.model_validate_json(r.model_dump_json()).stable_poses[0].rim == 0.07
+    assert AffordanceResult.model_validate_json(r.model_dump_json()).stable_poses[0].basin.rim == 0.07
 
 
 def test_explain_shows_where_poured_water_stands_in_each_pose() -> None:
     """The liquid rules read the pose's basin: its spill level and length are shown, 'none' without one."""
-    pose = _pose(0, [0, 0, 1], [0.8, 0.35, 0.28], 1.0, rim=0.52).model_copy(update={"basin_length": 0.58})
+    pose = _pose(0, [0, 0, 1], [0.8, 0.35, 0.28], 1.0, rim=0.52, length=0.58)
     r = AffordanceResult(object="console", affordance="bathtub", requested="bathtub", dims_fit=True,
                          stable_poses=[pose, _pose(1, [0, 0, -1], [0.8, 0.35, 0.28], 0.0)],
                          plans=["above"], scores=[[0.5], [-1.0]])

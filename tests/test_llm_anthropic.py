@@ -5,9 +5,17 @@ from __future__ import annotations
 import json
 
 import pytest
-from messages_server import MessagesServer, Reply, error_reply, offline_answer, schema_title, text_reply
+from messages_server import (
+    MessagesServer,
+    Reply,
+    error_reply,
+    offline_answer,
+    schema_title,
+    text_reply,
+)
 
 from rail_mj.core.errors import FragmentError, ProviderError, StageError
+from rail_mj.core.results import BasinInfo
 from rail_mj.llm import (
     AgentLayout,
     AgentModel,
@@ -157,13 +165,18 @@ def test_missing_key_is_a_config_error(monkeypatch):
 
 
 def test_functional_pose_analyzer_through_the_client(provider_for):
-    from rail_mj.llm import CandidateInteraction, FunctionalPoseRequest, PoseCandidates, ResultSummary
-    from rail_mj.llm import analyze_functional_poses
+    from rail_mj.llm import (
+        CandidateInteraction,
+        FunctionalPoseRequest,
+        PoseCandidates,
+        ResultSummary,
+        analyze_functional_poses,
+    )
 
     summary = ResultSummary(frac_inside_bbox=0.9, frac_on_ground=0.0, frac_touching_object=0.8, mean_height=-0.4,
                             object_tilt_deg=1.0, agent_tilt_deg=5.0, agent_speed=0.0)
     request = FunctionalPoseRequest(affordance="cup", expected_outcome="filled", poses=[PoseCandidates(
-        pose_index=3, probability=0.7, half_extents=[0.04, 0.04, 0.05], rim=0.095, basin_length=0.07,
+        pose_index=3, probability=0.7, half_extents=[0.04, 0.04, 0.05], basin=BasinInfo(rim=0.095, opening=[0.0, 0.0], length=0.07),
         candidates=[CandidateInteraction(plan="above", description="drop from above",
                                          via_poses=[[0.0, 0.0, 0.1], [0.0, 0.0, 0.06]], score=0.4, summary=summary)],
     )])

@@ -10,6 +10,8 @@ import pytest
 
 from rail_mj.affordances import LIQUID_RADIUS, PAPER_AFFORDANCES, REGISTRY
 from rail_mj.core.errors import ConfigError, UnknownAffordanceError
+from rail_mj.core.results import BasinInfo
+from rail_mj.core.types import Outcomes, StablePose
 from rail_mj.llm import (
     AgentLayout,
     CandidateInteraction,
@@ -34,7 +36,6 @@ from rail_mj.llm.checks import (
     layout_offsets,
 )
 from rail_mj.scoring import compile_scoring
-from rail_mj.core.types import Outcomes, StablePose
 
 
 def _dims(name: str, where: float) -> list[float]:
@@ -207,7 +208,7 @@ def _candidate(plan, start, score=0.4, **summary) -> CandidateInteraction:
 
 def test_functional_pose_rules_for_a_cup():
     h = [0.04, 0.04, 0.05]
-    upright = PoseCandidates(pose_index=0, probability=0.4, half_extents=h, rim=0.095, basin_length=0.07,
+    upright = PoseCandidates(pose_index=0, probability=0.4, half_extents=h, basin=BasinInfo(rim=0.095, opening=[0.0, 0.0], length=0.07),
                              candidates=[_candidate("above", [0.0, 0.0, 0.1])])
     tipped = PoseCandidates(pose_index=1, probability=0.5, half_extents=h,
                             candidates=[_candidate("above", [0.0, 0.0, 0.1], score=0.5, object_tilt_deg=80.0)])
@@ -296,7 +297,7 @@ def test_a_container_that_leaks_under_the_centre_pour_is_rejected():
     spilt = _candidate("above_front", [0.024, 0.0, 0.1], score=-1.0, frac_through_object=0.1,
                        frac_touching_object=0.0, frac_on_ground=0.3)
     cup = analyze_functional_poses(FunctionalPoseRequest(affordance="cup", expected_outcome="held", poses=[
-        PoseCandidates(pose_index=0, probability=1.0, half_extents=[0.06, 0.042, 0.05], rim=0.095, basin_length=0.075,
+        PoseCandidates(pose_index=0, probability=1.0, half_extents=[0.06, 0.042, 0.05], basin=BasinInfo(rim=0.095, opening=[0.0, 0.0], length=0.075),
                        candidates=[held], failed=[spilt])]))
     assert cup.best_pose == 0
 
@@ -410,10 +411,10 @@ def test_a_bowl_on_its_side_holds_a_puddle_not_a_cup_of_water():
     """A 12 cm bowl tipped on its side keeps droplets in the curve of its wall, a basin 2 cm deep at the bottom of
     a 12 cm pose; upright a cup's water stands up to its rim."""
     pour = _candidate("above", [0.0, 0.0, 0.2])
-    side = PoseCandidates(pose_index=0, probability=0.6, half_extents=[0.062, 0.06, 0.06], rim=0.02,
-                          basin_length=0.05, candidates=[pour])
-    upright = PoseCandidates(pose_index=1, probability=0.4, half_extents=[0.045, 0.045, 0.05], rim=0.1,
-                             basin_length=0.08, candidates=[pour])
+    side = PoseCandidates(pose_index=0, probability=0.6, half_extents=[0.062, 0.06, 0.06], 
+                          basin=BasinInfo(rim=0.02, opening=[0.0, 0.0], length=0.05), candidates=[pour])
+    upright = PoseCandidates(pose_index=1, probability=0.4, half_extents=[0.045, 0.045, 0.05], 
+                             basin=BasinInfo(rim=0.1, opening=[0.0, 0.0], length=0.08), candidates=[pour])
     verdict = analyze_functional_poses(FunctionalPoseRequest(affordance="cup", expected_outcome="held",
                                                              poses=[side, upright]))
     assert [v.accept for v in verdict.poses] == [False, True] and "puddle" in verdict.poses[0].reason

@@ -2,9 +2,33 @@
 
 from __future__ import annotations
 
+import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-__all__ = ["PoseInfo", "PlanInfo", "AffordanceResult"]
+from rail_mj.core.types import Basin, StablePose
+
+__all__ = ["BasinInfo", "PoseInfo", "PlanInfo", "AffordanceResult"]
+
+
+class BasinInfo(BaseModel):
+    """A pose's deepest basin (:class:`rail_mj.core.types.Basin`) as JSON."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    rim: float = Field(description="spill level of the pose's deepest basin above the ground, m (a vessel's aspect "
+                                   "is judged at it)")
+    opening: list[float] = Field(min_length=2, max_length=2, description="x, y (m) of the middle of that basin's "
+                                 "water surface from the box centre (where pours aim)")
+    length: float = Field(description="longer side (m) of that basin's water surface at the spill level")
+
+    @classmethod
+    def of(cls, basin: Basin | None) -> BasinInfo | None:
+        if basin is None:
+            return None
+        return cls(rim=float(basin.rim), opening=[float(v) for v in basin.opening], length=float(basin.length))
+
+    def to_basin(self) -> Basin:
+        return Basin(rim=self.rim, opening=np.asarray(self.opening, dtype=np.float64), length=self.length)
 
 
 class PoseInfo(BaseModel):
@@ -18,12 +42,27 @@ class PoseInfo(BaseModel):
     probability: float = Field(description="fraction of drops that ended in this pose")
     half_extents: list[float] = Field(description="half-sizes of the world-aligned box in this pose, m")
     up_in_mesh_frame: list[float] = Field(description="mesh-frame unit vector pointing up in this pose")
-    rim: float | None = Field(default=None, description="spill level of the pose's deepest basin above the ground, "
-                              "m (a vessel's aspect is judged at it); None without a basin")
-    opening: list[float] | None = Field(default=None, description="x, y (m) of the middle of that basin from the "
-                                        "box centre (where pours aim); None without a basin")
-    basin_length: float | None = Field(default=None, description="longer side (m) of that basin's water surface at "
-                                       "the spill level; None without a basin")
+    basin: BasinInfo | None = Field(default=None, description="where poured water stands in this pose; None "
+                                    "without a basin")
+
+    @classmethod
+    def from_pose(cls, index: int, pose: StablePose) -> PoseInfo:
+        """The one way a :class:`StablePose` becomes JSON (results, the stable-pose cache)."""
+        return cls(
+            index=index,
+            pos=[float(v) for v in pose.pos],
+            quat=[float(v) for v in pose.quat],
+            probability=float(pose.probability),
+            half_extents=[float(v) for v in pose.half_extents],
+            up_in_mesh_frame=[float(v) for v in pose.up_in_mesh_frame],
+            basin=BasinInfo.of(pose.basin),
+        )
+
+    def to_pose(self) -> StablePose:
+        """The :class:`StablePose` this record holds (render, the robot, the stable-pose cache)."""
+        return StablePose(pos=np.asarray(self.pos, dtype=np.float64), quat=np.asarray(self.quat, dtype=np.float64),
+                          probability=self.probability, half_extents=np.asarray(self.half_extents, dtype=np.float64),
+                          basin=None if self.basin is None else self.basin.to_basin())
 
 
 class PlanInfo(BaseModel):

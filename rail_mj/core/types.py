@@ -30,6 +30,7 @@ from rail_mj.core.geometry import up_in_mesh_frame
 
 __all__ = [
     "RailObject",
+    "Basin",
     "StablePose",
     "StablePoses",
     "AgentSetup",
@@ -60,6 +61,20 @@ class RailObject:
 
 
 @dataclass(frozen=True)
+class Basin:
+    """Where water poured into an object's deepest basin stands, in one pose (seen from above)."""
+
+    #: height (m) above the lowest point at which the water spills over: the lowest point of the rim, unlike the
+    #: box a handle may raise
+    rim: float
+    #: (2,) x, y (m) of the middle of the water surface: from the box centre in a pose's task frame (where a pour
+    #: aims; a long handle moves the box centre off it)
+    opening: np.ndarray
+    #: (m) the water surface's longer side along x or y at the spill level
+    length: float
+
+
+@dataclass(frozen=True)
 class StablePose:
     """One stable resting pose of an object on the ground."""
 
@@ -67,14 +82,7 @@ class StablePose:
     quat: np.ndarray  # (4,) wxyz world orientation of the mesh frame
     probability: float  # fraction of drops that ended in this pose
     half_extents: np.ndarray  # (3,) half-sizes of the world-aligned bounding box in this pose
-    #: height (m) above the ground at which water poured into its deepest basin spills over in this pose (the
-    #: lowest point of the rim, unlike the box a handle may raise); None without a basin
-    rim: float | None = None
-    #: (2,) x, y (m) of the middle of that basin's water surface from the box centre, in the pose's task frame: where
-    #: a pour aims (a long handle moves the box centre off it); None without a basin
-    opening: np.ndarray | None = None
-    #: (m) that basin's water surface at the spill level, its longer side; None without a basin
-    basin_length: float | None = None
+    basin: Basin | None = None  # the pose's deepest basin; None without one
 
     @property
     def up_in_mesh_frame(self) -> np.ndarray:

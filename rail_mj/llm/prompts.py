@@ -44,7 +44,7 @@ PROMPT_VERSION: dict[str, str] = {
     "trajectory": "3",
     "scoring": "2",
     # 3: the poses carry their basin's length
-    "functional_pose": "3",
+    "functional_pose": "4",
     "request_parser": "1",
 }
 

@@ -15,6 +15,8 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from rail_mj.core.results import BasinInfo
+
 __all__ = [
     "Vec3",
     "TaskDescription",
@@ -241,11 +243,9 @@ class PoseCandidates(_Model):
     pose_index: int = Field(ge=0)
     probability: float = Field(ge=0, le=1)
     half_extents: Vec3
-    rim: float | None = Field(None, description="height (m) at which water poured into the object's deepest basin "
-                                                "spills over in this pose (its rim's lowest point, below a rising "
-                                                "handle); null without a basin")
-    basin_length: float | None = Field(None, description="longer side (m) of that basin's water surface at the "
-                                                         "spill level; null without a basin")
+    basin: BasinInfo | None = Field(None, description="where water poured into the object's deepest basin stands "
+                                                      "in this pose: its spill level (the rim's lowest point, below "
+                                                      "a rising handle), opening and length; null without a basin")
     candidates: list[CandidateInteraction]
     failed: list[CandidateInteraction] = Field(
         default_factory=list, description="the pose's plans that the scoring function called failures: evidence"

@@ -55,7 +55,8 @@ from rail_mj.llm.schemas import (
     TrajectoryRequest,
     Trajectories,
 )
-from rail_mj.core.types import AgentSetup, Outcomes, StablePose
+from rail_mj.core.results import BasinInfo
+from rail_mj.core.types import AgentSetup, Basin, Outcomes, StablePose
 
 __all__ = [
     "analyze_affordance",
@@ -229,9 +230,9 @@ def generate_profile(
 
 def trajectory_array(profile_or_traj: ImaginationProfile | Trajectories | PlanTrajectory,
                      half_extents: Sequence[float] | np.ndarray,
-                     opening: Sequence[float] | np.ndarray | None = None) -> list[np.ndarray]:
+                     basin: Basin | None = None) -> list[np.ndarray]:
     """Via-poses per plan as (K, 7) arrays (task-frame position xyz, quat wxyz) for one pose's ``h`` and
-    ``opening`` (:attr:`rail_mj.core.types.StablePose.opening`)."""
+    ``basin`` (:attr:`rail_mj.core.types.StablePose.basin`: where pours anchored at the opening aim)."""
     h = np.asarray(half_extents, dtype=float)
     if h.shape != (3,) or not np.all(np.isfinite(h)) or np.any(h <= 0):
         raise ConfigError(f"half_extents must be three positive finite values; got {h.tolist()}")
@@ -245,6 +246,7 @@ def trajectory_array(profile_or_traj: ImaginationProfile | Trajectories | PlanTr
     for t in trajs:
         quat = np.array([v.quat for v in t.via_poses], dtype=float)
         quat /= np.linalg.norm(quat, axis=1, keepdims=True)
+        opening = None if basin is None else basin.opening
         out.append(np.concatenate([via_positions(t.via_poses, h, opening), quat], axis=1))
     return out
 
@@ -327,8 +329,7 @@ def functional_pose_request(
                 pose_index=i,
                 probability=float(poses[i].probability),
                 half_extents=[float(v) for v in poses[i].half_extents],
-                rim=poses[i].rim,
-                basin_length=poses[i].basin_length,
+                basin=BasinInfo.of(poses[i].basin),
                 candidates=[c for c in tried if c.score > 0],
                 failed=[c for c in tried if c.score <= 0],
             )

@@ -26,7 +26,7 @@ from rail_mj.mesh.objects import load_object, mesh_notes
 from rail_mj.core.results import AffordanceResult, PlanInfo, PoseInfo
 from rail_mj.scoring import ScoringFunction, compile_scoring
 from rail_mj.stable_poses.poses import find_stable_poses, pose_from_up
-from rail_mj.core.types import RailObject, StablePose, StablePoses
+from rail_mj.core.types import RailObject, StablePoses
 
 __all__ = ["PoseMode", "RunConfig", "ObjectInput", "Pipeline", "classify", "as_placed_pose"]
 
@@ -88,20 +88,6 @@ def as_placed_pose(obj: RailObject) -> StablePoses:
     """The object's pose as it stands, as the one stable pose (probability 1): its mesh frame's z up, resting on
     the ground, turned about z only so that its footprint's box lies on the task frame's axes."""
     return StablePoses(poses=(pose_from_up(obj, np.array([0.0, 0.0, 1.0]), 1.0),), n_drops=0, n_unsettled=0)
-
-
-def _pose_info(i: int, pose: StablePose) -> PoseInfo:
-    return PoseInfo(
-        index=i,
-        pos=[float(v) for v in pose.pos],
-        quat=[float(v) for v in pose.quat],
-        probability=float(pose.probability),
-        half_extents=[float(v) for v in pose.half_extents],
-        up_in_mesh_frame=[float(v) for v in pose.up_in_mesh_frame],
-        rim=None if pose.rim is None else float(pose.rim),
-        opening=None if pose.opening is None else [float(v) for v in pose.opening],
-        basin_length=None if pose.basin_length is None else float(pose.basin_length),
-    )
 
 
 class Pipeline:
@@ -170,7 +156,7 @@ class Pipeline:
         timings["profile"] = time.perf_counter() - t
         analysis = profile.analysis
         kept = [i for i, p in enumerate(poses) if p.probability >= self.config.min_pose_probability] or [0]
-        pose_infos = [_pose_info(i, poses[i]) for i in range(len(poses))]
+        pose_infos = [PoseInfo.from_pose(i, poses[i]) for i in range(len(poses))]
         result = AffordanceResult(
             object=obj.name,
             affordance=profile.affordance,
@@ -193,7 +179,7 @@ class Pipeline:
 
         agents = llm.agent_setup(profile)
         result.agent_offsets = agents.offsets.tolist()
-        trajectories = [llm.trajectory_array(profile, poses[i].half_extents, poses[i].opening) for i in kept]
+        trajectories = [llm.trajectory_array(profile, poses[i].half_extents, poses[i].basin) for i in kept]
         t = time.perf_counter()
         outcomes = imagine(obj, [poses[i] for i in kept], agents, trajectories, backend=self.backend)
         timings["imagination"] = time.perf_counter() - t

@@ -89,9 +89,8 @@ def explain(r: AffordanceResult) -> Explanation:
             index=p.index, probability=p.probability, up=up_axis(p.up_in_mesh_frame),
             up_in_mesh_frame=[round(v, 4) for v in p.up_in_mesh_frame],
             box_size_m=[round(2.0 * v, 4) for v in p.half_extents],
-            envelope=_envelope(r.affordance, p.half_extents, p.rim),
-            basin="none" if p.rim is None else (f"water stands up to {p.rim:.3f} m"
-                                                + (f", {p.basin_length:.2f} m long" if p.basin_length else "")),
+            envelope=_envelope(r.affordance, p.half_extents, None if p.basin is None else p.basin.rim),
+            basin="none" if p.basin is None else f"water stands up to {p.basin.rim:.3f} m, {p.basin.length:.2f} m long",
             scores={name: round(s, 4) for name, s in zip(r.plans, row, strict=False)},
             analyzer="; ".join(per_pose.get(p.index, [])), functional=p.index == best,
         ))

@@ -32,7 +32,7 @@ import numpy as np
 from rail_mj.core.errors import ConfigError, RailError
 from rail_mj.core.geometry import quat_mul, quat_rotate
 from rail_mj.core.results import AffordanceResult
-from rail_mj.core.types import AgentSetup, RailObject, StablePose
+from rail_mj.core.types import AgentSetup, RailObject
 
 __all__ = [
     "AGENT_RGBA",
@@ -531,11 +531,8 @@ def render_contact_sheet(
         )
     n = len(result.stable_poses)
     plans = [_best_plan(result, i) for i in range(n)]
-    poses = [StablePose(pos=np.asarray(p.pos), quat=np.asarray(p.quat), probability=p.probability,
-                        half_extents=np.asarray(p.half_extents), rim=p.rim,
-                        opening=None if p.opening is None else np.asarray(p.opening), basin_length=p.basin_length)
-             for p in result.stable_poses]
-    trajectories = [[llm.trajectory_array(profile, p.half_extents, p.opening)[j]] for p, j in zip(poses, plans)]
+    poses = [p.to_pose() for p in result.stable_poses]
+    trajectories = [[llm.trajectory_array(profile, p.half_extents, p.basin)[j]] for p, j in zip(poses, plans)]
     outcomes = imagine(obj, poses, llm.agent_setup(profile), trajectories, backend=result.backend or "native")
 
     tw, th = tile

@@ -239,10 +239,7 @@ def case_from_result(result: Any) -> DemoCase | None:
     """The executable part of a pipeline ``AffordanceResult``; None when it found no functional pose/plan."""
     if not result.functional or result.functional_pose is None or result.best_plan is None or result.error:
         return None
-    fp = result.functional_pose
-    pose = StablePose(pos=np.asarray(fp.pos, float), quat=np.asarray(fp.quat, float),
-                      probability=float(fp.probability), half_extents=np.asarray(fp.half_extents, float))
-    return DemoCase(result.object, result.affordance, True, pose, np.asarray(result.best_plan.via_poses, float),
+    return DemoCase(result.object, result.affordance, True, result.functional_pose.to_pose(), np.asarray(result.best_plan.via_poses, float),
                     result.agent_fragment, result.scoring_source)
 
 

@@ -13,10 +13,10 @@ estimates of its basin: the fraction of drops that ended in it and trimesh's qua
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import heapq
 import json
-from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
@@ -32,13 +32,14 @@ from rail_mj.imagination.config import ImaginationConfig
 from rail_mj.mjcf import compose_scene
 from rail_mj.core.paths import cache_dir
 from rail_mj.core.runfiles import atomic_write_text
-from rail_mj.core.types import RailObject, StablePose, StablePoses
+from rail_mj.core.results import PoseInfo
+from rail_mj.core.types import Basin, RailObject, StablePose, StablePoses
 
-__all__ = ["Basin", "find_stable_poses", "pose_from_up", "spill_basin"]
+__all__ = ["find_stable_poses", "pose_from_up", "spill_basin"]
 
 #: bump when the algorithm changes, so old cache entries are ignored (4: poses carry their spill level, 6: and
 #: where their basin opens, and how long it is)
-_CACHE_VERSION = 6
+_CACHE_VERSION = 7
 #: two resting shapes match when their height signatures differ by less than this fraction of the object size
 _CONGRUENT = 0.02
 #: quasi-static poses are checked by setting the object down this much off the pose and simulating this long (s)
@@ -89,10 +90,9 @@ def pose_from_up(obj: RailObject, up: np.ndarray, probability: float,
     samples = _surface_samples(obj) if samples is None else samples
     basin = spill_basin(samples @ rot.reshape(3, 3).T - lo)
     half = (hi - lo) / 2
-    if basin is None:
-        return StablePose(pos=pos, quat=quat, probability=probability, half_extents=half)
-    return StablePose(pos=pos, quat=quat, probability=probability, half_extents=half, rim=basin.level,
-                      opening=basin.centre - half[:2], basin_length=basin.length)
+    if basin is not None:  # its opening from the box centre, as the task frame has it
+        basin = dataclasses.replace(basin, opening=basin.opening - half[:2])
+    return StablePose(pos=pos, quat=quat, probability=probability, half_extents=half, basin=basin)
 
 
 #: Points sampled on the mesh surface for :func:`spill_basin` (fixed seed: the same poses give the same level).
@@ -101,15 +101,6 @@ _SAMPLES = 60000
 _GRID = 48
 #: A basin is at least this deep (fraction of the object's height) where it is deepest.
 _MIN_BASIN = 0.1
-
-
-@dataclass(frozen=True)
-class Basin:
-    """An object's deepest basin in one pose (see :func:`spill_basin`)."""
-
-    level: float  # height (m) above the lowest point at which poured water spills over
-    centre: np.ndarray  # (2,) x, y (m) of the middle of the water surface, in the frame of the points given
-    length: float  # (m) the water surface's longer side along x or y at the spill level
 
 
 def _surface_samples(obj: RailObject) -> np.ndarray:
@@ -122,7 +113,7 @@ def spill_basin(points: np.ndarray) -> Basin | None:
     into it spills over (the lowest point of the rim that surrounds it), and where its water stands. A handle
     rising above the rim or reaching out beside it plays no part, nor do holes in the walls (unseen from above).
     None without a basin at least :data:`_MIN_BASIN` of the height deep (a closed box, a slatted crate open to the
-    floor).
+    floor). The basin's ``opening`` is in the frame of the points given.
 
     ``points``: surface samples in a pose's frame (z up, lowest point at 0). The height map keeps the highest
     sample per cell (empty cells are the floor); water floods in from the border over the lowest passes first
@@ -165,7 +156,7 @@ def spill_basin(points: np.ndarray) -> Basin | None:
     # walls (to a sample's noise) parts two basins
     surface, _ = scipy.ndimage.label(depth > 0.05 * depth[deepest])
     span = np.ptp(np.argwhere(surface == surface[deepest]), axis=0) + 1
-    return Basin(level=float(level[deepest]), centre=centre, length=float(span.max() * cell))
+    return Basin(rim=float(level[deepest]), opening=centre, length=float(span.max() * cell))
 
 
 def _cluster(ups: np.ndarray, tol: float) -> list[np.ndarray]:
@@ -304,19 +295,13 @@ def _to_json(poses: StablePoses) -> str:
     return json.dumps({
         "n_drops": poses.n_drops,
         "n_unsettled": poses.n_unsettled,
-        "poses": [{"pos": p.pos.tolist(), "quat": p.quat.tolist(), "probability": p.probability,
-                   "half_extents": p.half_extents.tolist(), "rim": p.rim,
-                   "opening": None if p.opening is None else p.opening.tolist(),
-                   "basin_length": p.basin_length} for p in poses],
+        "poses": [PoseInfo.from_pose(i, p).model_dump(mode="json") for i, p in enumerate(poses)],
     })
 
 
 def _from_json(text: str) -> StablePoses:
     raw = json.loads(text)
-    poses = tuple(StablePose(pos=np.array(p["pos"]), quat=np.array(p["quat"]), probability=float(p["probability"]),
-                             half_extents=np.array(p["half_extents"]), rim=p["rim"],
-                             opening=None if p["opening"] is None else np.array(p["opening"]),
-                             basin_length=p["basin_length"]) for p in raw["poses"])
+    poses = tuple(PoseInfo.model_validate(p).to_pose() for p in raw["poses"])
     return StablePoses(poses=poses, n_drops=int(raw["n_drops"]), n_unsettled=int(raw["n_unsettled"]))
 
 

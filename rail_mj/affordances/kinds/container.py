@@ -90,15 +90,15 @@ _FILL = 0.35
 
 def _basin_fault(aff: Affordance, pose: PoseCandidates) -> str:
     """Why a pose of a liquid holder holds no water, from its spill map; "" when it does."""
-    if pose.rim is None or pose.basin_length is None:
+    if pose.basin is None:
         return (f"water poured into it runs out: seen from above the pose has no basin (walls all round), and a "
                 f"{aff.name} holds liquid")
     height = 2.0 * pose.half_extents[2]
-    if pose.rim < _FILL * height:
-        return (f"water poured into it stands {pose.rim:.3f} m deep at most, under {_FILL:.2f} of its {height:.2f} m "
+    if pose.basin.rim < _FILL * height:
+        return (f"water poured into it stands {pose.basin.rim:.3f} m deep at most, under {_FILL:.2f} of its {height:.2f} m "
                 f"height: a puddle in a wall (a vessel on its side), not a {aff.name} filled from above")
-    if pose.basin_length < aff.basin_length:
-        return (f"its basin holds water {pose.basin_length:.2f} m long; a {aff.name}'s is at least "
+    if pose.basin.length < aff.basin_length:
+        return (f"its basin holds water {pose.basin.length:.2f} m long; a {aff.name}'s is at least "
                 f"{aff.basin_length:g} m")
     return ""
 
