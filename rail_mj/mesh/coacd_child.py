@@ -16,6 +16,8 @@ import sys
 
 import numpy as np
 
+__all__ = ["main"]
+
 
 def main() -> int:
     import coacd
