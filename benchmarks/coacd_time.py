@@ -10,7 +10,7 @@ from the labels), or, with neither, on four generated household shapes with know
 
 Every run uses a fresh temporary cache, so CoACD really runs. Per mesh it prints the load wall
 time (as ``load_object``), the CoACD part of it, faces in the file, after repair (decimation) and
-as CoACD saw them, the hull count, and the quality of the hulls (``rail_mj.mesh.objects.hull_quality``):
+as CoACD saw them, the hull count, and the quality of the hulls (``rail_mj.mesh.hull_quality``):
 the union volume over the mesh volume (closed meshes), the probe-ray excess (hulls standing in
 front of the mesh: a filled cavity) and missing (mesh no hull covers); for the generated shapes
 also the fraction of sample points inside the cavity that some hull covers (should be ~0). Then
@@ -107,7 +107,7 @@ GENERATED = {
 
 def items_from(args: argparse.Namespace) -> list[Item]:
     from rail_mj.dataset.procedural import read_labels
-    from rail_mj.mesh.objects import SUPPORTED_EXTENSIONS
+    from rail_mj.mesh import SUPPORTED_EXTENSIONS
 
     if args.labels:
         root = args.labels if args.labels.is_dir() else args.labels.parent
@@ -122,10 +122,10 @@ def items_from(args: argparse.Namespace) -> list[Item]:
 
 def measure(item: Item) -> dict:
     """Load one object cold (the cache is empty) and measure its hulls."""
-    import rail_mj.mesh.objects as objects
+    from rail_mj.mesh import decomposition, hull_quality, load_object, mesh_notes, object_from_mesh
 
     seen: dict[str, float] = {"coacd_s": 0.0, "coacd_faces": 0}
-    run_coacd = objects._run_coacd
+    run_coacd = decomposition._run_coacd
 
     def timed_coacd(mesh, config):
         t = time.perf_counter()
@@ -135,20 +135,20 @@ def measure(item: Item) -> dict:
             seen["coacd_s"] += time.perf_counter() - t
             seen["coacd_faces"] = len(mesh.faces)
 
-    objects._run_coacd = timed_coacd
+    decomposition._run_coacd = timed_coacd
     t, cpu = time.perf_counter(), cpu_seconds()
     if item.path is None:
         raw = GENERATED[item.name][0]()
         faces_in = len(raw.faces)
-        obj = objects.object_from_mesh(raw, name=item.name)
+        obj = object_from_mesh(raw, name=item.name)
     else:
         faces_in = len(trimesh.load(item.path, force="mesh", process=False).faces)
         t, cpu = time.perf_counter(), cpu_seconds()
-        obj = objects.load_object(item.path, units=item.units, up=item.up, name=item.name)  # type: ignore[arg-type]
+        obj = load_object(item.path, units=item.units, up=item.up, name=item.name)  # type: ignore[arg-type]
     load_s, cpu_s = time.perf_counter() - t, cpu_seconds() - cpu
-    objects._run_coacd = run_coacd
+    decomposition._run_coacd = run_coacd
     t = time.perf_counter()
-    quality = objects.hull_quality(obj.mesh, obj.hulls)
+    quality = hull_quality(obj.mesh, obj.hulls)
     quality_s = time.perf_counter() - t
     covered = None
     if item.path is None and GENERATED[item.name][1] is not None:
@@ -170,7 +170,7 @@ def measure(item: Item) -> dict:
         "excess": quality.excess,
         "missing": quality.missing,
         "covered": covered,
-        "notes": objects.mesh_notes(obj.mesh),
+        "notes": mesh_notes(obj.mesh),
     }
 
 

@@ -5,7 +5,7 @@ It writes the torus (16 cm across, 4 cm thick: it passes a cup's dimension check
 imagination runs) into a temporary folder, runs ``python -m rail_mj MESH -a cup --json`` in a
 subprocess with a fresh cache (CoACD really runs) and prints the wall time, whether the mesh was
 classified (and how it was decimated) or refused, the stage timings and the child's peak RSS.
-Meshes over ``rail_mj.mesh.objects.FACE_BUDGET`` faces are decimated, over ``MAX_FACES`` refused.
+Meshes over ``rail_mj.mesh.FACE_BUDGET`` faces are decimated, over ``MAX_FACES`` refused.
 """
 
 from __future__ import annotations

@@ -26,7 +26,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 import numpy as np  # noqa: E402
 
-from rail_mj.mesh.objects import mesh_hash  # noqa: E402
+from rail_mj.mesh import mesh_hash  # noqa: E402
 from rail_mj.robot.demo import make_object, upright_pose  # noqa: E402
 from rail_mj.robot.scan import ScanConfig, ScanError, scan_object, true_mesh_world  # noqa: E402
 from rail_mj.dataset.shapes import GENERATORS  # noqa: E402

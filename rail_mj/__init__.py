@@ -40,7 +40,7 @@ _LAZY = {
     "AffordanceResult": "rail_mj.core.results",
     "imagine": "rail_mj.imagination",
     "find_stable_poses": "rail_mj.stable_poses.poses",
-    "load_object": "rail_mj.mesh.objects",
+    "load_object": "rail_mj.mesh",
 }
 
 

@@ -74,7 +74,7 @@ def _pictures(args: argparse.Namespace, results) -> None:
         for r in done:
             print(f"no picture written: {nothing_to_draw(r)}", file=sys.stderr)
         return
-    from rail_mj.mesh.objects import load_object
+    from rail_mj.mesh import load_object
 
     obj = load_object(args.mesh, units=args.units, up=args.up)
     if args.render:

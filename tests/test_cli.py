@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import trimesh
 
-import rail_mj.mesh.objects as objects
+import rail_mj.mesh.repair as mesh_repair
 import rail_mj.pipeline.chain as pipeline
 from rail_mj import llm
 from rail_mj.dataset import procedural as dataset
@@ -101,7 +101,7 @@ def test_bad_units_are_a_usage_error(garbage_stl: Path, capsys) -> None:
 
 
 def test_decimation_is_reported(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys) -> None:
-    monkeypatch.setattr(objects, "FACE_BUDGET", 500)
+    monkeypatch.setattr(mesh_repair, "FACE_BUDGET", 500)
     path = tmp_path / "block.ply"
     # 768 faces; a block, so its one hull is exact and the hull-quality guard adds no note of its own
     trimesh.creation.box(extents=(0.06, 0.05, 0.04)).subdivide().subdivide().subdivide().export(path)

@@ -168,7 +168,7 @@ def test_meshes_are_watertight_centred_and_in_range(full):
 
 
 def test_meshes_load_with_the_project_loader(full):
-    objects = pytest.importorskip("rail_mj.mesh.objects", reason="rail_mj.mesh.objects.load_mesh not written yet")
+    objects = pytest.importorskip("rail_mj.mesh", reason="rail_mj.mesh.load_mesh not written yet")
     root, records = full
     for r in records:
         mesh = objects.load_mesh(r.mesh_path(root), units=r.units, up=r.up)
@@ -456,7 +456,7 @@ def corrupted(tmp_path_factory) -> dict[str, tuple[Path, dict[str, LabelRecord]]
 
 
 def _loaded(root: Path, r: LabelRecord) -> trimesh.Trimesh:
-    from rail_mj.mesh.objects import load_mesh
+    from rail_mj.mesh import load_mesh
 
     return load_mesh(r.mesh_path(root), units=r.units, up=r.up)
 

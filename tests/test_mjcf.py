@@ -22,7 +22,7 @@ from rail_mj.mjcf import (
     check_fragment,
     hull_geom_name,
 )
-from rail_mj.mesh.objects import reduce_hull
+from rail_mj.mesh import reduce_hull
 from rail_mj.core.types import AgentSetup, RailObject
 
 ONE = '<worldbody><body><geom size="0.01"/></body></worldbody>'  # a minimal agent body, inlined below
@@ -395,7 +395,7 @@ def test_robot_executor_refuses_a_flexcomp_fragment(obj: RailObject, tmp_path) -
 
 @pytest.fixture(scope="module")
 def cup(tmp_path_factory: pytest.TempPathFactory) -> RailObject:
-    from rail_mj.mesh.objects import DecompositionConfig, object_from_mesh
+    from rail_mj.mesh import DecompositionConfig, object_from_mesh
 
     profile = np.array([[0, 0], [0.03, 0], [0.03, 0.08], [0.026, 0.08], [0.026, 0.005], [0, 0.005]])
     config = DecompositionConfig(threshold=0.15, max_convex_hull=16, resolution=200, mcts_nodes=4, mcts_iterations=8)

@@ -9,14 +9,25 @@ import numpy as np
 import pytest
 import trimesh
 
-import rail_mj.mesh.objects as objects
+import rail_mj.mesh.decomposition as mesh_decomposition
+import rail_mj.mesh.quality as mesh_quality
+import rail_mj.mesh.read as mesh_read
+import rail_mj.mesh.repair as mesh_repair
 from rail_mj.core.errors import ConfigError, DecompositionError, DecompositionTimeout, MeshError
-from rail_mj.mesh.objects import (
+from rail_mj.mesh import (
+    DEFAULT_DENSITY,
+    DENSE_DECOMPOSITION,
+    DENSE_FACES,
+    MAX_EXCESS,
     SUPPORTED_EXTENSIONS,
     DecompositionConfig,
     decompose,
+    decomposition_for,
+    hull_quality,
     load_mesh,
     load_object,
+    mesh_hash,
+    mesh_notes,
     object_from_mesh,
     reduce_hull,
     repair_mesh,
@@ -120,7 +131,7 @@ def test_repair_merges_vertices_and_drops_degenerate_faces() -> None:
     faces = np.vstack([soup.faces, soup.faces[:1], [[0, 0, 1]]])  # a duplicate and a degenerate face
     flipped = faces.copy()
     flipped[:3] = flipped[:3, ::-1]  # inconsistent winding on some faces
-    mesh = objects.repair_mesh(trimesh.Trimesh(soup.vertices, flipped, process=False))
+    mesh = repair_mesh(trimesh.Trimesh(soup.vertices, flipped, process=False))
     assert len(mesh.vertices) == 8 and len(mesh.faces) == 12
     assert mesh.is_volume
 
@@ -217,8 +228,8 @@ def test_second_call_hits_cache(cup_object, monkeypatch: pytest.MonkeyPatch) -> 
     def boom(*args, **kwargs):
         raise AssertionError("CoACD must not run on a cache hit")
 
-    monkeypatch.setattr(objects, "_run_coacd", boom)
-    assert list((objects.cache_dir("hulls")).glob("*.npz"))  # stored under RAIL_MJ_CACHE/hulls
+    monkeypatch.setattr(mesh_decomposition, "_run_coacd", boom)
+    assert list((mesh_decomposition.cache_dir("hulls")).glob("*.npz"))  # stored under RAIL_MJ_CACHE/hulls
     again = object_from_mesh(small_cup(), name="cup", decomposition=TINY)
     assert again.mesh_hash == cup_object.mesh_hash
     assert len(again.hulls) == len(cup_object.hulls)
@@ -232,21 +243,21 @@ def test_a_coacd_crash_is_retried_with_its_remeshing_then_a_named_error(tmp_path
     def crash_without_remeshing(vertices, faces, options, time_limit_s):
         seen.append(options["preprocess_mode"])
         if options["preprocess_mode"] != "on":
-            raise objects._CoacdCrash("killed by signal 11")
+            raise mesh_decomposition._CoacdCrash("killed by signal 11")
         return [np.asarray(vertices)]
 
-    monkeypatch.setattr(objects, "_coacd_child", crash_without_remeshing)
+    monkeypatch.setattr(mesh_decomposition, "_coacd_child", crash_without_remeshing)
     mesh = small_cup()
-    assert len(objects._run_coacd(mesh, DecompositionConfig(preprocess_mode="off"))) == 1
+    assert len(mesh_decomposition._run_coacd(mesh, DecompositionConfig(preprocess_mode="off"))) == 1
     assert seen == ["off", "on"]
     # a child that really dies by a signal, every time: the caller lives and is told what happened
     segv = tmp_path / "segv"
     segv.write_text("#!/bin/sh\nkill -SEGV $$\n")
     segv.chmod(0o755)
     monkeypatch.undo()
-    monkeypatch.setattr(objects.sys, "executable", str(segv))
+    monkeypatch.setattr(mesh_decomposition.sys, "executable", str(segv))
     with pytest.raises(DecompositionError, match=r"CoACD crashed on this mesh \(killed by signal 11\), and again"):
-        objects._run_coacd(mesh, DecompositionConfig(preprocess_mode="off"))
+        mesh_decomposition._run_coacd(mesh, DecompositionConfig(preprocess_mode="off"))
 
 
 def test_damaged_cache_entry_is_recomputed(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -261,7 +272,7 @@ def test_damaged_cache_entry_is_recomputed(tmp_path: Path, monkeypatch: pytest.M
 
 
 def test_convex_mesh_skips_coacd(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(objects, "_run_coacd", lambda *a, **k: pytest.fail("convex meshes need no CoACD"))
+    monkeypatch.setattr(mesh_decomposition, "_run_coacd", lambda *a, **k: pytest.fail("convex meshes need no CoACD"))
     sphere = trimesh.creation.icosphere(subdivisions=2, radius=0.05)
     hulls = decompose(sphere, DecompositionConfig(max_hull_vertices=20))
     assert len(hulls) == 1 and len(hulls[0]) == 20
@@ -270,13 +281,13 @@ def test_convex_mesh_skips_coacd(monkeypatch: pytest.MonkeyPatch) -> None:
 def test_auto_preprocess_only_for_open_meshes() -> None:
     open_box = box()
     open_box.update_faces(open_box.face_normals[:, 2] < 0.5)
-    assert objects._preprocess_mode(small_cup(), DecompositionConfig()) == "off"
-    assert objects._preprocess_mode(open_box, DecompositionConfig()) == "on"
-    assert objects._preprocess_mode(small_cup(), DecompositionConfig(preprocess_mode="on")) == "on"
+    assert mesh_decomposition._preprocess_mode(small_cup(), DecompositionConfig()) == "off"
+    assert mesh_decomposition._preprocess_mode(open_box, DecompositionConfig()) == "on"
+    assert mesh_decomposition._preprocess_mode(small_cup(), DecompositionConfig(preprocess_mode="on")) == "on"
 
 
 def test_coacd_without_hulls_raises(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(objects, "_run_coacd", lambda *a, **k: [])
+    monkeypatch.setattr(mesh_decomposition, "_run_coacd", lambda *a, **k: [])
     with pytest.raises(DecompositionError, match="no usable hull"):
         decompose(small_cup(), DecompositionConfig(threshold=0.5))
 
@@ -284,7 +295,7 @@ def test_coacd_without_hulls_raises(monkeypatch: pytest.MonkeyPatch) -> None:
 def test_cup_properties(cup_object) -> None:
     # solid of revolution: outer cylinder minus the cavity
     volume = np.pi * (0.03**2 * 0.08 - 0.026**2 * 0.075)
-    assert cup_object.mass == pytest.approx(objects.DEFAULT_DENSITY * volume, rel=0.05)  # 12-gon vs circle
+    assert cup_object.mass == pytest.approx(DEFAULT_DENSITY * volume, rel=0.05)  # 12-gon vs circle
     assert cup_object.com[:2] == pytest.approx([0.0, 0.0], abs=1e-9)
     assert 0.02 < cup_object.com[2] < 0.04  # heavy bottom pulls it below mid-height
     assert cup_object.obb_dims[0] == pytest.approx(0.08, abs=1e-6)
@@ -307,7 +318,9 @@ def test_open_mesh_mass_from_hulls(monkeypatch: pytest.MonkeyPatch) -> None:
     open_box = box((0.1, 0.1, 0.1))
     open_box.update_faces(open_box.face_normals[:, 2] < 0.5)  # remove the top: not a closed volume
     assert not open_box.is_watertight
-    monkeypatch.setattr(objects, "_run_coacd", lambda mesh, config: [np.asarray(box((0.1, 0.1, 0.1)).vertices)])
+    monkeypatch.setattr(
+        mesh_decomposition, "_run_coacd", lambda mesh, config: [np.asarray(box((0.1, 0.1, 0.1)).vertices)]
+    )
     obj = object_from_mesh(open_box, name="open", density=100.0)
     assert obj.mass == pytest.approx(100.0 * 0.001)
 
@@ -357,29 +370,29 @@ def fine_cup(rows: int = 16, sections: int = 64) -> trimesh.Trimesh:
 
 
 def test_mesh_below_the_face_budget_is_untouched() -> None:
-    mesh = objects.repair_mesh(small_cup())
-    assert objects.mesh_notes(mesh) == [] and len(mesh.faces) == 96
+    mesh = repair_mesh(small_cup())
+    assert mesh_notes(mesh) == [] and len(mesh.faces) == 96
     # the digest the hull and stable-pose caches were keyed by before the face budget existed
-    assert objects.mesh_hash(mesh) == "380e4a20063137c899d4c8527f799f1e6a2f5d3b0c968a47e9647966a5752a2a"
+    assert mesh_hash(mesh) == "380e4a20063137c899d4c8527f799f1e6a2f5d3b0c968a47e9647966a5752a2a"
 
 
 def test_mesh_over_the_face_budget_is_decimated_and_keeps_a_cups_cavity(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(objects, "FACE_BUDGET", 1000)
+    monkeypatch.setattr(mesh_repair, "FACE_BUDGET", 1000)
     cup = fine_cup()
-    mesh = objects.repair_mesh(cup)
+    mesh = repair_mesh(cup)
     assert len(mesh.faces) <= 1000
-    assert objects.mesh_notes(mesh) == [f"decimated from 4,096 to {len(mesh.faces):,} faces (face budget 1,000)"]
+    assert mesh_notes(mesh) == [f"decimated from 4,096 to {len(mesh.faces):,} faces (face budget 1,000)"]
     assert mesh.is_volume and mesh.volume == pytest.approx(cup.volume, rel=0.05)
     np.testing.assert_allclose(mesh.bounds, cup.bounds, atol=5e-4)
     cavity = [[0, 0, 0.04], [0.015, 0.0, 0.07], [0, 0, 0.0075]]
     wall = [[0.028, 0, 0.04], [0, 0.028, 0.06], [0, 0, 0.0025]]
     assert not mesh.contains(cavity).any() and mesh.contains(wall).all()
-    again = objects.repair_mesh(mesh)  # object_from_mesh repairs a loaded mesh again: the note stays
-    assert objects.mesh_notes(again) == objects.mesh_notes(mesh) and len(again.faces) == len(mesh.faces)
+    again = repair_mesh(mesh)  # object_from_mesh repairs a loaded mesh again: the note stays
+    assert mesh_notes(again) == mesh_notes(mesh) and len(again.faces) == len(mesh.faces)
 
 
 def test_costly_steps_see_only_the_decimated_mesh(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(objects, "FACE_BUDGET", 1000)
+    monkeypatch.setattr(mesh_repair, "FACE_BUDGET", 1000)
     seen: dict[str, int] = {}
     oriented_bounds = trimesh.bounds.oriented_bounds
 
@@ -392,41 +405,43 @@ def test_costly_steps_see_only_the_decimated_mesh(tmp_path: Path, monkeypatch: p
         return [np.asarray(mesh.vertices)]
 
     monkeypatch.setattr(trimesh.bounds, "oriented_bounds", spy_bounds)
-    monkeypatch.setattr(objects, "_run_coacd", spy_coacd)
+    monkeypatch.setattr(mesh_decomposition, "_run_coacd", spy_coacd)
     fine_cup().export(tmp_path / "fine.ply")
     obj = load_object(tmp_path / "fine.ply")
     assert seen == {"oriented_bounds": len(obj.mesh.faces), "coacd": len(obj.mesh.faces)}
-    assert len(obj.mesh.faces) <= 1000 and objects.mesh_notes(obj.mesh)
-    assert obj.mesh_hash == objects.mesh_hash(obj.mesh)
+    assert len(obj.mesh.faces) <= 1000 and mesh_notes(obj.mesh)
+    assert obj.mesh_hash == mesh_hash(obj.mesh)
 
 
 @pytest.mark.parametrize("ext", ["ply", "stl", "off"])
 def test_mesh_over_the_face_limit_is_refused_before_parsing(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, ext: str
 ) -> None:
-    monkeypatch.setattr(objects, "MAX_FACES", 1000)
+    monkeypatch.setattr(mesh_read, "MAX_FACES", 1000)  # the header check
+    monkeypatch.setattr(mesh_repair, "MAX_FACES", 1000)  # repair_mesh's check and the message
     path = tmp_path / f"fine.{ext}"
     fine_cup().export(path)
-    monkeypatch.setattr(objects.trimesh, "load", lambda *a, **k: pytest.fail("refused meshes are not parsed"))
+    monkeypatch.setattr(mesh_read.trimesh, "load", lambda *a, **k: pytest.fail("refused meshes are not parsed"))
     with pytest.raises(MeshError, match=r"has 4,096 faces, over the limit of 1,000.*decimate it first"):
         load_mesh(path)
 
 
 def test_mesh_over_the_face_limit_is_refused(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(objects, "MAX_FACES", 1000)
+    monkeypatch.setattr(mesh_read, "MAX_FACES", 1000)  # the header check
+    monkeypatch.setattr(mesh_repair, "MAX_FACES", 1000)  # repair_mesh's check and the message
     fine_cup().export(tmp_path / "fine.glb")  # no face count in a header: counted after parsing
     with pytest.raises(MeshError, match=r"has 4,096 faces, over the limit of 1,000"):
         load_mesh(tmp_path / "fine.glb")
-    monkeypatch.setattr(objects, "decompose", lambda *a, **k: pytest.fail("refused meshes are not decomposed"))
+    monkeypatch.setattr(mesh_quality, "decompose", lambda *a, **k: pytest.fail("refused meshes are not decomposed"))
     with pytest.raises(MeshError, match=r"over the limit of 1,000"):
         object_from_mesh(fine_cup(), name="fine")
 
 
 def test_file_over_the_size_limit_is_refused(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(objects, "MAX_FILE_BYTES", 2**20)
+    monkeypatch.setattr(mesh_read, "MAX_FILE_BYTES", 2**20)
     path = tmp_path / "big.obj"
     path.write_bytes(b"# padding\n" * 2**17)
-    monkeypatch.setattr(objects.trimesh, "load", lambda *a, **k: pytest.fail("refused files are not parsed"))
+    monkeypatch.setattr(mesh_read.trimesh, "load", lambda *a, **k: pytest.fail("refused files are not parsed"))
     with pytest.raises(MeshError, match=r"big.obj: is 1.2 MiB, over the 1 MiB limit"):
         load_mesh(path)
 
@@ -439,11 +454,11 @@ def noisy_sphere() -> trimesh.Trimesh:
 
 
 def test_decimation_keeps_a_closed_mesh_closed(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(objects, "FACE_BUDGET", 2000)
+    monkeypatch.setattr(mesh_repair, "FACE_BUDGET", 2000)
     sphere = noisy_sphere()
     quadric = sphere.simplify_quadric_decimation(face_count=2000)
     assert not trimesh.Trimesh(quadric.vertices, quadric.faces).is_volume  # what fast-simplification gives
-    mesh = objects.repair_mesh(sphere)
+    mesh = repair_mesh(sphere)
     assert len(mesh.faces) <= 2000 and mesh.is_volume
     assert mesh.volume == pytest.approx(sphere.volume, rel=0.03)
 
@@ -453,23 +468,23 @@ def test_decimation_keeps_a_closed_mesh_closed(monkeypatch: pytest.MonkeyPatch) 
 
 def test_hull_quality_of_exact_hulls() -> None:
     crate = box((0.1, 0.2, 0.3))
-    quality = objects.hull_quality(crate, (np.asarray(crate.vertices),))
+    quality = hull_quality(crate, (np.asarray(crate.vertices),))
     assert quality.n_hulls == 1 and quality.volume_ratio == pytest.approx(1.0, abs=0.01)
     assert quality.excess == pytest.approx(0.0, abs=1e-9) and quality.missing == 0.0
 
 
 def test_hull_quality_sees_a_filled_cavity_and_a_lost_part() -> None:
-    cup = objects.repair_mesh(small_cup())
-    filled = objects.hull_quality(cup, (np.asarray(cup.vertices),))  # one hull: the cup holds nothing
+    cup = repair_mesh(small_cup())
+    filled = hull_quality(cup, (np.asarray(cup.vertices),))  # one hull: the cup holds nothing
     assert filled.excess > 0.5 and filled.volume_ratio > 2.0 and filled.missing == 0.0
-    bottom = objects.hull_quality(cup, (cup.vertices[cup.vertices[:, 2] < 0.01],))  # the walls are lost
+    bottom = hull_quality(cup, (cup.vertices[cup.vertices[:, 2] < 0.01],))  # the walls are lost
     assert bottom.missing > 0.5 and bottom.volume_ratio < 0.5 and bottom.excess < 0.01
 
 
 def test_hull_quality_of_an_open_mesh() -> None:
     bin_ = box((0.1, 0.1, 0.1))
     bin_.update_faces(bin_.face_normals[:, 2] < 0.5)  # no top: a single-surface bin
-    filled = objects.hull_quality(bin_, (np.asarray(bin_.vertices),))
+    filled = hull_quality(bin_, (np.asarray(bin_.vertices),))
     assert filled.volume_ratio is None and filled.missing == 0.0
     assert filled.excess == pytest.approx(1.0, abs=0.01)  # seen from above, the one hull fills the whole bin
     walls = []
@@ -481,25 +496,25 @@ def test_hull_quality_of_an_open_mesh() -> None:
             slab = box(np.where(np.arange(3) == axis, 0.001, 0.1))
             slab.apply_translation(np.where(np.arange(3) == axis, side - np.sign(side) * 0.0005, 0.0))
             walls.append(np.asarray(slab.vertices))
-    kept = objects.hull_quality(bin_, tuple(walls))
+    kept = hull_quality(bin_, tuple(walls))
     assert kept.excess < 0.05 and kept.missing == 0.0
 
 
 def test_hull_quality_of_the_decomposed_cup(cup_object) -> None:
-    quality = objects.hull_quality(cup_object.mesh, cup_object.hulls)
+    quality = hull_quality(cup_object.mesh, cup_object.hulls)
     assert quality.n_hulls == len(cup_object.hulls)
     # TINY's coarse hulls bulge into the cup (its droplet test still passes: tests/test_mjcf.py)
-    assert quality.excess < objects.MAX_EXCESS and quality.missing < 0.05 and 0.9 < quality.volume_ratio < 2.0
+    assert quality.excess < MAX_EXCESS and quality.missing < 0.05 and 0.9 < quality.volume_ratio < 2.0
 
 
 def test_axis_depths_match_ray_casting() -> None:
-    mesh = objects.repair_mesh(small_cup())
+    mesh = repair_mesh(small_cup())
     bounds = np.asarray(mesh.bounds)
     intersector = trimesh.ray.ray_triangle.RayMeshIntersector(mesh)
     for axis in range(3):
-        near, far = objects._axis_depths(mesh, bounds, axis, 16)
+        near, far = mesh_quality._axis_depths(mesh, bounds, axis, 16)
         for sign, depth in ((1.0, near), (-1.0, far)):
-            origins, direction = objects._probe_origins(bounds, axis, sign, 16, 0.01)
+            origins, direction = mesh_quality._probe_origins(bounds, axis, sign, 16, 0.01)
             locations, rays, _ = intersector.intersects_location(
                 origins, np.tile(direction, (len(origins), 1)), multiple_hits=False
             )
@@ -521,7 +536,7 @@ def _spy_coacd(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> list[tuple[in
         calls.append((len(mesh.faces), config.max_convex_hull))
         return [np.asarray(mesh.vertices)]
 
-    monkeypatch.setattr(objects, "_run_coacd", fake)
+    monkeypatch.setattr(mesh_decomposition, "_run_coacd", fake)
     return calls
 
 
@@ -531,7 +546,7 @@ def test_overlapping_convex_bodies_are_their_own_hulls(monkeypatch: pytest.Monke
     pieces = [trimesh.creation.icosphere(subdivisions=1, radius=0.03) for _ in range(3)]
     for i, piece in enumerate(pieces):
         piece.apply_translation([0.04 * i, 0.0, 0.0])
-    teddy = objects.repair_mesh(trimesh.util.concatenate(pieces))
+    teddy = repair_mesh(trimesh.util.concatenate(pieces))
     hulls = decompose(teddy)
     assert calls == [] and len(hulls) == 3
 
@@ -540,7 +555,7 @@ def test_concave_bodies_share_the_hull_cap(monkeypatch: pytest.MonkeyPatch, tmp_
     calls = _spy_coacd(monkeypatch, tmp_path)
     crate = box((0.04, 0.04, 0.04))
     crate.apply_translation([0.2, 0.0, 0.0])
-    mesh = objects.repair_mesh(trimesh.util.concatenate([small_cup(), crate]))
+    mesh = repair_mesh(trimesh.util.concatenate([small_cup(), crate]))
     hulls = decompose(mesh, DecompositionConfig(max_convex_hull=8))
     assert calls == [(96, 7)]  # the cup alone goes to CoACD, with what the box leaves of the cap
     assert len(hulls) == 2
@@ -548,20 +563,24 @@ def test_concave_bodies_share_the_hull_cap(monkeypatch: pytest.MonkeyPatch, tmp_
 
 def test_a_single_body_goes_to_coacd_whole(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     calls = _spy_coacd(monkeypatch, tmp_path)
-    decompose(objects.repair_mesh(small_cup()))
+    decompose(repair_mesh(small_cup()))
     assert calls == [(96, DecompositionConfig().max_convex_hull)]
 
 
 def test_cache_keys_of_single_bodies_did_not_change() -> None:
     # the keys the procedural dataset's hulls were cached under before max_faces and the body split
     digest = "0" * 64
-    assert objects._cache_key(digest, DecompositionConfig(), 1) == (
+    assert mesh_decomposition._cache_key(digest, DecompositionConfig(), 1) == (
         "82496c24c8cd318b41f73c1c3be66c6a99dbf1b53977774f4711195a0da23847"
     )
-    assert objects._cache_key(digest, TINY, 1) == "0e91cd61c40fff7a6e1f455d28148e6602525719d7bf1085a32811bf2604c5bd"
-    assert objects._cache_key(digest, DecompositionConfig(), 2) != objects._cache_key(digest, DecompositionConfig(), 1)
-    assert objects._cache_key(digest, DecompositionConfig(max_faces=4000), 1) != (
-        objects._cache_key(digest, DecompositionConfig(), 1)
+    assert mesh_decomposition._cache_key(digest, TINY, 1) == (
+        "0e91cd61c40fff7a6e1f455d28148e6602525719d7bf1085a32811bf2604c5bd"
+    )
+    assert mesh_decomposition._cache_key(digest, DecompositionConfig(), 2) != (
+        mesh_decomposition._cache_key(digest, DecompositionConfig(), 1)
+    )
+    assert mesh_decomposition._cache_key(digest, DecompositionConfig(max_faces=4000), 1) != (
+        mesh_decomposition._cache_key(digest, DecompositionConfig(), 1)
     )
 
 
@@ -571,13 +590,15 @@ def test_cache_keys_of_single_bodies_did_not_change() -> None:
 def test_max_faces_decimates_for_coacd_only(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     monkeypatch.setenv("RAIL_MJ_CACHE", str(tmp_path))
     seen: list[trimesh.Trimesh] = []
-    monkeypatch.setattr(objects, "_run_coacd", lambda mesh, config: seen.append(mesh) or [np.asarray(mesh.vertices)])
-    mesh = objects.repair_mesh(noisy_sphere())
+    monkeypatch.setattr(
+        mesh_decomposition, "_run_coacd", lambda mesh, config: seen.append(mesh) or [np.asarray(mesh.vertices)]
+    )
+    mesh = repair_mesh(noisy_sphere())
     mesh.vertices[0] *= 0.5  # a dent, so the sphere is not convex and goes to CoACD
     decompose(mesh, DecompositionConfig(max_faces=2000))
     (coacd_mesh,) = seen
     assert len(coacd_mesh.faces) <= 2000 and coacd_mesh.is_volume  # still closed: CoACD does not remesh it
-    assert objects._preprocess_mode(coacd_mesh, DecompositionConfig()) == "off"
+    assert mesh_decomposition._preprocess_mode(coacd_mesh, DecompositionConfig()) == "off"
     assert len(mesh.faces) == 5120
 
 
@@ -590,21 +611,21 @@ def test_max_faces_is_checked() -> None:
 
 
 def test_dense_meshes_get_the_faster_settings() -> None:
-    assert objects.decomposition_for(objects.repair_mesh(small_cup())) == DecompositionConfig()
-    dense = objects.repair_mesh(noisy_sphere())
-    assert len(dense.faces) > objects.DENSE_FACES
-    assert objects.decomposition_for(dense) == objects.DENSE_DECOMPOSITION
-    assert objects.DENSE_DECOMPOSITION.max_faces < objects.DENSE_FACES
+    assert decomposition_for(repair_mesh(small_cup())) == DecompositionConfig()
+    dense = repair_mesh(noisy_sphere())
+    assert len(dense.faces) > DENSE_FACES
+    assert decomposition_for(dense) == DENSE_DECOMPOSITION
+    assert DENSE_DECOMPOSITION.max_faces < DENSE_FACES
 
 
 def test_meshes_up_to_the_dense_limit_keep_the_defaults() -> None:
     # the procedural dataset's meshes stay within rail_mj.dataset.procedural.MAX_FACES: their hulls must not change
     from rail_mj.dataset.procedural import MAX_FACES
 
-    assert MAX_FACES <= objects.DENSE_FACES
+    assert MAX_FACES <= DENSE_FACES
     sphere = trimesh.creation.icosphere(subdivisions=4)  # 5,120 faces
-    at_limit = trimesh.Trimesh(sphere.vertices, sphere.faces[: objects.DENSE_FACES], process=False)
-    assert objects.decomposition_for(at_limit) == DecompositionConfig()
+    at_limit = trimesh.Trimesh(sphere.vertices, sphere.faces[: DENSE_FACES], process=False)
+    assert decomposition_for(at_limit) == DecompositionConfig()
 
 
 def _fake_coacd(monkeypatch: pytest.MonkeyPatch, tmp_path: Path, good: tuple[np.ndarray, ...]) -> list[float]:
@@ -614,9 +635,9 @@ def _fake_coacd(monkeypatch: pytest.MonkeyPatch, tmp_path: Path, good: tuple[np.
 
     def fake(mesh, config):
         thresholds.append(config.threshold)
-        return [np.asarray(mesh.vertices)] if config == objects.DENSE_DECOMPOSITION else [np.asarray(h) for h in good]
+        return [np.asarray(mesh.vertices)] if config == DENSE_DECOMPOSITION else [np.asarray(h) for h in good]
 
-    monkeypatch.setattr(objects, "_run_coacd", fake)
+    monkeypatch.setattr(mesh_decomposition, "_run_coacd", fake)
     return thresholds
 
 
@@ -624,11 +645,11 @@ def test_guard_redoes_failing_fast_hulls_with_the_defaults(
     cup_object, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:
     thresholds = _fake_coacd(monkeypatch, tmp_path, cup_object.hulls)
-    monkeypatch.setattr(objects, "DENSE_FACES", 50)  # the 96-face cup counts as dense
+    monkeypatch.setattr(mesh_decomposition, "DENSE_FACES", 50)  # the 96-face cup counts as dense
     obj = object_from_mesh(small_cup(), name="cup")
-    assert thresholds == [objects.DENSE_DECOMPOSITION.threshold, DecompositionConfig().threshold]
+    assert thresholds == [DENSE_DECOMPOSITION.threshold, DecompositionConfig().threshold]
     assert len(obj.hulls) == len(cup_object.hulls)
-    (note,) = objects.mesh_notes(obj.mesh)
+    (note,) = mesh_notes(obj.mesh)
     assert note.startswith("hulls made again with the default settings: the faster ones' excess 0.6")
 
 
@@ -636,12 +657,12 @@ def test_guard_notes_hulls_that_fail_it(monkeypatch: pytest.MonkeyPatch, tmp_pat
     thresholds = _fake_coacd(monkeypatch, tmp_path, (np.asarray(small_cup().vertices),))
     obj = object_from_mesh(small_cup(), name="cup", decomposition=TINY)  # given settings are not redone
     assert thresholds == [TINY.threshold] and len(obj.hulls) == 1
-    (note,) = objects.mesh_notes(obj.mesh)
+    (note,) = mesh_notes(obj.mesh)
     assert note.startswith("hull quality below the guard (1 hulls): they fill 6") and "a cavity may be closed" in note
 
 
 def test_guard_passes_good_hulls_without_a_note(cup_object) -> None:
-    assert objects.mesh_notes(cup_object.mesh) == []
+    assert mesh_notes(cup_object.mesh) == []
 
 
 def test_astronomic_coordinates_are_refused_before_cleaning(tmp_path: Path) -> None:
@@ -664,16 +685,16 @@ def test_a_coacd_run_past_its_time_limit_is_stopped_with_a_named_error(tmp_path,
     hang = tmp_path / "hang"
     hang.write_text("#!/bin/sh\nexec sleep 60\n")
     hang.chmod(0o755)
-    monkeypatch.setattr(objects.sys, "executable", str(hang))
-    monkeypatch.setattr(objects, "_WALL_SLACK_S", 0.0)
+    monkeypatch.setattr(mesh_decomposition.sys, "executable", str(hang))
+    monkeypatch.setattr(mesh_decomposition, "_WALL_SLACK_S", 0.0)
     with pytest.raises(DecompositionTimeout, match=r"within 2 s of wall time .*time_limit_s"):
-        objects._run_coacd(small_cup(), DecompositionConfig(preprocess_mode="off", time_limit_s=0.5))
+        mesh_decomposition._run_coacd(small_cup(), DecompositionConfig(preprocess_mode="off", time_limit_s=0.5))
     with pytest.raises(ConfigError, match="time_limit_s"):
         DecompositionConfig(time_limit_s=0)
 
 
 def test_the_time_limit_is_not_part_of_the_hull_cache_key() -> None:
-    assert objects._cache_key("m", DecompositionConfig(), 1) == objects._cache_key(
+    assert mesh_decomposition._cache_key("m", DecompositionConfig(), 1) == mesh_decomposition._cache_key(
         "m", DecompositionConfig(time_limit_s=5.0), 1)
 
 
@@ -687,11 +708,11 @@ def test_a_guard_redo_that_runs_out_of_time_keeps_the_first_hulls(monkeypatch) -
             raise DecompositionTimeout("CoACD did not finish within 1 s")
         return first
 
-    monkeypatch.setattr(objects, "decompose", fake_decompose)
-    monkeypatch.setattr(objects, "_guard_score", lambda quality: 2.0)
+    monkeypatch.setattr(mesh_quality, "decompose", fake_decompose)
+    monkeypatch.setattr(mesh_quality, "_guard_score", lambda quality: 2.0)
     mesh = small_cup()
-    monkeypatch.setattr(objects, "decomposition_for", lambda m: objects.DENSE_DECOMPOSITION)
-    hulls, notes = objects._guarded_hulls(mesh, None)
+    monkeypatch.setattr(mesh_quality, "decomposition_for", lambda m: DENSE_DECOMPOSITION)
+    hulls, notes = mesh_quality._guarded_hulls(mesh, None)
     assert hulls is first and len(calls) == 2
     assert any("not made again" in n and "did not finish" in n for n in notes)
 
@@ -701,8 +722,8 @@ def test_bodies_keep_only_their_own_vertices() -> None:
     rng = np.random.default_rng(0)
     tets = [trimesh.creation.box((0.01, 0.01, 0.01)).apply_translation(rng.random(3)) for _ in range(300)]
     soup = trimesh.util.concatenate(tets)
-    labels = objects._body_labels(soup)
-    pieces = objects._bodies(soup, labels)
+    labels = mesh_repair._body_labels(soup)
+    pieces = mesh_decomposition._bodies(soup, labels)
     assert len(pieces) == 300
     assert all(len(p.vertices) == 8 and p.is_volume for p in pieces)
     np.testing.assert_allclose(pieces[7].bounds, tets[7].bounds)
@@ -712,7 +733,7 @@ def test_a_coacd_run_past_its_cpu_limit_is_stopped_however_loaded_the_machine(tm
     # the real child sets RLIMIT_CPU on itself; CoACD on a mug with a handle needs several CPU seconds
     monkeypatch.setenv("RAIL_MJ_CACHE", str(tmp_path))
     with pytest.raises(DecompositionTimeout, match=r"within 1 s of CPU"):
-        objects._run_coacd(small_cup(), DecompositionConfig(preprocess_mode="on", time_limit_s=1))
+        mesh_decomposition._run_coacd(small_cup(), DecompositionConfig(preprocess_mode="on", time_limit_s=1))
 
 
 def test_a_triangle_soup_is_refused_naming_its_loose_faces(tmp_path: Path) -> None:

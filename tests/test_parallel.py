@@ -26,7 +26,7 @@ from rail_mj import llm
 from rail_mj.core.errors import ConfigError
 from rail_mj.imagination import ImaginationConfig, get_backend, imagine
 from rail_mj.imagination.config import THREADS_ENV
-from rail_mj.mesh.objects import load_object
+from rail_mj.mesh import load_object
 from rail_mj.pipeline.parallel import largest_first, object_task, plan_workers, run_tasks
 from rail_mj.core.paths import CACHE_ENV
 from rail_mj.pipeline.chain import ObjectInput, RunConfig, classify

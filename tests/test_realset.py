@@ -17,7 +17,7 @@ from rail_mj.dataset import procedural as dataset, realset
 from rail_mj.affordances import PAPER_AFFORDANCES, get
 from rail_mj.dataset.procedural import LabelRecord, read_labels
 from rail_mj.core.errors import DatasetError
-from rail_mj.mesh.objects import load_mesh
+from rail_mj.mesh import load_mesh
 from rail_mj.dataset.realset import MANIFEST, WHEELS, RealMesh, Wheel
 
 HEX64 = re.compile(r"[0-9a-f]{64}")

@@ -175,10 +175,10 @@ def _sector_hulls(mesh: trimesh.Trimesh, config=None) -> tuple[np.ndarray, ...]:
 
 def test_eval_report_draws_millimetre_y_up_meshes_like_metre_z_up(tmp_path, monkeypatch):
     """write_report reads each mesh with its label's units and up axis (it drew every mesh as metres, z up)."""
-    import rail_mj.mesh.objects
+    import rail_mj.mesh.quality
     from rail_mj.eval import run as rail_eval
 
-    monkeypatch.setattr(rail_mj.mesh.objects, "decompose", _sector_hulls)
+    monkeypatch.setattr(rail_mj.mesh.quality, "decompose", _sector_hulls)
 
     root = tmp_path / "ds"
     root.mkdir()

@@ -16,7 +16,7 @@ except _ScanError:  # the [scan] extra is not installed: .ci/run's extras step r
     pytest.skip("the [scan] extra (open3d-cpu) is not installed", allow_module_level=True)
 
 from rail_mj.core.errors import ConfigError, RailError, RobotError  # noqa: E402
-from rail_mj.mesh.objects import load_mesh, mesh_hash  # noqa: E402
+from rail_mj.mesh import load_mesh, mesh_hash  # noqa: E402
 from rail_mj.robot.demo import upright_pose  # noqa: E402
 from rail_mj.robot.scan import (  # noqa: E402
     CAMERA_NAME,

@@ -13,7 +13,7 @@ try:
 except _ScanError:  # the [scan] extra is not installed: .ci/run's extras step runs these
     pytest.skip("the [scan] extra (open3d-cpu) is not installed", allow_module_level=True)
 
-from rail_mj.mesh.objects import object_from_mesh, repair_mesh  # noqa: E402
+from rail_mj.mesh import object_from_mesh, repair_mesh  # noqa: E402
 from rail_mj.pipeline.chain import classify  # noqa: E402
 from rail_mj.robot.demo import make_object, upright_pose  # noqa: E402
 from rail_mj.robot.scan import ScanConfig, scan_object  # noqa: E402

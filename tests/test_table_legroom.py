@@ -8,7 +8,7 @@ import pytest
 import trimesh
 
 from rail_mj.dataset import shapes
-from rail_mj.mesh.objects import object_from_mesh
+from rail_mj.mesh import object_from_mesh
 from rail_mj.pipeline.chain import Pipeline, RunConfig
 
 

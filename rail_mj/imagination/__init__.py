@@ -16,10 +16,11 @@ from collections.abc import Sequence
 import numpy as np
 
 from rail_mj.core.errors import ImaginationError
-from rail_mj.imagination.backend import BACKENDS, Backend, Progress, get_backend, resolve_backend
+from rail_mj.core.types import AgentSetup, Outcomes, RailObject, StablePose, StablePoses
+from rail_mj.imagination.backend import Backend, Progress
 from rail_mj.imagination.batch import Placement, RolloutBatch, prepare
 from rail_mj.imagination.config import ImaginationConfig
-from rail_mj.core.types import AgentSetup, Outcomes, RailObject, StablePose, StablePoses
+from rail_mj.imagination.registry import BACKENDS, get_backend, resolve_backend
 
 __all__ = [
     "BACKENDS",

@@ -2,26 +2,23 @@
 
 Every backend takes the same :class:`~rail_mj.imagination.batch.RolloutBatch` and returns the same
 :class:`~rail_mj.core.types.Outcomes`; it composes its own scene of the object (native: hull meshes; mjx: the
-hull-box bucket) with :mod:`rail_mj.mjcf`. ``get_backend`` keeps one instance per (name, config), so what a
-backend caches (MJX's compiled rollouts) lives as long as the process.
+hull-box bucket) with :mod:`rail_mj.mjcf`. Backends are chosen and shared by name in
+:mod:`rail_mj.imagination.registry`.
 """
 
 from __future__ import annotations
 
 import abc
-import functools
 from collections.abc import Callable
 from typing import ClassVar
 
 from rail_mj.core.errors import ImaginationError, SceneError
+from rail_mj.core.types import AgentSetup, Outcomes, RailObject
 from rail_mj.imagination.batch import RolloutBatch
 from rail_mj.imagination.config import ImaginationConfig
 from rail_mj.mjcf import Scene, ScenePhysics, compose_scene
-from rail_mj.core.types import AgentSetup, Outcomes, RailObject
 
-__all__ = ["BACKENDS", "Backend", "Progress", "resolve_backend", "get_backend"]
-
-BACKENDS = ("auto", "native", "mjx")
+__all__ = ["Backend", "Progress"]
 
 #: progress(done, total) with simulated steps
 Progress = Callable[[int, int], None]
@@ -53,30 +50,3 @@ class Backend(abc.ABC):
             return compose_scene(obj, agents, physics, hull_boxes=hull_boxes)
         except SceneError as exc:
             raise ImaginationError(f"the imagination scene for {obj.name!r} cannot be built: {exc}") from exc
-
-
-def resolve_backend(backend: str) -> str:
-    """``auto`` → ``mjx`` when JAX runs on a GPU/TPU, else ``native``."""
-    if backend not in BACKENDS:
-        raise ImaginationError(f"unknown imagination backend {backend!r}; valid: {', '.join(BACKENDS)}")
-    if backend != "auto":
-        return backend
-    import jax
-
-    return "mjx" if jax.default_backend() in ("gpu", "tpu", "cuda", "rocm") else "native"
-
-
-@functools.lru_cache(maxsize=16)
-def _shared(name: str, config: ImaginationConfig) -> Backend:
-    if name == "native":
-        from rail_mj.imagination.native import NativeBackend
-
-        return NativeBackend(config)
-    from rail_mj.imagination.mjx import MjxBackend
-
-    return MjxBackend(config)
-
-
-def get_backend(name: str = "auto", config: ImaginationConfig | None = None) -> Backend:
-    """The process-wide backend ``name`` (``auto``, ``native``, ``mjx``) with ``config`` (default settings if None)."""
-    return _shared(resolve_backend(name), config or ImaginationConfig())

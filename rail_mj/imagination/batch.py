@@ -16,9 +16,9 @@ import numpy as np
 
 from rail_mj.core.errors import ImaginationError
 from rail_mj.core.geometry import follow_task_frame, quat_angle, quat_to_angvel, slerp, task_origin, tilt, to_task_frame
+from rail_mj.core.types import AgentSetup, Outcomes, RailObject, StablePose
 from rail_mj.imagination.config import ImaginationConfig
 from rail_mj.mjcf import Scene
-from rail_mj.core.types import AgentSetup, Outcomes, RailObject, StablePose
 
 __all__ = [
     "DriveTable",

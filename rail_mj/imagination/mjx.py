@@ -22,11 +22,11 @@ import numpy as np
 from mujoco import mjx
 
 from rail_mj.core.errors import ImaginationError
+from rail_mj.core.types import AgentSetup, Outcomes, RailObject
 from rail_mj.imagination.backend import Backend, Progress
 from rail_mj.imagination.batch import RolloutBatch, outcomes_from_states
 from rail_mj.imagination.config import ImaginationConfig
 from rail_mj.mjcf import Scene, count_contacts
-from rail_mj.core.types import AgentSetup, Outcomes, RailObject
 
 __all__ = ["MjxBackend", "hull_bucket", "HULL_BUCKETS", "SUPPORTED_MJX"]
 

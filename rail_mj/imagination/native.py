@@ -6,10 +6,10 @@ import mujoco
 import mujoco.batch
 import numpy as np
 
+from rail_mj.core.types import AgentSetup, Outcomes, RailObject
 from rail_mj.imagination.backend import Backend, Progress
 from rail_mj.imagination.batch import RolloutBatch, outcomes_from_states
 from rail_mj.mjcf import Scene, count_contacts
-from rail_mj.core.types import AgentSetup, Outcomes, RailObject
 
 __all__ = ["NativeBackend"]
 

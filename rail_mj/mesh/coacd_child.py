@@ -1,4 +1,4 @@
-"""Runs one CoACD decomposition in its own process, for :func:`rail_mj.mesh.objects.decompose`.
+"""Runs one CoACD decomposition in its own process, for :func:`rail_mj.mesh.decomposition.decompose`.
 
 CoACD segfaults on some meshes (a closed scanned pen holder, without its own remeshing), which would take
 the caller down with it. The parent sends the mesh and the options as an ``.npz`` on stdin and reads the
@@ -15,6 +15,8 @@ import resource
 import sys
 
 import numpy as np
+
+__all__ = ["main"]
 
 
 def main() -> int:

@@ -186,7 +186,7 @@ def add_object(
     and pads the object to that many geoms (the MJX-JAX shape buckets).
     """
     if not obj.hulls:
-        raise SceneError(f"object {obj.name!r} has no hulls; build it with rail_mj.mesh.objects")
+        raise SceneError(f"object {obj.name!r} has no hulls; build it with rail_mj.mesh")
     if hull_boxes and len(obj.hulls) > hull_boxes:
         raise SceneError(f"object {obj.name!r} has {len(obj.hulls)} hulls, more than the bucket of {hull_boxes}")
     solref = physics.solref
@@ -299,7 +299,7 @@ def _spec(
     object_pos, object_quat = _pose("object_pos", object_pos, 3), _pose("object_quat", object_quat, 4)
     agents_pos, agents_quat = _pose("agents_pos", agents_pos, 3), _pose("agents_quat", agents_quat, 4)
     if not obj.hulls:
-        raise SceneError(f"object {obj.name!r} has no hulls; build it with rail_mj.mesh.objects")
+        raise SceneError(f"object {obj.name!r} has no hulls; build it with rail_mj.mesh")
     spec = mujoco.MjSpec()
     spec.modelname = f"rail_{obj.name}"
     spec.option.timestep = physics.timestep

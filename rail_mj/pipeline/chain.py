@@ -22,7 +22,7 @@ from rail_mj.affordances import request_scale
 from rail_mj.core.errors import ConfigError, RailError
 from rail_mj.imagination import imagine, resolve_backend
 from rail_mj.llm.schemas import ImaginationProfile
-from rail_mj.mesh.objects import load_object, mesh_notes
+from rail_mj.mesh import load_object, mesh_notes
 from rail_mj.core.results import AffordanceResult, PlanInfo, PoseInfo
 from rail_mj.scoring import ScoringFunction, compile_scoring
 from rail_mj.stable_poses.poses import find_stable_poses, pose_from_up

@@ -159,7 +159,7 @@ def nothing_to_draw(result: AffordanceResult) -> str | None:
 def _load(obj: RailObject | str | Path, units: float, up: str) -> RailObject:
     if isinstance(obj, RailObject):
         return obj
-    from rail_mj.mesh.objects import load_object
+    from rail_mj.mesh import load_object
 
     return load_object(Path(obj), units=units, up=up)
 

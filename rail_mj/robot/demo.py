@@ -22,7 +22,7 @@ import trimesh
 
 from rail_mj.affordances import get
 from rail_mj.core.errors import ConfigError
-from rail_mj.mesh.objects import mesh_hash
+from rail_mj.mesh import mesh_hash
 from rail_mj.robot.control import RobotConfig
 from rail_mj.robot.executor import ExecutionResult, ScoringFunction, execute
 from rail_mj.robot.request import parse_request

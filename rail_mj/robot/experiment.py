@@ -30,7 +30,7 @@ import trimesh
 from rail_mj.affordances import PAPER_AFFORDANCES, request_scale
 from rail_mj.core.errors import RailError
 from rail_mj.core.geometry import quat_conj, quat_mul, quat_rotate, task_origin
-from rail_mj.mesh.objects import object_from_mesh
+from rail_mj.mesh import object_from_mesh
 from rail_mj.pipeline.chain import as_placed_pose, classify
 from rail_mj.robot.control import RobotConfig
 from rail_mj.robot.demo import case_from_result, make_object

@@ -83,7 +83,7 @@ CAMERA_POS_IN_HAND = (0.07, 0.0, 0.04)
 #: MuJoCo cameras look along their -z with +y up: this turns the camera's -z onto the hand's +z.
 _CAMERA_QUAT_IN_HAND = (0.0, 1.0, 0.0, 0.0)
 INSTALL_HINT = "pip install -e '.[scan]'  (installs open3d-cpu)"
-#: Mesh formats :func:`save_scan` writes; all are formats :func:`rail_mj.mesh.objects.load_mesh` reads.
+#: Mesh formats :func:`save_scan` writes; all are formats :func:`rail_mj.mesh.load_mesh` reads.
 MESH_FORMATS = (".obj", ".ply", ".stl", ".off", ".glb")
 _ROBOT_ROOT = "link0"
 #: Voxels per block edge of the TSDF grid; the fused box reaches this far below the table top, m.
@@ -807,7 +807,7 @@ def _solid_closing(fused: trimesh.Trimesh, depths: list[np.ndarray], views: list
 def _separate_touching(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Move apart the vertices manifold3d keeps distinct at one position (where two sheets touch).
 
-    A loader that merges vertices by position (``rail_mj.mesh.objects.repair_mesh``) would join them again into a
+    A loader that merges vertices by position (``rail_mj.mesh.repair_mesh``) would join them again into a
     non-manifold edge or vertex, and the mesh would no longer be closed. Each copy moves
     :data:`_TOUCH_SEPARATION` towards the centroid of its own neighbours, which lie on its own sheet.
     """
@@ -1103,7 +1103,7 @@ def scan_object(obj: RailObject, pose: StablePose, config: ScanConfig | None = N
 
 
 def save_scan(result: ScanResult | trimesh.Trimesh, path: str | Path) -> Path:
-    """Write the scanned mesh (metres, z up, world frame) where ``rail_mj.mesh.objects.load_object(path)`` reads it."""
+    """Write the scanned mesh (metres, z up, world frame) where ``rail_mj.mesh.load_object(path)`` reads it."""
     path = Path(path)
     if path.suffix.lower() not in MESH_FORMATS:
         raise ConfigError(f"cannot save a scan as {path.suffix or 'no suffix'!r}; use one of {', '.join(MESH_FORMATS)}")

@@ -9,10 +9,10 @@ import math
 import numpy as np
 
 from rail_mj.core.errors import ConfigError, UnsafeCodeError
+from rail_mj.core.types import SCORING_ARGS, Outcomes
 from rail_mj.scoring.pool import run_in_worker
 from rail_mj.scoring.sandbox import SOURCE_FILENAME
 from rail_mj.scoring.validate import check_source
-from rail_mj.core.types import SCORING_ARGS, Outcomes
 
 __all__ = ["ScoringFunction", "compile_scoring", "MAX_TIMEOUT_S", "MIN_MEMORY_MB"]
 

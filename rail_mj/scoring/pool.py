@@ -30,8 +30,8 @@ from multiprocessing.connection import Connection
 
 import numpy as np
 
+import rail_mj.scoring.sandbox as sandbox
 from rail_mj.core.errors import ScoringRuntimeError
-from rail_mj.scoring import sandbox
 
 __all__ = ["run_in_worker", "warm_up", "close_workers", "worker_count", "RESTING_SLACK_MB", "WorkerStartError"]
 

@@ -16,8 +16,8 @@ from collections.abc import Sequence
 import numpy as np
 
 from rail_mj.core.errors import ConfigError
-from rail_mj.imagination.batch import PROBE_DIRECTIONS
 from rail_mj.core.types import Outcomes
+from rail_mj.imagination.batch import PROBE_DIRECTIONS
 
 __all__ = ["probe_outcomes"]
 

@@ -25,6 +25,7 @@ from __future__ import annotations
 import ast
 
 from rail_mj.core.errors import UnsafeCodeError
+from rail_mj.core.types import SCORING_ARGS
 from rail_mj.scoring.sandbox import (
     LINALG_FUNCTIONS,
     NUMPY_CONSTANTS,
@@ -32,7 +33,6 @@ from rail_mj.scoring.sandbox import (
     OBJECT_ATTRIBUTES,
     SAFE_BUILTINS,
 )
-from rail_mj.core.types import SCORING_ARGS
 
 __all__ = [
     "MAX_SOURCE_CHARS",

@@ -1,0 +1,343 @@
+"""Convex decomposition: CoACD settings, its runs in a child process with their limits, the hulls and their cache.
+
+A mesh of separate bodies is decomposed body by body; meshes over :data:`DENSE_FACES` faces get
+faster CoACD settings (:func:`decomposition_for`). Hulls are cached under ``cache_dir("hulls")``,
+keyed by :func:`mesh_hash` and the settings.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import math
+import signal
+import subprocess
+import sys
+import zipfile
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+import trimesh
+from scipy.spatial import ConvexHull, QhullError
+
+from rail_mj.core.errors import ConfigError, DecompositionError, DecompositionTimeout
+from rail_mj.core.paths import cache_dir
+from rail_mj.mesh.repair import _body_labels, _decimate
+
+__all__ = [
+    "MJX_MAX_HULL_VERTICES",
+    "DENSE_FACES",
+    "DENSE_DECOMPOSITION",
+    "DecompositionConfig",
+    "decomposition_for",
+    "mesh_hash",
+    "decompose",
+    "reduce_hull",
+]
+
+#: MJX's convex collision caps hull vertices at 64.
+MJX_MAX_HULL_VERTICES = 64
+#: Meshes with more faces are dense (scans, CAD exports): :func:`decomposition_for` gives them faster
+#: settings. The procedural dataset stays at or under it (``rail_mj.dataset.procedural.MAX_FACES``), so its hulls
+#: and their cache keys are those of the defaults.
+DENSE_FACES = 5_000
+# Fewest faces DecompositionConfig.max_faces may ask for: below it decimation erases whole features.
+_MIN_COACD_FACES = 500
+# Hulls with less volume than this (m^3) are slivers MuJoCo cannot give inertia.
+_MIN_HULL_VOLUME = 1e-12
+
+
+@dataclass(frozen=True)
+class DecompositionConfig:
+    """CoACD parameters and the hull vertex cap.
+
+    The defaults decompose a ~5.9k-face mug with a handle in ~7 s of CPU into
+    25 hulls that leave its cavity free (``benchmarks/coacd_time.py``);
+    CoACD's own defaults (resolution 2000, 150 MCTS iterations, remeshing)
+    took ~2 minutes here. ``mcts_max_depth=1`` is a trap: worse cuts and a
+    ~50x slower merge.
+    """
+
+    threshold: float = 0.05  # concavity tolerance; larger = fewer, coarser hulls (0.08 let hulls into a cup)
+    max_convex_hull: int = 32  # hull cap (CoACD merges down to it)
+    max_hull_vertices: int = MJX_MAX_HULL_VERTICES
+    # "auto": remesh (CoACD's manifold preprocessing) only when the repaired mesh is not a closed
+    # volume — remeshing at low resolution thickens thin walls into the cavity and triples the time
+    preprocess_mode: Literal["auto", "on", "off"] = "auto"
+    preprocess_resolution: int = 30
+    resolution: int = 500  # surface samples per cut evaluation
+    mcts_nodes: int = 10
+    mcts_iterations: int = 30
+    mcts_max_depth: int = 2
+    seed: int = 0
+    convex_shortcut: bool = True  # a convex mesh is its own (reduced) hull, no CoACD call
+    # CoACD sees at most this many faces: the mesh is decimated for it alone (the object keeps the
+    # repaired mesh); None: CoACD sees the mesh as repaired (<= FACE_BUDGET faces)
+    max_faces: int | None = None
+    # CPU seconds one CoACD run may take before it is stopped with a DecompositionTimeout: a 10k-piece
+    # triangle soup ran for minutes per run. The worst real mesh here took 26 s of wall time cold.
+    time_limit_s: float = 150.0
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.threshold <= 1.0:
+            raise ConfigError(f"threshold must be in (0, 1], got {self.threshold}")
+        if self.max_convex_hull < 1:
+            raise ConfigError(f"max_convex_hull must be >= 1, got {self.max_convex_hull}")
+        if not 4 <= self.max_hull_vertices <= MJX_MAX_HULL_VERTICES:
+            raise ConfigError(
+                f"max_hull_vertices must be in [4, {MJX_MAX_HULL_VERTICES}] (MJX limit), got {self.max_hull_vertices}"
+            )
+        if self.preprocess_mode not in ("auto", "on", "off"):
+            raise ConfigError(f"preprocess_mode must be one of 'auto', 'on', 'off', got {self.preprocess_mode!r}")
+        for name in ("preprocess_resolution", "resolution", "mcts_nodes", "mcts_iterations", "mcts_max_depth"):
+            if getattr(self, name) < 1:
+                raise ConfigError(f"{name} must be >= 1, got {getattr(self, name)}")
+        if not (np.isfinite(self.time_limit_s) and self.time_limit_s > 0):
+            raise ConfigError(f"time_limit_s must be a positive number of seconds, got {self.time_limit_s}")
+        if self.max_faces is not None and self.max_faces < _MIN_COACD_FACES:
+            raise ConfigError(f"max_faces must be None or >= {_MIN_COACD_FACES}, got {self.max_faces}")
+
+
+#: :func:`decomposition_for` meshes of more than :data:`DENSE_FACES` faces.
+DENSE_DECOMPOSITION = DecompositionConfig(threshold=0.07, mcts_iterations=15, max_faces=3_000)
+
+
+def mesh_hash(mesh: trimesh.Trimesh) -> str:
+    """SHA-256 of the vertex (float64) and face (int64) arrays."""
+    h = hashlib.sha256()
+    h.update(np.ascontiguousarray(mesh.vertices, dtype=np.float64).tobytes())
+    h.update(np.ascontiguousarray(mesh.faces, dtype=np.int64).tobytes())
+    return h.hexdigest()
+
+
+def reduce_hull(points: np.ndarray, max_vertices: int) -> np.ndarray:
+    """Convex-hull vertices of ``points``, reduced to at most ``max_vertices``.
+
+    Greedy farthest-point insertion: start from the 6 axis extremes, then add
+    the point lying farthest outside the current hull until the cap, so the
+    reduced hull is inscribed and its worst-case gap is minimised step by step.
+    """
+    points = np.asarray(points, dtype=np.float64)
+    try:
+        hull_pts = points[ConvexHull(points).vertices]
+    except (QhullError, ValueError) as exc:
+        raise DecompositionError(f"hull of {len(points)} points is degenerate (flat or too few points)") from exc
+    if len(hull_pts) <= max_vertices:
+        return hull_pts
+    chosen = list(dict.fromkeys(int(i) for i in np.concatenate([hull_pts.argmin(0), hull_pts.argmax(0)])))
+    while len(chosen) < 4:  # extremes coincide on tiny hulls: add the farthest from the centroid
+        d = np.linalg.norm(hull_pts - hull_pts[chosen].mean(0), axis=1)
+        d[chosen] = -1.0
+        chosen.append(int(d.argmax()))
+    while len(chosen) < max_vertices:
+        try:
+            eq = ConvexHull(hull_pts[chosen]).equations
+        except QhullError:  # the seed points are coplanar: add the point farthest off their plane
+            c = hull_pts[chosen]
+            normal = np.linalg.svd(c - c.mean(0))[2][-1]
+            dist = np.abs((hull_pts - c.mean(0)) @ normal)
+        else:
+            dist = (hull_pts @ eq[:, :3].T + eq[:, 3]).max(axis=1)
+        dist[chosen] = -np.inf
+        best = int(dist.argmax())
+        if dist[best] <= 0.0:
+            break
+        chosen.append(best)
+    return hull_pts[np.sort(chosen)]
+
+
+def _cache_key(digest: str, config: DecompositionConfig, n_bodies: int) -> str:
+    # Options left at None and a single body are left out of the key, so the meshes and configs that
+    # existed before those options and the split into bodies keep their cache entries; the time limit
+    # does not change the hulls it lets through.
+    fields = {k: v for k, v in asdict(config).items() if v is not None and k != "time_limit_s"}
+    payload = {"mesh": digest, "config": fields}
+    if n_bodies > 1:
+        payload["bodies"] = n_bodies
+    return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
+
+
+def _preprocess_mode(mesh: trimesh.Trimesh, config: DecompositionConfig) -> str:
+    if config.preprocess_mode != "auto":
+        return config.preprocess_mode
+    return "off" if mesh.is_volume else "on"
+
+
+_WALL_PER_CPU = 4.0
+_WALL_SLACK_S = 10.0
+
+
+class _CoacdCrash(Exception):
+    """The CoACD child process died (a signal, not a Python error)."""
+
+
+def _coacd_child(vertices: np.ndarray, faces: np.ndarray, options: dict, time_limit_s: float) -> list[np.ndarray]:
+    """One CoACD run in a child process (:mod:`rail_mj.mesh.coacd_child`): its hulls' vertices.
+
+    The child may use ``time_limit_s`` seconds of CPU (a limit that holds however loaded the machine is),
+    and :data:`_WALL_PER_CPU` times that plus :data:`_WALL_SLACK_S` of wall time, in case it stalls without
+    spending CPU (CoACD's threads on a loaded machine take longer on the wall than on the CPU).
+    """
+    payload = io.BytesIO()
+    np.savez(payload, vertices=vertices, faces=faces, options=json.dumps(options),
+             cpu_limit_s=max(1, math.ceil(time_limit_s)))
+    wall_s = _WALL_PER_CPU * time_limit_s + _WALL_SLACK_S
+
+    def late(what: str) -> DecompositionTimeout:
+        return DecompositionTimeout(
+            f"CoACD did not finish within {what} on this mesh ({len(faces):,} faces); a mesh of many loose "
+            "pieces or a triangle soup does this: repair or simplify it, or raise DecompositionConfig.time_limit_s"
+        )
+
+    try:
+        proc = subprocess.run([sys.executable, str(Path(__file__).with_name("coacd_child.py"))],
+                              input=payload.getvalue(), capture_output=True, check=False, timeout=wall_s)
+    except subprocess.TimeoutExpired:
+        raise late(f"{wall_s:g} s of wall time") from None
+    if proc.returncode == -signal.SIGXCPU:
+        raise late(f"{time_limit_s:g} s of CPU")
+    if proc.returncode < 0:
+        raise _CoacdCrash(f"killed by signal {-proc.returncode}")
+    if proc.returncode != 0:
+        why = proc.stderr.decode(errors="replace").strip().splitlines()
+        raise DecompositionError(f"CoACD failed ({why[-1] if why else f'exit status {proc.returncode}'})")
+    with np.load(io.BytesIO(proc.stdout)) as data:
+        return [np.asarray(data[f"arr_{i}"], dtype=np.float64) for i in range(len(data.files))]
+
+
+def _run_coacd(mesh: trimesh.Trimesh, config: DecompositionConfig) -> list[np.ndarray]:
+    options = dict(
+        threshold=config.threshold,
+        max_convex_hull=config.max_convex_hull,
+        preprocess_mode=_preprocess_mode(mesh, config),
+        preprocess_resolution=config.preprocess_resolution,
+        resolution=config.resolution,
+        mcts_nodes=config.mcts_nodes,
+        mcts_iterations=config.mcts_iterations,
+        mcts_max_depth=config.mcts_max_depth,
+        decimate=True,
+        max_ch_vertex=max(config.max_hull_vertices, 8),
+        seed=config.seed,
+    )
+    vertices, faces = np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int32)
+    try:
+        return _coacd_child(vertices, faces, options, config.time_limit_s)
+    except _CoacdCrash as crash:
+        if options["preprocess_mode"] == "on":
+            raise DecompositionError(f"CoACD crashed on this mesh ({crash}); repair or simplify the mesh") from None
+        # the crashes seen come from CoACD's cutting of the mesh as given; its own remeshing avoids them
+        try:
+            return _coacd_child(vertices, faces, {**options, "preprocess_mode": "on"}, config.time_limit_s)
+        except _CoacdCrash as again:
+            raise DecompositionError(f"CoACD crashed on this mesh ({crash}), and again with its own remeshing "
+                                     f"({again}); repair or simplify the mesh") from None
+
+
+def _bodies(mesh: trimesh.Trimesh, labels: np.ndarray) -> list[trimesh.Trimesh]:
+    """The mesh's connected pieces, in the order of their first face.
+
+    Each piece keeps only its own vertices, gathered in one pass: copying every vertex into each piece
+    and pruning made a 10k-piece triangle soup quadratic (minutes).
+    """
+    _, first = np.unique(labels, return_index=True)
+    pieces = []
+    for label in labels[np.sort(first)]:
+        faces = mesh.faces[labels == label]
+        used, local = np.unique(faces, return_inverse=True)
+        pieces.append(trimesh.Trimesh(mesh.vertices[used], local.reshape(faces.shape), process=False))
+    return pieces
+
+
+def _point_hull_volume(points: np.ndarray) -> float:
+    try:
+        return float(ConvexHull(points).volume)
+    except (QhullError, ValueError):
+        return 0.0
+
+
+def _decompose_bodies(bodies: list[trimesh.Trimesh], config: DecompositionConfig) -> list[np.ndarray]:
+    """Raw parts of a mesh made of separate bodies, each body decomposed on its own.
+
+    CoACD given the bodies together treats them as one surface: on overlapping closed bodies
+    (a teddy made of 15 convex pieces, a tray of 5 boxes) it ran for minutes or exhausted memory.
+    A convex body is its own hull; the others share what the hull cap leaves, by their hull volume.
+    """
+    convex = [config.convex_shortcut and body.is_convex for body in bodies]
+    weights = [_point_hull_volume(np.asarray(body.vertices)) for body in bodies]
+    concave = sum(w for w, c in zip(weights, convex, strict=True) if not c)
+    spare = config.max_convex_hull - len(bodies)
+    raw: list[np.ndarray] = []
+    for body, is_convex, weight in zip(bodies, convex, weights, strict=True):
+        cap = 1 if is_convex or concave <= 0 else 1 + int(spare * weight / concave)
+        if cap == 1:
+            raw.append(np.asarray(body.vertices, dtype=np.float64))
+        else:
+            raw.extend(_run_coacd(body, replace(config, max_convex_hull=cap)))
+    return raw
+
+
+def decompose(mesh: trimesh.Trimesh, config: DecompositionConfig | None = None) -> tuple[np.ndarray, ...]:
+    """Convex hulls of ``mesh`` (mesh frame), each with <= ``config.max_hull_vertices`` vertices.
+
+    A mesh of separate bodies (no more than ``config.max_convex_hull``) is decomposed body by body.
+    Cached as .npz under ``cache_dir("hulls")``, keyed by the mesh arrays and the config.
+    """
+    config = config or DecompositionConfig()
+    labels = _body_labels(mesh)
+    path = cache_dir("hulls") / f"{_cache_key(mesh_hash(mesh), config, len(np.unique(labels)))}.npz"
+    if path.exists():
+        try:
+            with np.load(path) as data:
+                return tuple(data[f"hull{i}"] for i in range(len(data.files)))
+        except (OSError, ValueError, KeyError, zipfile.BadZipFile):
+            path.unlink(missing_ok=True)  # a damaged cache entry is recomputed, not trusted
+    if config.convex_shortcut and mesh.is_convex:
+        raw = [np.asarray(mesh.vertices, dtype=np.float64)]
+    else:
+        target = mesh
+        if config.max_faces is not None and len(mesh.faces) > config.max_faces:
+            target = _decimate(mesh, "mesh", config.max_faces, strict=False)
+            labels = _body_labels(target)
+        if 1 < len(np.unique(labels)) <= config.max_convex_hull:
+            raw = _decompose_bodies(_bodies(target, labels), config)
+        else:
+            raw = _run_coacd(target, config)
+    hulls = []
+    for points in raw:
+        if len(points) < 4:
+            continue
+        try:
+            if ConvexHull(points).volume < _MIN_HULL_VOLUME:
+                continue
+        except QhullError:
+            continue  # a flat sliver: no volume, no contact surface worth keeping
+        hulls.append(reduce_hull(points, config.max_hull_vertices))
+    if not hulls:
+        raise DecompositionError(
+            f"decomposition gave no usable hull ({len(raw)} raw parts, all flat or tiny); "
+            "check the mesh has volume or lower DecompositionConfig.threshold"
+        )
+    tmp = path.with_suffix(f".{np.random.default_rng().integers(1 << 62)}.tmp.npz")
+    np.savez(tmp, **{f"hull{i}": h for i, h in enumerate(hulls)})
+    tmp.replace(path)  # atomic: a concurrent reader never sees a half-written file
+    return tuple(hulls)
+
+
+def decomposition_for(mesh: trimesh.Trimesh) -> DecompositionConfig:
+    """The decomposition settings :func:`object_from_mesh` uses for ``mesh`` when given none.
+
+    Meshes of at most :data:`DENSE_FACES` faces get the defaults. Denser ones (scans, CAD
+    exports) get :data:`DENSE_DECOMPOSITION`: CoACD sees them cut to 3,000 faces, with a coarser
+    concavity threshold (0.07) and half the MCTS iterations (15). On the real-mesh set's eight
+    dense closed meshes (8k-66k faces) that took CoACD from 5-60 s of CPU to 2.4-10 s, with the
+    same hull count (22-32 of 32), volume ratio within 6% and excess within 0.02
+    (``benchmarks/coacd_time.py``). Fewer hulls (16) were slower (more merging) and filled more
+    of the cavities (excess +0.03-0.07); CoACD's ``resolution`` at 250 changed neither time nor
+    hulls. CoACD scales every mesh to a unit box, so an object's size in metres changes neither.
+    The quality guard of :func:`object_from_mesh` redoes hulls from these settings with the
+    defaults where they fail it.
+    """
+    return DecompositionConfig() if len(mesh.faces) <= DENSE_FACES else DENSE_DECOMPOSITION
