@@ -27,6 +27,7 @@ import numpy as np
 
 from rail_mj.core.errors import FragmentError, RobotError
 from rail_mj.core.geometry import quat_angle, quat_conj, quat_rotate, slerp
+from rail_mj.core.types import Outcomes, RailObject, StablePose
 from rail_mj.imagination.batch import Placement, assemble_outcomes
 from rail_mj.mjcf import (
     OBJECT_BODY,
@@ -41,18 +42,10 @@ from rail_mj.mjcf import (
     check_fragment,
     count_contacts,
 )
-from rail_mj.robot.control import (
-    HOME_QPOS,
-    MONITORED_BODIES,
-    ArmIndex,
-    RobotConfig,
-    contact_force,
-    impedance_torque,
-    make_torque_controlled,
-)
+from rail_mj.robot.arm import HOME_QPOS, MONITORED_BODIES, ArmIndex
+from rail_mj.robot.control import RobotConfig, contact_force, impedance_torque, make_torque_controlled
 from rail_mj.robot.ik import ArmIK
 from rail_mj.robot.model import load_panda_spec
-from rail_mj.core.types import Outcomes, RailObject, StablePose
 
 __all__ = [
     "ScoringFunction",

@@ -45,9 +45,10 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from rail_mj.core.errors import ConfigError, RobotError
-from rail_mj.robot.control import HOME_QPOS, ArmIndex, RobotConfig, solve_ik
-from rail_mj.robot.model import load_panda_spec
 from rail_mj.core.types import RailObject, StablePose
+from rail_mj.robot.arm import HOME_QPOS, ArmIndex
+from rail_mj.robot.control import RobotConfig, solve_ik
+from rail_mj.robot.model import load_panda_spec
 
 __all__ = [
     "CAMERA_NAME",
