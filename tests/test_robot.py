@@ -142,7 +142,7 @@ def test_fetch_from_the_registry(tmp_path):
 
 
 def test_a_side_grasp_points_the_hand_along_the_push():
-    from rail_mj.robot.executor import side_grasp
+    from rail_mj.robot.scene import side_grasp
 
     for fingers_vertical in (False, True):
         rot = np.empty(9)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from typing import Literal
 
 from rail_mj.affordances.registry import FIGURE_HEIGHTS, PERSON_HEIGHT, REGISTRY, Affordance, known_affordances
 from rail_mj.core.errors import ConfigError, UnknownAffordanceError
@@ -104,7 +105,7 @@ def for_request(name: str, agent: str | None) -> Affordance:
 
 _VERBS = ("put", "place", "set", "drop", "pour", "lay", "sit", "seat", "stand", "move", "store", "keep", "hang")
 #: Longest first, so "on top of" wins over "on" and "inside of" over "inside" and "in".
-_PREPOSITIONS = {"on top of": "on", "onto": "on", "upon": "on", "on": "on",
+_PREPOSITIONS: dict[str, Literal["in", "on"]] = {"on top of": "on", "onto": "on", "upon": "on", "on": "on",
                  "inside of": "in", "inside": "in", "into": "in", "in": "in"}
 _ARTICLES = ("the", "a", "an", "some", "this", "that", "these", "those", "my", "your", "its", "his", "her", "our")
 _PATTERN = re.compile(
@@ -124,7 +125,7 @@ class RequestWords:
 
     agent: str
     affordance: str
-    preposition: str
+    preposition: Literal["in", "on"]
 
 
 def _words(text: str) -> list[str]:

@@ -9,12 +9,12 @@ from rail_mj.robot.executor import (
     ExecutionResult,
     ForceEvent,
     ScoringFunction,
-    build_scene,
     drive,
     execute,
 )
 from rail_mj.robot.model import fetch_panda, load_panda_spec, panda_dir
 from rail_mj.robot.request import parse_request
+from rail_mj.robot.scene import build_scene
 
 __all__ = [
     "RobotConfig",

@@ -21,6 +21,10 @@ from rail_mj.robot.scan.config import ScanConfig, load_open3d
 from rail_mj.robot.scan.views import ScanView
 
 __all__ = [
+    "cap_bottom",
+    "watertight",
+    "solid_closing",
+    "off_surface",
 ]
 
 #: Closed pieces of the scan under this fraction of the largest piece's volume are specks, dropped.
@@ -32,7 +36,7 @@ _TOUCH_SEPARATION = 1e-5
 _WALL_FILL = 0.1
 
 
-def _cap_bottom(mesh: trimesh.Trimesh, table_z: float, band: float) -> trimesh.Trimesh:
+def cap_bottom(mesh: trimesh.Trimesh, table_z: float, band: float) -> trimesh.Trimesh:
     """Close the mesh's lowest open outline down to the table: the object stands there.
 
     Its underside is never seen. The boundary loops within ``band`` of the lowest boundary vertex are the
@@ -85,7 +89,7 @@ def _fan_fill(vertices: np.ndarray, boundary: np.ndarray) -> tuple[np.ndarray, l
     return vertices, faces
 
 
-def _watertight(mesh: trimesh.Trimesh, config: ScanConfig) -> tuple[trimesh.Trimesh, list[str]]:
+def watertight(mesh: trimesh.Trimesh, config: ScanConfig) -> tuple[trimesh.Trimesh, list[str]]:
     """Every remaining hole closed, then a closed manifold simplified to at most ``config.max_faces`` faces.
 
     The fallback of the volume closing (``closing="fans"``, or where that fails). The holes left after the
@@ -162,7 +166,7 @@ def _simplified(solid, config: ScanConfig, simplify: bool = True) -> tuple[trime
     return result, notes
 
 
-def _solid_closing(fused: trimesh.Trimesh, depths: list[np.ndarray], views: list[ScanView], config: ScanConfig,
+def solid_closing(fused: trimesh.Trimesh, depths: list[np.ndarray], views: list[ScanView], config: ScanConfig,
                    lo: np.ndarray, hi: np.ndarray, table_z: float) -> tuple[trimesh.Trimesh | None, list[str]]:
     """The scan as the boundary of the space no view saw through: a closed manifold by construction.
 
@@ -265,7 +269,7 @@ def _separate_touching(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return out
 
 
-def _off_surface(meshes: Sequence[trimesh.Trimesh], fused: trimesh.Trimesh, config: ScanConfig) -> list[float]:
+def off_surface(meshes: Sequence[trimesh.Trimesh], fused: trimesh.Trimesh, config: ScanConfig) -> list[float]:
     """Mean distance from each mesh's surface to the fused surface, m: what a closing added away from the scan."""
     target, _ = trimesh.sample.sample_surface(fused, 20000, seed=config.seed)
     tree = cKDTree(np.asarray(target))

@@ -17,12 +17,13 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from rail_mj.robot.scan.closing import _cap_bottom, _off_surface, _solid_closing, _watertight
+from rail_mj.robot.scan.closing import cap_bottom, off_surface, solid_closing, watertight
 from rail_mj.robot.scan.config import ScanConfig, ScanError, load_open3d
 from rail_mj.robot.scan.views import ScanView
 
 __all__ = [
     "fuse_views",
+    "extract",
 ]
 
 #: Voxels per block edge of the TSDF grid; the fused box reaches this far below the table top, m.
@@ -163,7 +164,7 @@ def _canonical_mesh(o3d: ModuleType, mesh):
                                      o3d.utility.Vector3iVector(triangles.astype(np.int32)))
 
 
-def _extract(volume, depths: list[np.ndarray], views: list[ScanView], config: ScanConfig, table_top: float,
+def extract(volume, depths: list[np.ndarray], views: list[ScanView], config: ScanConfig, table_top: float,
              workspace_centre: np.ndarray, n_fused: int | None = None) -> tuple[trimesh.Trimesh, float, list[str]]:
     """Table plane (RANSAC) out, largest cluster (DBSCAN) in, the TSDF mesh cropped to the cluster's box.
 
@@ -245,31 +246,31 @@ def _extract(volume, depths: list[np.ndarray], views: list[ScanView], config: Sc
         mesh, _ = _carve(mesh, depths[:n_fused], views[:n_fused], config)
     fused = mesh
     if config.watertight and config.closing == "volume":
-        solid, more = _solid_closing(fused, depths, views, config, lo, hi, table_z)
+        solid, more = solid_closing(fused, depths, views, config, lo, hi, table_z)
         if solid is not None:
             return solid, table_z, notes + more
         notes += [f"{note}; the fused mesh's holes are fanned instead" for note in more]
     if config.close_bottom:
-        mesh = _cap_bottom(mesh, table_z, config.plane_distance + 2 * config.voxel_size)
+        mesh = cap_bottom(mesh, table_z, config.plane_distance + 2 * config.voxel_size)
     if config.watertight:
         capped = mesh
-        mesh, more = _watertight(capped, config)
+        mesh, more = watertight(capped, config)
         if mesh is not capped and config.closing == "auto":
             # a fan across a wide outline (a plate's rim, its well's surface lost) lies where views saw through;
             # then the closing that adds less surface away from what was fused wins
             samples, _ = trimesh.sample.sample_surface(mesh, 4000, seed=config.seed)
             through = float(np.mean(_seen_through(np.asarray(samples), depths, views, config, _FAN_MARGIN)))
             if through > _FAN_SEEN_THROUGH:
-                solid, also = _solid_closing(fused, depths, views, config, lo, hi, table_z)
+                solid, also = solid_closing(fused, depths, views, config, lo, hi, table_z)
                 if solid is not None:
-                    off_solid, off_fans = _off_surface([solid, mesh], fused, config)
+                    off_solid, off_fans = off_surface([solid, mesh], fused, config)
                     if off_solid < off_fans:
                         return solid, table_z, notes + more + [
                             f"{through:.0%} of the fan-closed surface lies where views saw through; the volume "
                             "closing strays less from the fused surface and is used instead"] + also
         if mesh is capped and config.closing == "auto":
             # the fans left it open: the volume closing is closed by construction (unseen space counts as solid)
-            solid, also = _solid_closing(fused, depths, views, config, lo, hi, table_z)
+            solid, also = solid_closing(fused, depths, views, config, lo, hi, table_z)
             if solid is not None:
                 return solid, table_z, notes + [f"{note}; the volume closing is used instead" for note in more] + also
             more += also

@@ -14,14 +14,14 @@ from scipy.spatial import cKDTree
 from rail_mj.core.errors import ConfigError
 from rail_mj.core.types import RailObject, StablePose
 from rail_mj.robot.scan.config import ScanConfig, ScanError, load_open3d
-from rail_mj.robot.scan.fusion import _extract, fuse_views
+from rail_mj.robot.scan.fusion import extract, fuse_views
 from rail_mj.robot.scan.views import (
     ScanView,
-    _reach_views,
     build_scan_scene,
     noisy_depth,
     plan_top_view,
     plan_views,
+    reach_views,
     render_views,
     true_mesh_world,
 )
@@ -93,7 +93,7 @@ def scan_object(obj: RailObject, pose: StablePose, config: ScanConfig | None = N
     scene = build_scan_scene(obj, pose, config)
     world = true_mesh_world(obj, pose, config.robot)
     surface, _ = trimesh.sample.sample_surface(world, 4000, seed=config.seed)
-    views, skipped, moved = _reach_views(scene, plan_views(config, scene.workspace_centre), np.asarray(surface),
+    views, skipped, moved = reach_views(scene, plan_views(config, scene.workspace_centre), np.asarray(surface),
                                          config)
     seconds["plan"] = time.perf_counter() - t0
     if len(views) < config.min_views:
@@ -112,16 +112,16 @@ def scan_object(obj: RailObject, pose: StablePose, config: ScanConfig | None = N
     top = plan_top_view(volume, config, scene.table_top, config.n_views) if config.top_view else None
     if top is not None:
         t0 = time.perf_counter()
-        more, not_reached, fallback = _reach_views(scene, [top], np.asarray(surface), config)
+        more, not_reached, fallback = reach_views(scene, [top], np.asarray(surface), config)
         skipped, moved = skipped + not_reached, moved + fallback
         seconds["plan"] += time.perf_counter() - t0
-        if more:  # for the closings only (plan_top_view and _extract say why)
+        if more:  # for the closings only (plan_top_view and extract say why)
             t0 = time.perf_counter()
             depths = depths + [noisy_depth(d, config, rng) for d in render_views(scene, more, config)]
             views = views + more
             seconds["render"] += time.perf_counter() - t0
     t0 = time.perf_counter()
-    mesh, table_z, notes = _extract(volume, depths, views, config, scene.table_top, scene.workspace_centre, n_fused)
+    mesh, table_z, notes = extract(volume, depths, views, config, scene.table_top, scene.workspace_centre, n_fused)
     seconds["extract"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     chamfer = chamfer_distance(mesh, world, config.chamfer_points, config.seed)

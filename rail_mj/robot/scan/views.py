@@ -36,6 +36,7 @@ __all__ = [
     "build_scan_scene",
     "plan_views",
     "plan_top_view",
+    "reach_views",
     "render_views",
     "noisy_depth",
 ]
@@ -241,7 +242,7 @@ def _touches_scene(scene: ScanScene, data: mujoco.MjData, surface: np.ndarray, t
     return ""
 
 
-def _reach_views(scene: ScanScene, planned: list[PlannedView], surface: np.ndarray, config: ScanConfig
+def reach_views(scene: ScanScene, planned: list[PlannedView], surface: np.ndarray, config: ScanConfig
                  ) -> tuple[list[ScanView], list[str], list[str]]:
     """Reach each planned view by IK (its fallbacks in turn); returns the views, the skipped and the moved ones."""
     model = scene.model
