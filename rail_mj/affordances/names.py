@@ -1,5 +1,4 @@
-"""Names in one place: how words become registry rows (spelling, plurals, aliases, articles) and the offline
-request parser.
+"""Names in one place: how words become registry rows (spelling, plurals, aliases, articles); the request parser.
 
 A requested name becomes a row here (:func:`get`, :func:`normalize`, :func:`label_key`): any case, spaces /
 underscores / hyphens, simple plurals, aliases. A request's agent becomes its scale here (:func:`request_scale`:

@@ -14,7 +14,7 @@ import math
 from collections.abc import Sequence
 
 # the kinds module, not its names: the kind files import rail_mj.llm.schemas, whose package imports this module
-from rail_mj.affordances import REGISTRY, Affordance, get, kinds, known_affordances
+from rail_mj.affordances import REGISTRY, Affordance, get, known_affordances, kinds
 from rail_mj.affordances import normalize as normalize_affordance
 from rail_mj.affordances.names import parse_words
 from rail_mj.core.errors import UnknownAffordanceError

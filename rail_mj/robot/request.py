@@ -1,5 +1,4 @@
-"""Requests in words for the robot: "put the apple in the bowl" -> the agent, the affordance asked of the object,
-the preposition.
+"""Requests in words for the robot: "put the apple in the bowl" -> the agent, the affordance, the preposition.
 
 :func:`parse_request` is a typed stage (:func:`rail_mj.llm.parse_request_text`): an LLM provider reads the
 sentence, the offline provider answers with :func:`rail_mj.affordances.names.parse_words`. The request's agent

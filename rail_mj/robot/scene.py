@@ -1,5 +1,6 @@
-"""The robot scene: the torque-controlled Panda, the table, the placed object and the held agent compiled into one
-model, and the grasp geometry (how the hand holds the agent: from above or from the side, how deep, at what scale).
+"""The robot scene (Panda, table, placed object, held agent compiled into one model) and the grasp geometry.
+
+How the hand holds the agent: from above or from the side, how deep, and the scale that makes the agent graspable.
 """
 
 from __future__ import annotations

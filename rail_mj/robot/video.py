@@ -1,5 +1,7 @@
-"""The execution's video: frame size and rate, the renderer, one fixed camera that keeps the arm and the agent in
-view, and the frames written with their captions (an mp4, or a folder of PNG frames).
+"""The execution's video: frame size and rate, the renderer, the fixed camera, the captioned frames written.
+
+One camera keeps the arm and the agent in view for the whole execution; the frames go to an mp4 or a folder of
+PNG frames (:func:`rail_mj.render.images.write_frames`), each with its caption under it.
 """
 
 from __future__ import annotations

@@ -1,4 +1,6 @@
-"""A simulated wrist-camera scan: the Panda moves a hand-mounted depth camera around the object, the depth
+"""The simulated wrist-camera scan of an object on the robot's table: views, fusion, closing, the mesh.
+
+A simulated wrist-camera scan: the Panda moves a hand-mounted depth camera around the object, the depth
 images are fused into a TSDF (Open3D), the table plane is removed, the largest cluster is the object, and
 its surface is extracted as a mesh in the world frame (metres, z up), resting where the object stands.
 

@@ -1,6 +1,7 @@
-"""Closing the fused scan into a closed volume: the volume closing (the space no view saw through, meshed by
-marching cubes), the fan closing (bottom outline and holes fanned, manifold3d repairs), and the closed manifold's
-simplification.
+"""Closing the fused scan into a closed volume: the volume closing, the fan closing, the closed manifold.
+
+The volume closing meshes the space no view saw through by marching cubes; the fan closing fans the bottom outline
+and the holes and has manifold3d repair them; either ends in a closed manifold simplified to ``max_faces``.
 
 The scan is made a closed volume: the space no view saw through, on a voxel grid over the object's box (so a cavity
 a view saw into stays open and a wall stays solid), meshed by marching cubes (scikit-image), standing on the table,

@@ -1,5 +1,7 @@
-"""Fusion of the depth images into an object: TSDF fusion (Open3D), the table plane (RANSAC) out, the largest
-cluster (DBSCAN) in, the TSDF mesh cropped to it, surface a view saw through carved away, then closed
+"""Fusion of the depth images into the object's mesh: TSDF, table plane, largest cluster, crop, carving.
+
+The depth images are fused into a TSDF (Open3D), the table plane (RANSAC) is removed, the largest cluster
+(DBSCAN) is the object, the TSDF mesh is cropped to it, and the result is closed
 (:mod:`rail_mj.robot.scan.closing`).
 
 After fusion, surface that some view saw through is carved away (the projective TSDF fattens convex edges). The top

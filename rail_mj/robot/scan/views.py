@@ -1,5 +1,7 @@
-"""The scan's views: the wrist camera on the Panda's hand, the view plan round the workspace, each view reached by
-IK, and the depth images rendered there (the robot's own pixels masked out by a segmentation render).
+"""The scan's views: the wrist camera, the view plan, each view reached by IK, depth and segmentation renders.
+
+The camera sits on the Panda's hand; at each view the depth image is rendered and the robot's own pixels are
+masked out by a segmentation render.
 
 The view plan knows only the workspace (where objects are put down in front of the robot), not the object:
 look-at targets sit above the workspace centre on two rings, so an unseen object is scanned the same way. One
