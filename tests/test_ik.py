@@ -8,9 +8,10 @@ import pytest
 
 from rail_mj.core.errors import RobotError
 from rail_mj.robot import RobotConfig, build_scene
-from rail_mj.robot.control import HOME_QPOS, ArmIndex, quat_error, solve_ik
-from rail_mj.robot.ik import ArmIK
+from rail_mj.robot.arm import HOME_QPOS, ArmIndex, quat_error
+from rail_mj.robot.control import solve_ik
 from rail_mj.robot.demo import make_object, plan_offline
+from rail_mj.robot.ik import ArmIK
 
 
 @pytest.fixture(scope="module")

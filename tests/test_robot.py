@@ -9,13 +9,14 @@ import numpy as np
 import pytest
 
 from rail_mj.core.errors import FragmentError, RobotError
+from rail_mj.core.types import RailObject
 from rail_mj.imagination import ImaginationConfig
 from rail_mj.mjcf import OBJECT_BODY, compose_scene
 from rail_mj.robot import RobotConfig, build_scene, drive, execute
-from rail_mj.robot.control import ARM_JOINTS, make_torque_controlled
+from rail_mj.robot.arm import ARM_JOINTS
+from rail_mj.robot.control import make_torque_controlled
 from rail_mj.robot.demo import make_object, plan_offline, upright_pose
 from rail_mj.robot.model import MENAGERIE_ENV, PANDA_FILES, fetch_panda, load_panda_spec, panda_dir, verify_panda
-from rail_mj.core.types import RailObject
 
 
 def test_cached_model_verifies_and_loads(panda_folder):
@@ -141,7 +142,7 @@ def test_fetch_from_the_registry(tmp_path):
 
 
 def test_a_side_grasp_points_the_hand_along_the_push():
-    from rail_mj.robot.executor import side_grasp
+    from rail_mj.robot.scene import side_grasp
 
     for fingers_vertical in (False, True):
         rot = np.empty(9)

@@ -8,13 +8,14 @@ import pytest
 
 from rail_mj.robot import RobotConfig, execute
 from rail_mj.robot import executor as robot_executor
+from rail_mj.robot import video as robot_video
 from rail_mj.robot.demo import make_object, plan_offline
 
 
 def test_execution_video_is_an_mp4_with_the_arm_the_agent_and_a_caption(panda_folder, tmp_path, monkeypatch):
     import imageio.v2 as imageio
 
-    monkeypatch.setattr(robot_executor, "VIDEO_SIZE", (160, 120))  # small frames: the test is about the file
+    monkeypatch.setattr(robot_video, "VIDEO_SIZE", (160, 120))  # small frames: the test is about the file
     obj = make_object("cup", 0)
     case = plan_offline(obj, "cup")
     cfg = RobotConfig(settle_time=0.5)
@@ -24,7 +25,7 @@ def test_execution_video_is_an_mp4_with_the_arm_the_agent_and_a_caption(panda_fo
     assert res.reachable and res.success
     with imageio.get_reader(video) as reader:
         frames = np.stack([frame for frame in reader]).astype(int)
-    expected = res.timings["sim_time"] * robot_executor.VIDEO_FPS
+    expected = res.timings["sim_time"] * robot_video.VIDEO_FPS
     assert frames.shape[1] > 120 and frames.shape[2:] == (160, 3) and abs(len(frames) - expected) <= 2
     first = frames[0, :120]  # the picture; the caption band is under it
     r, g, b = first[..., 0], first[..., 1], first[..., 2]

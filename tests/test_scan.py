@@ -30,7 +30,7 @@ from rail_mj.robot.scan import (  # noqa: E402
     scan_object,
     true_mesh_world,
 )
-from rail_mj.robot.scan import _reach_views  # noqa: E402
+from rail_mj.robot.scan.views import reach_views as _reach_views  # noqa: E402
 from rail_mj.core.types import RailObject, StablePose  # noqa: E402
 
 BOX = np.array([0.08, 0.06, 0.10])  # x, y, z: m
@@ -159,7 +159,7 @@ def test_bad_configs_and_a_missing_open3d_are_named(monkeypatch):
 def test_a_watertight_step_left_with_no_volume_says_so_instead_of_crashing():
     import manifold3d
 
-    from rail_mj.robot.scan import _simplified
+    from rail_mj.robot.scan.closing import _simplified
 
     mesh, notes = _simplified(manifold3d.Manifold(), ScanConfig())
     assert mesh is None and "no piece with a volume" in notes[0]
@@ -168,7 +168,8 @@ def test_a_watertight_step_left_with_no_volume_says_so_instead_of_crashing():
 def test_the_same_views_fuse_to_the_same_scan_every_time():
     # Open3D's grid hands its surface out in thread order; the scan must not depend on it (issue 15: a doll's
     # shelf fused 7,455 points in one run and 7,452 in the next, and the plan chosen on it changed)
-    from rail_mj.robot.scan import _extract, fuse_views
+    from rail_mj.robot.scan.fusion import extract as _extract
+    from rail_mj.robot.scan.fusion import fuse_views
 
     obj = _box_object()
     cfg = ScanConfig()
@@ -185,7 +186,7 @@ def test_the_same_views_fuse_to_the_same_scan_every_time():
 
 
 def test_the_tsdf_mesh_order_is_canonical():
-    from rail_mj.robot.scan import _canonical_mesh
+    from rail_mj.robot.scan.fusion import _canonical_mesh
 
     o3d = _load_open3d()
     box = trimesh.creation.box(extents=BOX)

@@ -1,5 +1,8 @@
 """What each affordance is: the registry (names, aliases, kind, definition, sizes, pose envelope, paper flag).
 
+The rows live in :mod:`rail_mj.affordances.registry`; how a name in words becomes a row (spelling, plurals,
+aliases, a request's agent and its scale, the offline request parser) lives in :mod:`rail_mj.affordances.names`.
+
 The kinds of physics that imagine them live in :mod:`rail_mj.affordances.kinds`,
 which the offline provider imports; this package itself needs no LLM or physics
 module, so the dataset's ground truth can read the names without them.
@@ -8,6 +11,7 @@ module, so the dataset's ground truth can read the names without them.
 from __future__ import annotations
 
 from rail_mj.affordances.envelope import ANY, Envelope, Range
+from rail_mj.affordances.names import for_request, get, label_key, normalize, request_scale
 from rail_mj.affordances.registry import (
     FIGURE_HEIGHTS,
     LIQUID_RADIUS,
@@ -17,12 +21,7 @@ from rail_mj.affordances.registry import (
     Affordance,
     Droplets,
     KindName,
-    for_request,
-    get,
     known_affordances,
-    label_key,
-    normalize,
-    request_scale,
 )
 
 __all__ = [

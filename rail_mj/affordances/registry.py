@@ -3,9 +3,9 @@
 A row holds the canonical name, its aliases, the kind of physics that imagines
 it (:mod:`rail_mj.affordances.kinds`), the interaction-based definition, the
 real-world size ranges of the stage-1 dimension check, the pose envelope, and
-whether the paper evaluates it. :func:`normalize` is the one place a requested
-name becomes a row. A new affordance is a new row here, plus a kind file only
-when its physics is new.
+whether the paper evaluates it. How a requested name becomes a row (spelling,
+plurals, aliases) lives in :mod:`rail_mj.affordances.names`. A new affordance is a new
+row here, plus a kind file only when its physics is new.
 
 The dataset's ground truth (:mod:`rail_mj.dataset.procedural`) reads the names from here
 but keeps its own per-class truth: it is what these rules are measured against.
@@ -14,13 +14,12 @@ but keeps its own per-class truth: it is what these rules are measured against.
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import Literal
 
 from rail_mj.affordances.envelope import Envelope, Range
-from rail_mj.core.errors import ConfigError, UnknownAffordanceError
+from rail_mj.core.errors import ConfigError
 
 __all__ = [
     "KindName",
@@ -30,13 +29,8 @@ __all__ = [
     "REGISTRY",
     "PAPER_AFFORDANCES",
     "known_affordances",
-    "get",
-    "normalize",
-    "label_key",
     "PERSON_HEIGHT",
     "FIGURE_HEIGHTS",
-    "request_scale",
-    "for_request",
 ]
 
 KindName = Literal["container", "seat", "lie", "surface", "dish", "storage"]
@@ -242,55 +236,9 @@ REGISTRY: dict[str, Affordance] = {a.name: a for a in _rows()}
 #: The paper's eight, in registry order (cup, bowl, vase, basket, bathtub, plate, table, chair).
 PAPER_AFFORDANCES: tuple[str, ...] = tuple(a.name for a in REGISTRY.values() if a.paper)
 
-_BY_NAME: dict[str, Affordance] = {**{alias: a for a in REGISTRY.values() for alias in a.aliases}, **REGISTRY}
-
-
 def known_affordances() -> list[str]:
     """The registered canonical names, sorted."""
     return sorted(REGISTRY)
-
-
-def _spelling(name: str) -> str:
-    return re.sub(r"[\s_\-]+", " ", name.strip().lower())
-
-
-def _find(name: str) -> Affordance | None:
-    key = _spelling(name)
-    candidates = [key]  # then simple plurals: shelves, benches, cups
-    if key.endswith("ves"):
-        candidates.append(key[:-3] + "f")
-    if key.endswith("es"):
-        candidates.append(key[:-2])
-    if key.endswith("s"):
-        candidates.append(key[:-1])
-    return next((_BY_NAME[c] for c in candidates if c in _BY_NAME), None)
-
-
-def get(name: str) -> Affordance:
-    """The row of a name in any spelling (case, spaces / underscores / hyphens, simple plurals, aliases).
-
-    Raises UnknownAffordanceError listing the known names when there is none.
-    """
-    found = _find(name)
-    if found is None:
-        raise UnknownAffordanceError(
-            f"no offline imagination profile for affordance {name!r}; known: {', '.join(known_affordances())}. "
-            "An LLM provider imagines novel affordances: use --provider anthropic with ANTHROPIC_API_KEY set."
-        )
-    return found
-
-
-def normalize(name: str) -> str:
-    """The canonical name of a registered affordance (``"Trash_Bins"`` -> ``"trash bin"``); see :func:`get`."""
-    return get(name).name
-
-
-def label_key(name: str) -> str:
-    """The identifier form of any affordance name, as label files write it: a registered name's key
-    (``"Trash bins"``, ``"garbage can"`` -> ``"trash_bin"``), otherwise the name in lower case with runs of
-    spaces, underscores and hyphens as one underscore (labels may name uses outside the registry)."""
-    found = _find(name)
-    return found.key if found is not None else _spelling(name).replace(" ", "_")
 
 
 #: A person's height (m): the registry's sizes are those of things a person uses.
@@ -303,28 +251,3 @@ FIGURE_HEIGHTS: dict[str, float] = {
     "person": PERSON_HEIGHT, "man": 1.75, "woman": 1.65, "child": 1.1, "kid": 1.1, "baby": 0.6,
     "doll": 0.3, "teddy": 0.3, "teddy bear": 0.3, "action figure": 0.15, "figurine": 0.1,
 }
-
-
-def _figure(agent: str) -> str | None:
-    key = _spelling(agent)
-    key = re.sub(r"^(the|a|an|my|this|that|some)\s+", "", key)
-    candidates = [key, key[:-1] if key.endswith("s") else key, re.sub(r"(wo)?men$", r"\1man", key)]
-    if key.endswith("ies"):
-        candidates.append(key[:-3] + "y")  # teddies
-    if key.endswith("children"):
-        candidates.append(key[:-3])
-    return next((c for c in candidates if c in FIGURE_HEIGHTS), None)
-
-
-def request_scale(agent: str | None) -> float:
-    """Size of a request's agent relative to a person's: a figure's height / :data:`PERSON_HEIGHT` (a doll
-    0.18), 1 for every other agent (an item a person carries) and for none."""
-    if agent is None:
-        return 1.0
-    figure = _figure(agent)
-    return 1.0 if figure is None else FIGURE_HEIGHTS[figure] / PERSON_HEIGHT
-
-
-def for_request(name: str, agent: str | None) -> Affordance:
-    """The row of ``name`` (see :func:`get`) scaled to the request's agent (:func:`request_scale`)."""
-    return get(name).scaled(request_scale(agent))

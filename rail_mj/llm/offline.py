@@ -16,6 +16,7 @@ from collections.abc import Sequence
 # the kinds module, not its names: the kind files import rail_mj.llm.schemas, whose package imports this module
 from rail_mj.affordances import REGISTRY, Affordance, get, known_affordances, kinds
 from rail_mj.affordances import normalize as normalize_affordance
+from rail_mj.affordances.names import parse_words
 from rail_mj.core.errors import UnknownAffordanceError
 from rail_mj.llm.schemas import (
     AffordanceAnalysis,
@@ -178,7 +179,6 @@ def offline_functional_poses(request: FunctionalPoseRequest) -> FunctionalPoseVe
 
 
 def offline_request(request: RequestText) -> Request:
-    """The request parser by rules (:func:`rail_mj.robot.request.parse_words`)."""
-    from rail_mj.robot.request import parse_words  # here: the robot package loads MuJoCo and the Panda's modules
-
-    return parse_words(request.text)
+    """The request parser by rules (:func:`rail_mj.affordances.names.parse_words`)."""
+    words = parse_words(request.text)
+    return Request(text=request.text, agent=words.agent, affordance=words.affordance, preposition=words.preposition)

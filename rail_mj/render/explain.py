@@ -12,7 +12,7 @@ import re
 
 from pydantic import BaseModel, Field
 
-from rail_mj.affordances.registry import get
+from rail_mj.affordances.names import get
 from rail_mj.core.errors import UnknownAffordanceError
 from rail_mj.core.results import AffordanceResult
 

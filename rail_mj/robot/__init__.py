@@ -2,10 +2,19 @@
 
 from __future__ import annotations
 
+from rail_mj.llm.schemas import Request
 from rail_mj.robot.control import RobotConfig
-from rail_mj.robot.executor import DriveResult, ExecutionResult, ForceEvent, ScoringFunction, build_scene, drive, execute
+from rail_mj.robot.executor import (
+    DriveResult,
+    ExecutionResult,
+    ForceEvent,
+    ScoringFunction,
+    drive,
+    execute,
+)
 from rail_mj.robot.model import fetch_panda, load_panda_spec, panda_dir
-from rail_mj.robot.request import Request, parse_request
+from rail_mj.robot.request import parse_request
+from rail_mj.robot.scene import build_scene
 
 __all__ = [
     "RobotConfig",

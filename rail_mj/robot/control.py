@@ -11,7 +11,6 @@ robot can never push harder than the configured contact-force limit.
 from __future__ import annotations
 
 import weakref
-from dataclasses import dataclass
 from typing import Literal
 
 import mujoco
@@ -19,25 +18,16 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from rail_mj.core.errors import RobotError
+from rail_mj.robot.arm import ARM_JOINTS, ArmIndex, quat_error
+from rail_mj.robot.ik import ArmIK
 
 __all__ = [
     "RobotConfig",
-    "ARM_JOINTS",
-    "HOME_QPOS",
-    "MONITORED_BODIES",
     "make_torque_controlled",
-    "ArmIndex",
     "impedance_torque",
     "contact_force",
     "solve_ik",
-    "quat_error",
 ]
-
-ARM_JOINTS: tuple[str, ...] = tuple(f"joint{i}" for i in range(1, 8))
-#: The Menagerie "home" keyframe's arm joints.
-HOME_QPOS = np.array([0.0, 0.0, 0.0, -1.57079, 0.0, 1.57079, -0.7853])
-#: Bodies whose contact forces count as "hand contact" (plus the held agent).
-MONITORED_BODIES: tuple[str, ...] = ("link6", "link7", "hand", "left_finger", "right_finger")
 
 
 class RobotConfig(BaseModel):
@@ -99,49 +89,6 @@ def make_torque_controlled(spec: mujoco.MjSpec) -> None:
     for name in ("link0", "link1", "link2", "link3", "link4", "link5", "link6", "link7",
                  "hand", "left_finger", "right_finger"):
         spec.body(name).gravcomp = 1.0
-
-
-@dataclass(frozen=True)
-class ArmIndex:
-    """MuJoCo ids the controller needs, computed once per compiled model."""
-
-    qpos: np.ndarray  # (7,) qpos addresses of the arm joints
-    dof: np.ndarray  # (7,) dof addresses
-    act: np.ndarray  # (7,) actuator ids
-    gripper_act: int
-    site: int  # the control site (held agent's centre)
-    lo: np.ndarray  # (7,) joint lower limits
-    hi: np.ndarray
-    tau_max: np.ndarray  # (7,) torque limits from the actuator force range
-
-    @staticmethod
-    def of(model: mujoco.MjModel, site: str) -> "ArmIndex":
-        jids = [model.joint(n).id for n in ARM_JOINTS]
-        acts = [int(np.flatnonzero((model.actuator_trntype == mujoco.mjtTrn.mjTRN_JOINT)
-                                   & (model.actuator_trnid[:, 0] == j))[0]) for j in jids]
-        return ArmIndex(
-            qpos=model.jnt_qposadr[jids].copy(),
-            dof=model.jnt_dofadr[jids].copy(),
-            act=np.array(acts),
-            gripper_act=model.actuator("actuator8").id,
-            site=model.site(site).id,
-            lo=model.jnt_range[jids, 0].copy(),
-            hi=model.jnt_range[jids, 1].copy(),
-            tau_max=model.actuator_ctrlrange[acts, 1].copy(),
-        )
-
-
-def quat_error(target: np.ndarray, current_mat: np.ndarray) -> np.ndarray:
-    """Rotation vector (world frame) that turns the current orientation into the target."""
-    cur = np.empty(4)
-    mujoco.mju_mat2Quat(cur, current_mat.ravel())
-    inv = np.empty(4)
-    mujoco.mju_negQuat(inv, cur)
-    dq = np.empty(4)
-    mujoco.mju_mulQuat(dq, target, inv)
-    err = np.empty(3)
-    mujoco.mju_quat2Vel(err, dq, 1.0)
-    return err
 
 
 def _jacobian(model: mujoco.MjModel, data: mujoco.MjData, idx: ArmIndex) -> np.ndarray:
@@ -209,8 +156,6 @@ def solve_ik(model: mujoco.MjModel, data: mujoco.MjData, idx: ArmIndex, pos: np.
     """IK for the control site by mink (:class:`rail_mj.robot.ik.ArmIK`: joint limits, hand–obstacle collision
     avoidance), from ``q0`` with the rest of the scene as ``data.qpos`` has it: (q, pos residual m, rot residual
     rad). ``data`` is left at the solution (qpos and kinematics). The solver is built once per model and site."""
-    from rail_mj.robot.ik import ArmIK  # ik imports this module (HOME_QPOS, ArmIndex, quat_error)
-
     solvers = _IK_SOLVERS.setdefault(model, {})
     ik = solvers.get(idx.site)
     if ik is None:

@@ -22,11 +22,11 @@ import trimesh
 
 from rail_mj.affordances import get
 from rail_mj.core.errors import ConfigError
+from rail_mj.core.types import Outcomes, RailObject, StablePose
 from rail_mj.mesh import mesh_hash
 from rail_mj.robot.control import RobotConfig
 from rail_mj.robot.executor import ExecutionResult, ScoringFunction, execute
 from rail_mj.robot.request import parse_request
-from rail_mj.core.types import Outcomes, RailObject, StablePose
 
 __all__ = ["OBJECT_KINDS", "DEMO_AFFORDANCES", "DEMO_REQUESTS", "DemoCase", "make_object", "object_from_parts",
            "upright_pose", "plan_offline", "case_from_result", "imagined_case", "run_demo"]
@@ -75,76 +75,134 @@ def _legged(top_hx: float, top_hy: float, height: float, top_t: float, leg: floa
     return hulls
 
 
+#: A builder draws its sizes with ``u(lo, hi)`` (uniform, from the object's seed) and returns the convex parts.
+_Builder = Callable[[str, Callable[[float, float], float]], list[np.ndarray]]
+
+
+def _round_vessel(kind: str, u: Callable[[float, float], float]) -> list[np.ndarray]:
+    # real-world sizes (the imagination's dimension check knows them), within the Panda's reach
+    r, h = {"cup": (u(0.035, 0.045), u(0.08, 0.11)), "vase": (u(0.04, 0.05), u(0.2, 0.24)),
+            "pen_holder": (u(0.03, 0.035), u(0.10, 0.12)), "pot": (u(0.085, 0.1), u(0.12, 0.15)),
+            "bowl": (u(0.06, 0.08), u(0.045, 0.06))}[kind]
+    return [_disk_hull(r + 0.005, 0, 0.006)] + _ring_walls(r, 0.005, 0, h)
+
+
+def _bucket(kind: str, u: Callable[[float, float], float]) -> list[np.ndarray]:
+    # a small one: a real bucket, short enough for the hand to reach over its rim
+    r, h = u(0.09, 0.1), u(0.18, 0.21)
+    return [_disk_hull(r + 0.006, 0, 0.008)] + _ring_walls(r, 0.006, 0, h)
+
+
+def _jar(kind: str, u: Callable[[float, float], float]) -> list[np.ndarray]:
+    # a body, a shoulder and a wide mouth (the neck's opening is 0.8 of the body's)
+    r, h = u(0.04, 0.045), u(0.12, 0.14)
+    neck, wall, body = 0.8 * r, 0.004, h - 0.02
+    return ([_disk_hull(r + wall, 0, 0.006)] + _ring_walls(r, wall, 0, body)
+            + _ring_walls(neck, r - neck + wall, body - 0.005, body) + _ring_walls(neck, wall, body, h))
+
+
+def _saucer(kind: str, u: Callable[[float, float], float]) -> list[np.ndarray]:
+    # a small plate: a flat well inside a low rim
+    r = u(0.065, 0.075)
+    return [_disk_hull(r, 0, 0.006)] + _ring_walls(r - 0.005, 0.005, 0, u(0.014, 0.018), n=24)
+
+
+def _cutting_board(kind: str, u: Callable[[float, float], float]) -> list[np.ndarray]:
+    # a rimless slab on the counter
+    return [_box_hull([-u(0.13, 0.15), -u(0.09, 0.1), 0], [u(0.13, 0.15), u(0.09, 0.1), u(0.015, 0.02)])]
+
+
+def _open_box(kind: str, u: Callable[[float, float], float]) -> list[np.ndarray]:
+    hx, hy, h = (u(0.1, 0.12), u(0.08, 0.1), u(0.08, 0.12)) if kind == "basket" else \
+        (u(0.09, 0.11), u(0.07, 0.09), u(0.02, 0.03))
+    return [_box_hull([-hx, -hy, 0], [hx, hy, 0.006])] + _square_walls(hx, hy, 0.006, 0, h)
+
+
+def _plate(kind: str, u: Callable[[float, float], float]) -> list[np.ndarray]:
+    r = u(0.08, 0.1)
+    return [_disk_hull(r, 0, 0.008)] + _ring_walls(r - 0.004, 0.004, 0, 0.018, n=24)
+
+
+# furniture at a doll's scale (0.3 m: rail_mj.affordances.FIGURE_HEIGHTS), for requests whose agent is a doll
+def _table(kind: str, u: Callable[[float, float], float]) -> list[np.ndarray]:
+    return _legged(u(0.08, 0.1), u(0.07, 0.09), u(0.11, 0.14), 0.01, 0.012)
+
+
+def _stool(kind: str, u: Callable[[float, float], float]) -> list[np.ndarray]:
+    return _legged(u(0.05, 0.06), u(0.05, 0.06), u(0.07, 0.09), 0.01, 0.01)
+
+
+def _chair(kind: str, u: Callable[[float, float], float]) -> list[np.ndarray]:
+    parts = _legged(u(0.05, 0.06), u(0.05, 0.06), u(0.075, 0.09), 0.01, 0.01)
+    seat = parts[0]
+    hx, top = float(seat[:, 0].max()), float(seat[:, 2].max())
+    hy = float(seat[:, 1].max())
+    return parts + [_box_hull([-hx, hy - 0.01, top], [hx, hy, top + u(0.06, 0.08)])]
+
+
+def _trash_bin(kind: str, u: Callable[[float, float], float]) -> list[np.ndarray]:
+    # a real waste-paper bin, the tallest object the wrist camera's workspace takes
+    r, h = u(0.1, 0.115), u(0.3, 0.32)
+    return [_disk_hull(r + 0.006, 0, 0.008)] + _ring_walls(r, 0.006, 0, h)
+
+
+def _bathtub(kind: str, u: Callable[[float, float], float]) -> list[np.ndarray]:
+    # a doll's
+    hx, hy, h = u(0.12, 0.14), u(0.06, 0.07), u(0.07, 0.09)
+    return [_box_hull([-hx, -hy, 0], [hx, hy, 0.008])] + _square_walls(hx, hy, 0.008, 0, h)
+
+
+def _bench(kind: str, u: Callable[[float, float], float]) -> list[np.ndarray]:
+    # a doll's
+    return _legged(u(0.1, 0.12), u(0.035, 0.045), u(0.075, 0.09), 0.01, 0.01)
+
+
+def _nightstand(kind: str, u: Callable[[float, float], float]) -> list[np.ndarray]:
+    # a doll's: a closed cabinet on four short legs under a top board
+    hx, hy, h, foot, t = u(0.045, 0.05), u(0.035, 0.04), u(0.09, 0.11), 0.012, 0.008
+    legs = _legged(hx, hy, foot + 0.001, 0.001, 0.008)[1:]
+    return legs + [_box_hull([-hx + 0.003, -hy + 0.003, foot], [hx - 0.003, hy - 0.003, h - t]),
+                    _box_hull([-hx, -hy, h - t], [hx, hy, h])]
+
+
+def _bed(kind: str, u: Callable[[float, float], float]) -> list[np.ndarray]:
+    # a doll's: a mattress on four legs and a headboard
+    hx, hy = u(0.15, 0.17), u(0.07, 0.08)
+    parts = _legged(hx, hy, u(0.05, 0.06), 0.02, 0.015)
+    return parts + [_box_hull([-hx, -hy, 0], [-hx + 0.012, hy, u(0.1, 0.12)])]
+
+
+def _shelf(kind: str, u: Callable[[float, float], float]) -> list[np.ndarray]:
+    # a doll's, open at the front (-y), a board at a third of the height. The hand holds the item from above,
+    # so the shelf is open at the top. The cupboard stays under the hand's home pose (0.36 m above the table),
+    # too low for the hand and wrist over the item (13 cm and more above its centre, pushed in at 0.575 of the
+    # height) to pass under its top: the hand catches the top board and tips it over backwards
+    hx, hy, t = u(0.1, 0.12), u(0.05, 0.06), 0.008
+    h = u(0.18, 0.22) if kind == "shelf" else u(0.32, 0.34)
+    parts = [_box_hull([-hx, -hy, 0], [hx, hy, t]), _box_hull([-hx, hy - t, 0], [hx, hy, h]),
+             _box_hull([-hx, -hy, 0], [-hx + t, hy, h]), _box_hull([hx - t, -hy, 0], [hx, hy, h]),
+             _box_hull([-hx, -hy, h / 3 - t / 2], [hx, hy, h / 3 + t / 2])]
+    return parts if kind == "shelf" else parts + [_box_hull([-hx, -hy, h - t], [hx, hy, h])]
+
+
+#: The builder of each object :func:`make_object` builds: table-top objects at real size, furniture at a doll's.
+_BUILDERS: dict[str, _Builder] = {
+    "cup": _round_vessel, "bowl": _round_vessel, "vase": _round_vessel, "pen_holder": _round_vessel,
+    "pot": _round_vessel, "basket": _open_box, "tray": _open_box, "plate": _plate, "trash_bin": _trash_bin,
+    "bucket": _bucket, "jar": _jar, "saucer": _saucer, "cutting_board": _cutting_board, "table": _table,
+    "stool": _stool, "chair": _chair, "bench": _bench, "bed": _bed, "bathtub": _bathtub, "shelf": _shelf,
+    "cupboard": _shelf, "nightstand": _nightstand,
+}
+
+
 def _parts(kind: str, rng: np.random.Generator) -> list[np.ndarray]:
     def u(lo: float, hi: float) -> float:
         return float(rng.uniform(lo, hi))
 
-    if kind in ("cup", "vase", "pen_holder", "pot", "bowl"):
-        # real-world sizes (the imagination's dimension check knows them), within the Panda's reach
-        r, h = {"cup": (u(0.035, 0.045), u(0.08, 0.11)), "vase": (u(0.04, 0.05), u(0.2, 0.24)),
-                "pen_holder": (u(0.03, 0.035), u(0.10, 0.12)), "pot": (u(0.085, 0.1), u(0.12, 0.15)),
-                "bowl": (u(0.06, 0.08), u(0.045, 0.06))}[kind]
-        return [_disk_hull(r + 0.005, 0, 0.006)] + _ring_walls(r, 0.005, 0, h)
-    if kind == "bucket":  # a small one: a real bucket, short enough for the hand to reach over its rim
-        r, h = u(0.09, 0.1), u(0.18, 0.21)
-        return [_disk_hull(r + 0.006, 0, 0.008)] + _ring_walls(r, 0.006, 0, h)
-    if kind == "jar":  # a body, a shoulder and a wide mouth (the neck's opening is 0.8 of the body's)
-        r, h = u(0.04, 0.045), u(0.12, 0.14)
-        neck, wall, body = 0.8 * r, 0.004, h - 0.02
-        return ([_disk_hull(r + wall, 0, 0.006)] + _ring_walls(r, wall, 0, body)
-                + _ring_walls(neck, r - neck + wall, body - 0.005, body) + _ring_walls(neck, wall, body, h))
-    if kind == "saucer":  # a small plate: a flat well inside a low rim
-        r = u(0.065, 0.075)
-        return [_disk_hull(r, 0, 0.006)] + _ring_walls(r - 0.005, 0.005, 0, u(0.014, 0.018), n=24)
-    if kind == "cutting_board":  # a rimless slab on the counter
-        return [_box_hull([-u(0.13, 0.15), -u(0.09, 0.1), 0], [u(0.13, 0.15), u(0.09, 0.1), u(0.015, 0.02)])]
-    if kind in ("basket", "tray"):
-        hx, hy, h = (u(0.1, 0.12), u(0.08, 0.1), u(0.08, 0.12)) if kind == "basket" else \
-            (u(0.09, 0.11), u(0.07, 0.09), u(0.02, 0.03))
-        return [_box_hull([-hx, -hy, 0], [hx, hy, 0.006])] + _square_walls(hx, hy, 0.006, 0, h)
-    if kind == "plate":
-        r = u(0.08, 0.1)
-        return [_disk_hull(r, 0, 0.008)] + _ring_walls(r - 0.004, 0.004, 0, 0.018, n=24)
-    # furniture at a doll's scale (0.3 m: rail_mj.affordances.FIGURE_HEIGHTS), for requests whose agent is a doll
-    if kind == "table":
-        return _legged(u(0.08, 0.1), u(0.07, 0.09), u(0.11, 0.14), 0.01, 0.012)
-    if kind == "stool":
-        return _legged(u(0.05, 0.06), u(0.05, 0.06), u(0.07, 0.09), 0.01, 0.01)
-    if kind == "chair":
-        parts = _legged(u(0.05, 0.06), u(0.05, 0.06), u(0.075, 0.09), 0.01, 0.01)
-        seat = parts[0]
-        hx, top = float(seat[:, 0].max()), float(seat[:, 2].max())
-        hy = float(seat[:, 1].max())
-        return parts + [_box_hull([-hx, hy - 0.01, top], [hx, hy, top + u(0.06, 0.08)])]
-    if kind == "trash_bin":  # a real waste-paper bin, the tallest object the wrist camera's workspace takes
-        r, h = u(0.1, 0.115), u(0.3, 0.32)
-        return [_disk_hull(r + 0.006, 0, 0.008)] + _ring_walls(r, 0.006, 0, h)
-    if kind == "bathtub":  # a doll's
-        hx, hy, h = u(0.12, 0.14), u(0.06, 0.07), u(0.07, 0.09)
-        return [_box_hull([-hx, -hy, 0], [hx, hy, 0.008])] + _square_walls(hx, hy, 0.008, 0, h)
-    if kind == "bench":  # a doll's
-        return _legged(u(0.1, 0.12), u(0.035, 0.045), u(0.075, 0.09), 0.01, 0.01)
-    if kind == "nightstand":  # a doll's: a closed cabinet on four short legs under a top board
-        hx, hy, h, foot, t = u(0.045, 0.05), u(0.035, 0.04), u(0.09, 0.11), 0.012, 0.008
-        legs = _legged(hx, hy, foot + 0.001, 0.001, 0.008)[1:]
-        return legs + [_box_hull([-hx + 0.003, -hy + 0.003, foot], [hx - 0.003, hy - 0.003, h - t]),
-                        _box_hull([-hx, -hy, h - t], [hx, hy, h])]
-    if kind == "bed":  # a doll's: a mattress on four legs and a headboard
-        hx, hy = u(0.15, 0.17), u(0.07, 0.08)
-        parts = _legged(hx, hy, u(0.05, 0.06), 0.02, 0.015)
-        return parts + [_box_hull([-hx, -hy, 0], [-hx + 0.012, hy, u(0.1, 0.12)])]
-    if kind in ("shelf", "cupboard"):
-        # a doll's, open at the front (-y), a board at a third of the height. The hand holds the item from above,
-        # so the shelf is open at the top. The cupboard stays under the hand's home pose (0.36 m above the table),
-        # too low for the hand and wrist over the item (13 cm and more above its centre, pushed in at 0.575 of the
-        # height) to pass under its top: the hand catches the top board and tips it over backwards
-        hx, hy, t = u(0.1, 0.12), u(0.05, 0.06), 0.008
-        h = u(0.18, 0.22) if kind == "shelf" else u(0.32, 0.34)
-        parts = [_box_hull([-hx, -hy, 0], [hx, hy, t]), _box_hull([-hx, hy - t, 0], [hx, hy, h]),
-                 _box_hull([-hx, -hy, 0], [-hx + t, hy, h]), _box_hull([hx - t, -hy, 0], [hx, hy, h]),
-                 _box_hull([-hx, -hy, h / 3 - t / 2], [hx, hy, h / 3 + t / 2])]
-        return parts if kind == "shelf" else parts + [_box_hull([-hx, -hy, h - t], [hx, hy, h])]
-    raise ConfigError(f"unknown demo object {kind!r}; known: {', '.join(OBJECT_KINDS)}")
+    builder = _BUILDERS.get(kind)
+    if builder is None:
+        raise ConfigError(f"unknown demo object {kind!r}; known: {', '.join(OBJECT_KINDS)}")
+    return builder(kind, u)
 
 
 def object_from_parts(name: str, hulls: list[np.ndarray] | tuple[np.ndarray, ...], density: float = 600.0
@@ -202,9 +260,7 @@ def _demo(name: str) -> tuple[str, str, ScoringFunction]:
 
 
 #: What :func:`make_object` builds: table-top objects at real size, furniture at a doll's.
-OBJECT_KINDS = ("cup", "bowl", "vase", "pen_holder", "pot", "basket", "tray", "plate", "trash_bin", "bucket", "jar",
-                "saucer", "cutting_board", "table", "stool", "chair", "bench", "bed", "bathtub", "shelf", "cupboard",
-                "nightstand")
+OBJECT_KINDS = tuple(_BUILDERS)
 
 #: registry key -> (object kind, agent kind, scoring), for the affordances :func:`make_object` builds at table-top size
 DEMO_AFFORDANCES: dict[str, tuple[str, str, ScoringFunction]] = {

@@ -16,7 +16,6 @@ the table plays the ground) and scored with the plan's scoring function.
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -25,64 +24,28 @@ from typing import Callable
 import mujoco
 import numpy as np
 
-from rail_mj.core.errors import FragmentError, RobotError
-from rail_mj.core.geometry import quat_angle, quat_conj, quat_rotate, slerp
-from rail_mj.imagination.batch import Placement, assemble_outcomes
-from rail_mj.mjcf import (
-    OBJECT_BODY,
-    OBJECT_JOINT,
-    OWNER_GROUND,
-    OWNER_OBJECT,
-    OWNER_OTHER,
-    ScenePhysics,
-    add_agent,
-    add_object,
-    agent_prefix,
-    check_fragment,
-    count_contacts,
-)
-from rail_mj.robot.control import (
-    HOME_QPOS,
-    MONITORED_BODIES,
-    ArmIndex,
-    RobotConfig,
-    contact_force,
-    impedance_torque,
-    make_torque_controlled,
-)
-from rail_mj.robot.ik import ArmIK
-from rail_mj.robot.model import load_panda_spec
+from rail_mj.core.errors import RobotError
+from rail_mj.core.geometry import quat_angle, quat_rotate, slerp
 from rail_mj.core.types import Outcomes, RailObject, StablePose
+from rail_mj.imagination.batch import Placement, assemble_outcomes
+from rail_mj.mjcf import count_contacts
+from rail_mj.robot.arm import HOME_QPOS
+from rail_mj.robot.control import RobotConfig, contact_force, impedance_torque
+from rail_mj.robot.scene import GRASP_QUAT, RobotScene, build_scene, graspable_scale, hand_z, home_grip, side_grasps
+from rail_mj.robot.video import VIDEO_FPS, video_camera, video_renderer, write_video
 
 __all__ = [
     "ScoringFunction",
     "ForceEvent",
     "ExecutionResult",
-    "RobotScene",
-    "build_scene",
-    "side_grasp",
     "DriveResult",
     "drive",
     "execute",
     "caption_lines",
-    "VIDEO_SIZE",
-    "VIDEO_FPS",
 ]
 
 #: A compiled scoring function: outcomes of B rollouts -> (B,) scores, success where > 0.
 ScoringFunction = Callable[[Outcomes], np.ndarray]
-
-#: Hand z below the hand frame where the fingertips end (Menagerie finger mesh), m.
-_FINGERTIP_Z = 0.1125
-#: Agent frame -> hand frame: the hand points down (its z = the agent's -z).
-_GRASP_QUAT = np.array([0.0, 1.0, 0.0, 0.0])
-#: A plan whose path runs at least this far, and more horizontally than vertically, may be held from the side, m.
-_SIDE_PUSH = 0.01
-_PRIMITIVES = (mujoco.mjtGeom.mjGEOM_SPHERE, mujoco.mjtGeom.mjGEOM_BOX, mujoco.mjtGeom.mjGEOM_CAPSULE,
-               mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_ELLIPSOID)
-#: Video frames: (width, height) in pixels and frames per simulated second.
-VIDEO_SIZE = (640, 480)
-VIDEO_FPS = 25
 
 
 @dataclass(frozen=True)
@@ -135,183 +98,6 @@ class ExecutionResult:
         }
 
 
-@dataclass(frozen=True)
-class RobotScene:
-    """A compiled robot + table (+ object + agent) scene and the ids used during execution."""
-
-    model: mujoco.MjModel
-    arm: ArmIndex
-    agent_body: int  # -1 without agent
-    weld: int  # -1 without agent
-    agent_qpos: int  # qpos address of the agent's free joint
-    agent_dof: int
-    object_body: int  # -1 without object
-    object_qpos: int
-    object_dof: int
-    monitored: np.ndarray  # (ngeom,) bool: hand geoms
-    agent_geoms: np.ndarray  # (ngeom,) bool
-    geom_owner: np.ndarray  # (ngeom,) rail_mj.mjcf owner codes: agent 0, object, ground (table, floor), other
-    task_origin: np.ndarray  # (3,) world position of the task frame at placement
-    half_extents: np.ndarray  # (3,)
-    agent_scale: float
-    agent_solref: np.ndarray  # (n_agent_geoms, 2) the composer's (the imagination's) solref, restored at release
-    ik: ArmIK  # the scene's mink solver for the control site
-
-
-def _agent_spec(fragment: str, scale: float) -> mujoco.MjSpec:
-    """The checked fragment (``rail_mj.mjcf.check_fragment``: untrusted MJCF) scaled by ``scale``."""
-    spec = check_fragment(fragment)
-    for i, g in enumerate(spec.geoms):
-        if g.type not in _PRIMITIVES:
-            raise FragmentError(f"agent geom {i} has type {g.type.name}; the robot carries primitive agents only "
-                                f"({', '.join(t.name for t in _PRIMITIVES)})")
-        g.pos = np.asarray(g.pos) * scale
-        g.size = np.asarray(g.size) * scale
-        if not np.isnan(g.fromto[0]):
-            g.fromto = np.asarray(g.fromto) * scale
-        if not np.isnan(g.mass):
-            g.mass = g.mass * scale**3
-    top = spec.worldbody.first_body()
-    nested = top.find_all(mujoco.mjtObj.mjOBJ_BODY)
-    for body in nested:
-        body.pos = np.asarray(body.pos) * scale
-    for body in [top, *nested]:
-        if body.explicitinertial:
-            body.mass, body.ipos = body.mass * scale**3, np.asarray(body.ipos) * scale
-            body.inertia = np.asarray(body.inertia) * scale**5
-    return spec
-
-
-def _agent_extent(fragment: str) -> np.ndarray:
-    """Full size of the agent body's axis-aligned box in its own frame, (3,)."""
-    model = check_fragment(fragment).compile()
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
-    body = 1  # the fragment's top body (0 is the world)
-    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
-    for g in range(model.ngeom):
-        rot = data.geom_xmat[g].reshape(3, 3)
-        centre = data.geom_xpos[g] + rot @ model.geom_aabb[g, :3] - data.xpos[body]
-        half = np.abs(rot) @ model.geom_aabb[g, 3:]
-        lo, hi = np.minimum(lo, centre - half), np.maximum(hi, centre + half)
-    return hi - lo
-
-
-def _hand_z(grasp: np.ndarray) -> np.ndarray:
-    """The hand's z axis (where the fingers point) in the agent's frame, for the grasp ``grasp``."""
-    rot = np.empty(9)
-    mujoco.mju_quat2Mat(rot, np.asarray(grasp, dtype=np.float64))
-    return rot.reshape(3, 3)[2]
-
-
-def _grasp_depth(extent: np.ndarray, grasp: np.ndarray) -> float:
-    """Half the agent's box (full size ``extent``, its own frame) along the hand's z for the grasp ``grasp``."""
-    return float(np.abs(_hand_z(grasp)) @ extent / 2)
-
-
-def side_grasp(direction: np.ndarray, fingers_vertical: bool = False) -> np.ndarray:
-    """The grasp (agent frame -> hand frame, wxyz) of a hand pointing along ``direction`` (agent frame, horizontal):
-    it holds the item from behind as it pushes it, the fingers closing across it horizontally or vertically."""
-    z = np.array([direction[0], direction[1], 0.0])
-    z /= np.linalg.norm(z)
-    y = np.array([0.0, 0.0, 1.0]) if fingers_vertical else np.array([-z[1], z[0], 0.0])
-    hand_in_agent = np.column_stack([np.cross(y, z), y, z])
-    quat = np.empty(4)
-    mujoco.mju_mat2Quat(quat, hand_in_agent.T.ravel())
-    return quat
-
-
-def build_scene(cfg: RobotConfig, *, obj: RailObject | None = None, pose: StablePose | None = None,
-                agent_fragment: str | None = None, agent_scale: float = 1.0,
-                boxes: tuple[tuple[np.ndarray, np.ndarray], ...] = (), visual: bool | None = None,
-                grasp: np.ndarray = _GRASP_QUAT) -> RobotScene:
-    """Compile the torque-controlled Panda on a floor, a table, the placed object and the welded agent.
-
-    The object and the agent come from the imagination's scene composer (``rail_mj.mjcf``), with its contact
-    constants at the robot's timestep; the table and floor are the ground. ``boxes`` adds fixed boxes
-    ``(centre, half_size)`` in the world (used for scripted collisions). ``grasp``: how the hand holds the agent
-    (agent frame -> hand frame): from above by default, or :func:`side_grasp`.
-    """
-    spec = load_panda_spec(visual=cfg.visual if visual is None else visual)
-    make_torque_controlled(spec)
-    spec.option.timestep = cfg.dt
-    physics = ScenePhysics(timestep=cfg.dt)
-    floor = spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[2, 2, 0.05],
-                                    rgba=[0.3, 0.35, 0.4, 1])
-    tx, ty = cfg.object_xy
-    th = cfg.table_height
-    sx, sy = cfg.table_half_size
-    table = spec.worldbody.add_geom(name="table", type=mujoco.mjtGeom.mjGEOM_BOX, size=[sx, sy, th / 2],
-                                    pos=[tx, ty, th / 2], rgba=[0.6, 0.6, 0.55, 1])
-    for ground in (floor, table):
-        ground.solref, ground.friction = physics.solref, physics.friction3
-    for i, (centre, half) in enumerate(boxes):
-        spec.worldbody.add_geom(name=f"box{i}", type=mujoco.mjtGeom.mjGEOM_BOX, size=half, pos=centre,
-                                rgba=[0.7, 0.2, 0.2, 1])
-    half_extents = np.zeros(3)
-    shift = np.array([tx, ty, th])
-    if obj is not None:
-        if pose is None:
-            raise RobotError("build_scene: an object needs its stable pose")
-        half_extents = np.asarray(pose.half_extents, dtype=float)
-        add_object(spec, obj, pos=np.asarray(pose.pos, dtype=float) + shift, quat=np.asarray(pose.quat, dtype=float),
-                   physics=physics)
-    grip_z = _FINGERTIP_Z
-    agent_name = ""
-    agent_geoms: list[mujoco.MjsGeom] = []
-    if agent_fragment is not None:
-        agent = add_agent(spec, _agent_spec(agent_fragment, agent_scale), 0, pos=(0.0, 0.0, 0.0),
-                          quat=(1.0, 0.0, 0.0, 0.0), physics=physics)
-        agent_name = agent.name
-        agent_geoms = agent.find_all(mujoco.mjtObj.mjOBJ_GEOM)
-        grip_z += _grasp_depth(_agent_extent(agent_fragment) * agent_scale, grasp) + cfg.grip_gap
-        for name in ("hand", "left_finger", "right_finger"):
-            spec.add_exclude(bodyname1=name, bodyname2=agent_name)
-        spec.add_equality(type=mujoco.mjtEq.mjEQ_WELD, objtype=mujoco.mjtObj.mjOBJ_BODY, name="hold",
-                          name1="hand", name2=agent_name,
-                          data=[0, 0, 0, 0, 0, grip_z, *grasp, 1, 0])
-    spec.body("hand").add_site(name="grip", pos=[0, 0, grip_z], quat=list(grasp))
-    for geom in [g for g in spec.geoms if g.parent.name in MONITORED_BODIES] + agent_geoms:
-        geom.solref = [cfg.compliance, 1.0]
-    try:
-        model = spec.compile()
-    except Exception as exc:  # MuJoCo compile errors
-        raise RobotError(f"robot scene does not compile: {exc}") from exc
-
-    has_agent = agent_fragment is not None
-    agent_body = model.body(agent_name).id if has_agent else -1
-    agent_joint = model.joint(agent_prefix(0) + "free").id if has_agent else -1
-    objb = model.body(OBJECT_BODY).id if obj is not None else -1
-    object_joint = model.joint(OBJECT_JOINT).id if obj is not None else -1
-    owner = np.full(model.ngeom, OWNER_OTHER, dtype=np.int64)
-    owner[[model.geom("floor").id, model.geom("table").id]] = OWNER_GROUND
-    root = model.body_rootid[model.geom_bodyid]
-    if obj is not None:
-        owner[root == objb] = OWNER_OBJECT
-    if has_agent:
-        owner[root == agent_body] = 0
-    arm = ArmIndex.of(model, "grip")
-    return RobotScene(
-        model=model,
-        arm=arm,
-        agent_body=agent_body,
-        weld=model.equality("hold").id if has_agent else -1,
-        agent_qpos=int(model.jnt_qposadr[agent_joint]) if has_agent else -1,
-        agent_dof=int(model.jnt_dofadr[agent_joint]) if has_agent else -1,
-        object_body=objb,
-        object_qpos=int(model.jnt_qposadr[object_joint]) if obj is not None else -1,
-        object_dof=int(model.jnt_dofadr[object_joint]) if obj is not None else -1,
-        monitored=np.isin(model.geom_bodyid, [model.body(n).id for n in MONITORED_BODIES]),
-        agent_geoms=owner == 0,
-        geom_owner=owner,
-        task_origin=shift + np.array([0.0, 0.0, half_extents[2]]),
-        half_extents=half_extents,
-        agent_scale=agent_scale,
-        agent_solref=np.tile(physics.solref, (int((owner == 0).sum()), 1)),
-        ik=ArmIK(model, arm, min_distance=cfg.ik_clearance),
-    )
-
-
 class _Sim:
     """One execution's mutable state: data, force bookkeeping, optional frame capture."""
 
@@ -331,12 +117,7 @@ class _Sim:
         self.camera = camera
         self.renderer = None
         if camera is not None:
-            # software GL spends ~0.6 s a frame on the shadow map and multisampling: ~25 ms without them
-            self.model.light_castshadow[:] = False
-            self.model.vis.quality.offsamples = 0
-            self.model.vis.global_.offwidth = max(self.model.vis.global_.offwidth, VIDEO_SIZE[0])
-            self.model.vis.global_.offheight = max(self.model.vis.global_.offheight, VIDEO_SIZE[1])
-            self.renderer = mujoco.Renderer(self.model, *VIDEO_SIZE[::-1])
+            self.renderer = video_renderer(self.model)
         self.frame_every = max(1, int(round(1 / (VIDEO_FPS * cfg.dt))))
         self.steps = 0
 
@@ -371,27 +152,6 @@ class _Sim:
         if force < 0.8 * limit:
             self.over = False
         return False
-
-
-def _video_camera(scene: RobotScene, sols: np.ndarray, targets: list[tuple[np.ndarray, np.ndarray]]
-                  ) -> mujoco.MjvCamera:
-    """One fixed camera for the whole video: from the side of the base-to-object line, a little in front,
-    fitted to the arm in its home posture and at every IK solution, the agent's path and the object."""
-    from rail_mj.render.images import fit_camera
-
-    model = scene.model
-    data = mujoco.MjData(model)
-    robot = scene.geom_owner == OWNER_OTHER
-    points = [p for p, _ in targets]
-    for q in [HOME_QPOS, *sols]:
-        data.qpos[scene.arm.qpos] = q
-        mujoco.mj_kinematics(model, data)
-        points.extend(data.geom_xpos[robot])
-    signs = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
-    points.extend(scene.task_origin + signs * scene.half_extents)
-    side = math.degrees(math.atan2(scene.task_origin[1], scene.task_origin[0])) + 120.0
-    return fit_camera(np.array(points), side, -22.0, fovy=float(model.vis.global_.fovy),
-                      aspect=VIDEO_SIZE[0] / VIDEO_SIZE[1])
 
 
 def _posture_at(start: np.ndarray, samples: np.ndarray, t: float) -> np.ndarray:
@@ -520,34 +280,6 @@ def _ik_plan(scene: RobotScene, cfg: RobotConfig, start: tuple[np.ndarray, np.nd
     return _IKPlan(postures, worst, blocked, solves, "")
 
 
-def _side_grasps(positions: np.ndarray, final_quat: np.ndarray) -> list[np.ndarray]:
-    """The side grasps worth trying for a path ``(K, 3)`` (task frame) ending with the agent at ``final_quat``:
-    a hand pointing along the push, fingers across it horizontally, then vertically; none for a path that
-    does not push mostly horizontally (a drop from above, a set-down)."""
-    push = positions[-1] - positions[0]
-    if np.linalg.norm(push[:2]) < max(_SIDE_PUSH, abs(push[2])):
-        return []
-    direction = quat_rotate(quat_conj(final_quat), push)  # task frame -> the agent's frame
-    return [side_grasp(direction), side_grasp(direction, fingers_vertical=True)]
-
-
-def _home_grip(scene: RobotScene) -> tuple[np.ndarray, np.ndarray]:
-    data = mujoco.MjData(scene.model)
-    data.qpos[scene.arm.qpos] = HOME_QPOS
-    mujoco.mj_kinematics(scene.model, data)
-    q = np.empty(4)
-    mujoco.mju_mat2Quat(q, data.site_xmat[scene.arm.site])
-    return data.site_xpos[scene.arm.site].copy(), q
-
-
-def _agent_scale(fragment: str, half_extents: np.ndarray, cfg: RobotConfig) -> float:
-    """Scale that makes the agent graspable (cfg.agent_size) but smaller than the object's footprint."""
-    size = float(np.max(_agent_extent(fragment)))
-    lo, hi = cfg.agent_size
-    target = min(max(size, lo), hi, 0.5 * 2 * float(np.min(half_extents[:2])))
-    return target / size
-
-
 def _outcomes(sim: _Sim, obj_pos0: np.ndarray, obj_quat0: np.ndarray) -> Outcomes:
     """The end state as a one-rollout Outcomes (N = 1, the table plays the ground), as the imagination reports it."""
     scene, data = sim.scene, sim.data
@@ -599,14 +331,14 @@ def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: 
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
     half = np.asarray(pose.half_extents, dtype=float)
-    scale = _agent_scale(agent_fragment, half, cfg)
+    scale = graspable_scale(agent_fragment, half, cfg)
     quats = traj[:, 3:] / np.linalg.norm(traj[:, 3:], axis=1, keepdims=True)
     timings["build"] = timings["ik"] = 0.0
     solves = 0
     chosen = None
     # the hand holds the agent from above; where that hand would have to pass through the object (a cupboard's
     # top board over the shelf the item is pushed onto), a hand holding it from behind may not
-    for grasp in [_GRASP_QUAT, *_side_grasps(traj[:, :3], quats[-1])]:
+    for grasp in [GRASP_QUAT, *side_grasps(traj[:, :3], quats[-1])]:
         t0 = time.perf_counter()
         scene = build_scene(cfg, obj=obj, pose=pose, agent_fragment=agent_fragment, agent_scale=scale,
                             visual=True if render is not None else None, grasp=grasp)
@@ -616,7 +348,7 @@ def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: 
         top = scene.task_origin[2] + half[2]
         above = path[0][0].copy()
         above[2] = max(above[2], top + cfg.clearance)
-        home = _home_grip(scene)
+        home = home_grip(scene)
         # rise (or stay) to the approach height first so the straight approach clears the object
         rise = np.array([home[0][0], home[0][1], max(home[0][2], above[2])])
         targets = [(rise, path[0][1]), (above, path[0][1])] + path
@@ -647,7 +379,7 @@ def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: 
         return result(False, float("nan"), False, plan.message, None, None)
 
     t0 = time.perf_counter()
-    camera = _video_camera(scene, np.vstack(plan.postures), targets) if render is not None else None
+    camera = video_camera(scene, np.vstack(plan.postures), targets) if render is not None else None
     sim = _Sim(scene, cfg, camera)
     data = sim.data
     data.qpos[scene.arm.qpos] = HOME_QPOS
@@ -676,8 +408,8 @@ def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: 
     sim.gripper = 255.0
     pos, quat = sim.site_pose()
     away = np.array([0.0, 0.0, 1.0])
-    if grasp is not _GRASP_QUAT:
-        away = -quat_rotate(path[-1][1], _hand_z(grasp))  # agent frame -> task frame
+    if grasp is not GRASP_QUAT:
+        away = -quat_rotate(path[-1][1], hand_z(grasp))  # agent frame -> task frame
     _follow(sim, [(pos + cfg.lift_after_release * away, quat)], [sim.posture[None]], "lift", -1)
 
     pos, quat = sim.site_pose()
@@ -703,7 +435,8 @@ def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: 
         score = float(scores[0])
         res = result(bool(score > 0), score, True, "executed", sim, outcomes)
     if render is not None:
-        _write_video(sim, Path(render), caption_lines(obj.name, affordance, res), res.success)
+        write_video(sim.frames, sim.frame_info, cfg.force_limit, Path(render), caption_lines(obj.name, affordance, res),
+                    res.success)
     return res
 
 
@@ -722,21 +455,3 @@ def caption_lines(object_name: str, affordance: str | None, res: ExecutionResult
             f"peak hand force {res.peak_force:.1f} N (limit {res.force_limit:.1f} N, "
             f"{res.peak_force / res.force_limit:.2f}x) - {len(res.force_events)} force-limit events - "
             f"IK by mink, worst residual {res.ik_residual * 1000:.2f} mm{held}"]
-
-
-def _write_video(sim: _Sim, path: Path, lines: list[str], success: bool) -> None:
-    """Every frame with the caption under it: the fixed lines, then the frame's time, phase and hand force."""
-    from rail_mj.render.images import with_caption, write_frames
-
-    limit = sim.cfg.force_limit
-    ok = (30, 150, 60) if success else (190, 40, 30)
-    size = max(10, VIDEO_SIZE[0] // 40)
-    frames = []
-    for pixels, (t, phase, force) in zip(sim.frames, sim.frame_info):
-        live = f"t = {t:5.2f} s - {phase} - hand force {force:5.1f} N" + (" - FORCE LIMIT" if force > limit else "")
-        frames.append(with_caption(pixels, [(lines[0], ok), (lines[1], (20, 20, 20)),
-                                            (live, (190, 40, 30) if force > limit else (20, 20, 20))], size))
-    # a live line that wraps on a narrow frame makes its band taller: an mp4 needs one frame size
-    height = max(f.shape[0] for f in frames)
-    frames = [np.pad(f, ((0, height - f.shape[0]), (0, 0), (0, 0)), mode="edge") for f in frames]
-    write_frames(frames, path, fps=VIDEO_FPS)

@@ -28,16 +28,16 @@ import numpy as np
 import trimesh
 
 from rail_mj.affordances import PAPER_AFFORDANCES, request_scale
-from rail_mj.core.errors import RailError
+from rail_mj.core.errors import ConfigError, RailError
 from rail_mj.core.geometry import quat_conj, quat_mul, quat_rotate, task_origin
+from rail_mj.core.runfiles import atomic_write_text
+from rail_mj.core.types import RailObject, StablePose
 from rail_mj.mesh import object_from_mesh
 from rail_mj.pipeline.chain import as_placed_pose, classify
 from rail_mj.robot.control import RobotConfig
 from rail_mj.robot.demo import case_from_result, make_object
 from rail_mj.robot.executor import execute
 from rail_mj.robot.request import parse_request
-from rail_mj.core.runfiles import atomic_write_text
-from rail_mj.core.types import RailObject, StablePose
 
 __all__ = ["Task", "TASKS", "task_object", "scan_available", "plan_in_true_frame", "run_task", "run_experiment",
            "summarize", "format_table"]
@@ -307,8 +307,6 @@ def run_experiment(*, tasks: tuple[Task, ...] = TASKS, scan: bool = True, json_p
     ends; a rerun keeps the rows already there and runs the rest. Without open3d (or ``rail_mj.robot.scan``),
     ``scan=True`` is refused with the install hint; ``scan=False`` imagines on the true mesh and says so.
     """
-    from rail_mj.core.errors import ConfigError
-
     note = scan_available()
     if scan and note is not None:
         raise ConfigError(f"{note}; or run with --no-scan to imagine on the true meshes")

@@ -26,7 +26,7 @@ import numpy as np
 
 from rail_mj.core.errors import RobotError
 from rail_mj.mjcf import OBJECT_BODY
-from rail_mj.robot.control import HOME_QPOS, ArmIndex, quat_error
+from rail_mj.robot.arm import HOME_QPOS, ArmIndex, quat_error
 
 __all__ = [
     "HAND_BODIES",
