@@ -22,7 +22,7 @@ from rail_mj.render.images import (
     write_image,
 )
 from rail_mj.core.results import AffordanceResult, PlanInfo, PoseInfo
-from rail_mj.dataset.shapes import _revolve
+from rail_mj.dataset.shapes.parts import _revolve
 from rail_mj.core.types import RailObject
 
 R_TOP, HEIGHT, WALL, BASE = 0.04, 0.07, 0.004, 0.006
