@@ -14,7 +14,7 @@ import trimesh
 
 from rail_mj.dataset import procedural as dataset
 from rail_mj.eval import run as rail_eval
-from rail_mj.dataset.procedural import (
+from rail_mj.dataset.ground_truth import (
     AFFORDANCES,
     ALL_CLASSES,
     CLASS_SPECS,
@@ -23,15 +23,16 @@ from rail_mj.dataset.procedural import (
     CROSS_REASONS,
     DEFECTS,
     DISTRACTORS,
+    MIXED_CORRUPTIONS,
     PAPER_AFFORDANCES,
+    PAPER_CLASSES,
     SCALE10_UNLABELLED_CLASSES,
     WORLD_CLASSES,
-    LabelRecord,
-    generate,
     ground_truth,
-    plan_diameter,
-    read_labels,
+    ground_truth_markdown,
 )
+from rail_mj.dataset.labels import LabelRecord, read_labels
+from rail_mj.dataset.procedural import generate, plan_diameter
 from rail_mj.core.errors import DatasetError
 from rail_mj.core.results import PoseInfo
 from rail_mj.dataset.shapes import GENERATORS, densify, uneven_bottom
@@ -110,13 +111,13 @@ def test_cross_reasons_agree_with_the_matrix():
         assert verdict in ("true", "false"), (cls, aff)
         assert ground_truth(cls, aff) == (verdict == "true"), (cls, aff, reason)
     # every paper class answers its own name, which only it and no defect affords
-    for cls in dataset.PAPER_CLASSES:
+    for cls in PAPER_CLASSES:
         assert ground_truth(cls, cls)
     assert ground_truth("cup", "Pen holder") and not ground_truth("bowl", "cup")
 
 
 def test_ground_truth_doc_is_in_sync():
-    assert (REPO / "docs" / "ground_truth.md").read_text(encoding="utf-8") == dataset.ground_truth_markdown()
+    assert (REPO / "docs" / "ground_truth.md").read_text(encoding="utf-8") == ground_truth_markdown()
 
 
 def test_determinism_and_subset_independence(tmp_path, full):
@@ -245,7 +246,7 @@ def test_cli_end_to_end(tmp_path, capsys):
 
 def test_cli_module_entry_prints_the_matrix():
     done = subprocess.run([sys.executable, "-m", "rail_mj.dataset", "--matrix"], capture_output=True, text=True, check=True)
-    assert done.stdout == dataset.ground_truth_markdown()
+    assert done.stdout == ground_truth_markdown()
 
 
 def test_bad_arguments_list_valid_names(tmp_path, capsys):
@@ -531,7 +532,7 @@ def test_the_world_family_mixes_corruption_in_at_its_rate(tmp_path):
     applied = [r.corruptions or [] for r in records]
     share = np.mean([bool(a) for a in applied])
     assert 0.35 <= share <= 0.85, share  # WORLD_CORRUPTION_RATE 0.6 over 42 draws
-    assert all(1 <= len(a) <= 2 and set(a) <= set(dataset.MIXED_CORRUPTIONS) for a in applied if a)
+    assert all(1 <= len(a) <= 2 and set(a) <= set(MIXED_CORRUPTIONS) for a in applied if a)
     for r in records:
         assert (r.up == "y") == ("y_up" in (r.corruptions or [])) and (r.units == 0.1) == ("scale10" in (r.corruptions or []))
     assert generate(tmp_path / "clean", family="world", classes=["desk"], per_class=3, seed=11, corrupt="none")[0].corruptions is None

@@ -10,7 +10,8 @@ from pathlib import Path
 import pytest
 
 from rail_mj.eval import run as rail_eval
-from rail_mj.dataset.procedural import generate, read_labels
+from rail_mj.dataset.labels import read_labels
+from rail_mj.dataset.procedural import generate
 from rail_mj.core.errors import UnknownAffordanceError
 from rail_mj.pipeline.chain import ObjectInput, classify
 from rail_mj.core.runfiles import folder_lock

@@ -10,7 +10,7 @@ import trimesh
 from PIL import Image
 
 from rail_mj import llm
-from rail_mj.dataset.procedural import LabelRecord
+from rail_mj.dataset.labels import LabelRecord
 from rail_mj.core.errors import RailError
 from rail_mj.render.images import (
     AGENT_RGBA,

@@ -57,7 +57,9 @@ from pydantic import Field, ValidationError
 
 from rail_mj.affordances import PAPER_AFFORDANCES
 from rail_mj.core.cli import EXIT_FAILED, EXIT_OK, report_error
-from rail_mj.dataset.procedural import AFFORDANCES, DEFECTS, FAMILIES, LabelRecord, generate, normalize_affordance, read_labels
+from rail_mj.dataset.ground_truth import AFFORDANCES, DEFECTS, FAMILIES, normalize_affordance
+from rail_mj.dataset.labels import LabelRecord, read_labels
+from rail_mj.dataset.procedural import generate
 from rail_mj.core.errors import ConfigError, DatasetError, RailError
 from rail_mj.pipeline.parallel import check_executor, cpu_count, object_task, plan_workers, run_tasks
 from rail_mj.pipeline.chain import ObjectInput, Pipeline, RunConfig
@@ -81,7 +83,7 @@ class EvalConfig(RunConfig):
     dataset: str = "procedural"
     per_class: int = Field(3, ge=1)
     dataset_seed: int = 0
-    family: Literal["core", "world", "all"] = "core"  # procedural class family (rail_mj.dataset.procedural.FAMILIES)
+    family: Literal["core", "world", "all"] = "core"  # procedural class family (rail_mj.dataset.ground_truth.FAMILIES)
     affordances: list[str] | None = None
     classes: list[str] | None = None
     render: bool = True
