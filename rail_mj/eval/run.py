@@ -475,7 +475,8 @@ def write_report(out: Path, summary: dict, lines: Sequence[dict], root: Path, *,
         f"\n## Misclassified cases ({len(wrong)})\n",
     ]
     if render and wrong:
-        from rail_mj.render.images import nothing_to_draw, render_result
+        from rail_mj.render.captions import nothing_to_draw
+        from rail_mj.render.images import render_result
 
         (out / "renders").mkdir(exist_ok=True)
         how = {r.mesh: r for r in read_labels(root)}  # each mesh is drawn read as it was classified

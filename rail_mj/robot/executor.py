@@ -377,7 +377,7 @@ def _video_camera(scene: RobotScene, sols: np.ndarray, targets: list[tuple[np.nd
                   ) -> mujoco.MjvCamera:
     """One fixed camera for the whole video: from the side of the base-to-object line, a little in front,
     fitted to the arm in its home posture and at every IK solution, the agent's path and the object."""
-    from rail_mj.render.images import fit_camera
+    from rail_mj.render.scene import fit_camera
 
     model = scene.model
     data = mujoco.MjData(model)
@@ -587,7 +587,7 @@ def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: 
     """Carry the agent along ``trajectory`` ((K, 7) via-poses of its centre, task frame), release, judge.
 
     ``render`` records the execution: an mp4 when it ends in .mp4, else a folder of PNG frames
-    (:func:`rail_mj.render.images.write_frames`), seen by one fixed camera that keeps the arm and the agent in view,
+    (:func:`rail_mj.render.files.write_frames`), seen by one fixed camera that keeps the arm and the agent in view,
     each frame captioned (:func:`caption_lines`: the object, ``affordance``, the verdict, the peak force
     against the limit, and the phase and hand force at that frame).
     """
@@ -726,7 +726,8 @@ def caption_lines(object_name: str, affordance: str | None, res: ExecutionResult
 
 def _write_video(sim: _Sim, path: Path, lines: list[str], success: bool) -> None:
     """Every frame with the caption under it: the fixed lines, then the frame's time, phase and hand force."""
-    from rail_mj.render.images import with_caption, write_frames
+    from rail_mj.render.captions import with_caption
+    from rail_mj.render.files import write_frames
 
     limit = sim.cfg.force_limit
     ok = (30, 150, 60) if success else (190, 40, 30)
