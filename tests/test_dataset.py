@@ -13,7 +13,9 @@ import pytest
 import trimesh
 
 from rail_mj.dataset import procedural as dataset
+from rail_mj.eval import cli as eval_cli
 from rail_mj.eval import run as rail_eval
+from rail_mj.eval import summary as eval_summary
 from rail_mj.dataset.ground_truth import (
     AFFORDANCES,
     ALL_CLASSES,
@@ -478,8 +480,8 @@ def test_corruptions_change_the_mesh_as_labelled(corrupted):
             # the loader, honouring the label, sees the clean object's size (geometric ones: to scan error)
             tol = 1e-5 if c in ("scale10", "y_up") else 0.01
             assert np.allclose(loaded.extents, reference.extents, atol=tol), (c, name, loaded.extents, reference.extents)
-            up = rail_eval._mesh_ups(r)
-            assert np.allclose(up, rail_eval._mesh_ups(base), atol=1e-6), (c, name)
+            up = eval_summary._mesh_ups(r)
+            assert np.allclose(up, eval_summary._mesh_ups(base), atol=1e-6), (c, name)
             if c in ("holes", "open_shell"):
                 assert not raw.is_watertight, (c, name)
             else:
@@ -565,9 +567,9 @@ def test_cli_writes_the_world_family_with_corruption(tmp_path):
 
 
 def test_eval_takes_the_family(tmp_path):
-    args = rail_eval._parser().parse_args(["--out", str(tmp_path), "--family", "world", "--classes", "goblet",
+    args = eval_cli._parser().parse_args(["--out", str(tmp_path), "--family", "world", "--classes", "goblet",
                                            "--per-class", "1", "--affordances", "cup"])
-    cfg = rail_eval._config(args)
+    cfg = eval_cli._config(args)
     assert cfg.family == "world" and rail_eval.EvalConfig().family == "core"
     root, records = rail_eval._dataset(cfg, tmp_path, ["cup"])
     assert [r.class_name for r in records] == ["goblet"] and records[0].affordances == {"cup": True}
@@ -591,8 +593,8 @@ def test_an_object_that_is_itself_upside_down_is_functional_either_way_up():
                          equivalent_ups=[(0.0, 0.0, -1.0)], nominal_up=up)
     upside_down = PoseInfo(index=0, pos=[0, 0, 0], quat=[0, 1, 0, 0], probability=1.0, half_extents=[0.2] * 3,
                            up_in_mesh_frame=[0.0, 0.0, -1.0])
-    assert rail_eval._pose_correct(upside_down, rail_eval._mesh_ups(record))
+    assert eval_summary._pose_correct(upside_down, eval_summary._mesh_ups(record))
     plain = record.model_copy(update={"equivalent_ups": None})
-    assert not rail_eval._pose_correct(upside_down, rail_eval._mesh_ups(plain))
+    assert not eval_summary._pose_correct(upside_down, eval_summary._mesh_ups(plain))
     with pytest.raises(ValueError, match="equivalent_ups"):
         LabelRecord(mesh="m.obj", class_name="box", affordances={"chair": False}, equivalent_ups=[up])
