@@ -106,7 +106,7 @@ GENERATED = {
 
 
 def items_from(args: argparse.Namespace) -> list[Item]:
-    from rail_mj.dataset.procedural import read_labels
+    from rail_mj.dataset.labels import read_labels
     from rail_mj.mesh import SUPPORTED_EXTENSIONS
 
     if args.labels:

@@ -29,7 +29,8 @@ from pathlib import Path
 
 from cpu_time import cpu_seconds  # benchmarks/cpu_time.py, beside this script
 from rail_mj.eval import run as rail_eval
-from rail_mj.dataset.procedural import CLASSES, generate
+from rail_mj.dataset.ground_truth import CLASSES
+from rail_mj.dataset.procedural import generate
 from rail_mj.affordances import PAPER_AFFORDANCES
 from rail_mj.core.paths import CACHE_ENV
 

@@ -62,7 +62,8 @@ def _picture_path(text: str) -> Path:
 def _pictures(args: argparse.Namespace, results) -> None:
     """Write the requested pictures of the first functional result, else the first one with a rollout to
     draw; when no result has one, say why (that is an answer, not an error)."""
-    from rail_mj.render.images import nothing_to_draw, render_contact_sheet, render_result
+    from rail_mj.render.captions import nothing_to_draw
+    from rail_mj.render.images import render_contact_sheet, render_result
 
     targets = [p for p in (args.render, args.contact_sheet) if p is not None]
     done = [r for r in results if not r.error]

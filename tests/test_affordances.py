@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
-from rail_mj.dataset import procedural as dataset
+from rail_mj.dataset import ground_truth as dataset
+from rail_mj.dataset.labels import LabelRecord
 from rail_mj.affordances import (
     PAPER_AFFORDANCES,
     REGISTRY,
@@ -78,7 +79,7 @@ def test_the_dataset_answers_registered_affordances_by_their_keys():
 def test_a_label_record_naming_one_affordance_twice_is_rejected():
     record = {"mesh": "m.obj", "class": "cup", "affordances": {"Trash bin": True, "trash_bin": False}}
     with pytest.raises(ValidationError, match="'Trash bin' and 'trash_bin' both name the affordance 'trash_bin'"):
-        dataset.LabelRecord.model_validate(record)
+        LabelRecord.model_validate(record)
 
 
 def test_the_robot_demo_names_registered_affordances_and_takes_its_agent_from_the_kind():

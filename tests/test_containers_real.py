@@ -7,11 +7,12 @@ import numpy as np
 import pytest
 import trimesh
 
+from rail_mj.dataset import shapes
+from rail_mj.dataset.shapes import parts as shape_parts
 from rail_mj.affordances import get
 from rail_mj.affordances.kinds import kind_of
 from rail_mj.affordances.kinds.container import MIN_DEPTH
 from rail_mj.core.results import BasinInfo
-from rail_mj.dataset import shapes
 from rail_mj.llm import generate_profile, trajectory_array
 from rail_mj.llm.schemas import CandidateInteraction, ResultSummary
 from rail_mj.mesh import object_from_mesh
@@ -49,7 +50,7 @@ def _block_with_pocket(size: tuple[float, float, float], depth: float, wall: flo
     block = trimesh.creation.box(extents=size)
     pocket = trimesh.creation.box(extents=(lx - 2 * wall, ly - 2 * wall, 2 * depth))
     pocket.apply_translation((0.0, 0.0, lz / 2))
-    return shapes._difference(block, pocket)
+    return shape_parts._difference(block, pocket)
 
 
 def _verdict(mesh: trimesh.Trimesh, name: str, affordance: str):
@@ -85,7 +86,7 @@ def test_an_upturned_table_is_not_a_bathtub_but_a_bathtub_is() -> None:
             leg = trimesh.creation.box(extents=(0.05, 0.05, 0.56))
             leg.apply_translation((x, y, 0.04 + 0.28 - 0.005))
             legs.append(leg)
-    r = _verdict(shapes._union([top, *legs]), "upturned_table", "bathtub")
+    r = _verdict(shape_parts._union([top, *legs]), "upturned_table", "bathtub")
     assert not r.functional, r.analyzer_reasons
     assert any("no enclosing cavity" in reason for reason in r.analyzer_reasons)
     r = _verdict(shapes.bathtub(np.random.default_rng(0)).mesh, "bathtub", "bathtub")
@@ -177,7 +178,7 @@ def test_the_enclosure_probe_meets_the_surface_not_hulls_that_fill_it_out() -> N
     panels = [trimesh.creation.box(extents=(0.03, 0.6, 0.5)) for _ in range(2)]
     panels[0].apply_translation((-0.585, 0.0, 0.265))
     panels[1].apply_translation((0.585, 0.0, 0.265))
-    desk = shapes._union([top, *panels])
+    desk = shape_parts._union([top, *panels])
     free, free_in_hulls = _probe(desk, [np.asarray(desk.convex_hull.vertices)], [0.0, 0.0, 0.03])
     assert free >= 4 and free_in_hulls == 0
 
@@ -193,7 +194,7 @@ def test_the_enclosure_probe_does_not_leave_through_a_baskets_slots() -> None:
             slat.apply_translation((0.0, 0.12, 0.05))
             slat.apply_transform(trimesh.transformations.rotation_matrix(2 * np.pi * k / n, (0, 0, 1)))
             parts.append(slat)
-        return shapes._union(parts)
+        return shape_parts._union(parts)
 
     basket = ring(25)
     assert _probe(basket, [np.asarray(basket.convex_hull.vertices)], [0.0, 0.0, 0.02])[0] < 4

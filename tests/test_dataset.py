@@ -13,8 +13,10 @@ import pytest
 import trimesh
 
 from rail_mj.dataset import procedural as dataset
+from rail_mj.eval import cli as eval_cli
 from rail_mj.eval import run as rail_eval
-from rail_mj.dataset.procedural import (
+from rail_mj.eval import summary as eval_summary
+from rail_mj.dataset.ground_truth import (
     AFFORDANCES,
     ALL_CLASSES,
     CLASS_SPECS,
@@ -23,15 +25,16 @@ from rail_mj.dataset.procedural import (
     CROSS_REASONS,
     DEFECTS,
     DISTRACTORS,
+    MIXED_CORRUPTIONS,
     PAPER_AFFORDANCES,
+    PAPER_CLASSES,
     SCALE10_UNLABELLED_CLASSES,
     WORLD_CLASSES,
-    LabelRecord,
-    generate,
     ground_truth,
-    plan_diameter,
-    read_labels,
+    ground_truth_markdown,
 )
+from rail_mj.dataset.labels import LabelRecord, read_labels
+from rail_mj.dataset.procedural import generate, plan_diameter
 from rail_mj.core.errors import DatasetError
 from rail_mj.core.results import PoseInfo
 from rail_mj.dataset.shapes import GENERATORS, densify, uneven_bottom
@@ -110,13 +113,13 @@ def test_cross_reasons_agree_with_the_matrix():
         assert verdict in ("true", "false"), (cls, aff)
         assert ground_truth(cls, aff) == (verdict == "true"), (cls, aff, reason)
     # every paper class answers its own name, which only it and no defect affords
-    for cls in dataset.PAPER_CLASSES:
+    for cls in PAPER_CLASSES:
         assert ground_truth(cls, cls)
     assert ground_truth("cup", "Pen holder") and not ground_truth("bowl", "cup")
 
 
 def test_ground_truth_doc_is_in_sync():
-    assert (REPO / "docs" / "ground_truth.md").read_text(encoding="utf-8") == dataset.ground_truth_markdown()
+    assert (REPO / "docs" / "ground_truth.md").read_text(encoding="utf-8") == ground_truth_markdown()
 
 
 def test_determinism_and_subset_independence(tmp_path, full):
@@ -245,7 +248,7 @@ def test_cli_end_to_end(tmp_path, capsys):
 
 def test_cli_module_entry_prints_the_matrix():
     done = subprocess.run([sys.executable, "-m", "rail_mj.dataset", "--matrix"], capture_output=True, text=True, check=True)
-    assert done.stdout == dataset.ground_truth_markdown()
+    assert done.stdout == ground_truth_markdown()
 
 
 def test_bad_arguments_list_valid_names(tmp_path, capsys):
@@ -477,8 +480,8 @@ def test_corruptions_change_the_mesh_as_labelled(corrupted):
             # the loader, honouring the label, sees the clean object's size (geometric ones: to scan error)
             tol = 1e-5 if c in ("scale10", "y_up") else 0.01
             assert np.allclose(loaded.extents, reference.extents, atol=tol), (c, name, loaded.extents, reference.extents)
-            up = rail_eval._mesh_ups(r)
-            assert np.allclose(up, rail_eval._mesh_ups(base), atol=1e-6), (c, name)
+            up = eval_summary._mesh_ups(r)
+            assert np.allclose(up, eval_summary._mesh_ups(base), atol=1e-6), (c, name)
             if c in ("holes", "open_shell"):
                 assert not raw.is_watertight, (c, name)
             else:
@@ -531,7 +534,7 @@ def test_the_world_family_mixes_corruption_in_at_its_rate(tmp_path):
     applied = [r.corruptions or [] for r in records]
     share = np.mean([bool(a) for a in applied])
     assert 0.35 <= share <= 0.85, share  # WORLD_CORRUPTION_RATE 0.6 over 42 draws
-    assert all(1 <= len(a) <= 2 and set(a) <= set(dataset.MIXED_CORRUPTIONS) for a in applied if a)
+    assert all(1 <= len(a) <= 2 and set(a) <= set(MIXED_CORRUPTIONS) for a in applied if a)
     for r in records:
         assert (r.up == "y") == ("y_up" in (r.corruptions or [])) and (r.units == 0.1) == ("scale10" in (r.corruptions or []))
     assert generate(tmp_path / "clean", family="world", classes=["desk"], per_class=3, seed=11, corrupt="none")[0].corruptions is None
@@ -564,9 +567,9 @@ def test_cli_writes_the_world_family_with_corruption(tmp_path):
 
 
 def test_eval_takes_the_family(tmp_path):
-    args = rail_eval._parser().parse_args(["--out", str(tmp_path), "--family", "world", "--classes", "goblet",
+    args = eval_cli._parser().parse_args(["--out", str(tmp_path), "--family", "world", "--classes", "goblet",
                                            "--per-class", "1", "--affordances", "cup"])
-    cfg = rail_eval._config(args)
+    cfg = eval_cli._config(args)
     assert cfg.family == "world" and rail_eval.EvalConfig().family == "core"
     root, records = rail_eval._dataset(cfg, tmp_path, ["cup"])
     assert [r.class_name for r in records] == ["goblet"] and records[0].affordances == {"cup": True}
@@ -590,8 +593,8 @@ def test_an_object_that_is_itself_upside_down_is_functional_either_way_up():
                          equivalent_ups=[(0.0, 0.0, -1.0)], nominal_up=up)
     upside_down = PoseInfo(index=0, pos=[0, 0, 0], quat=[0, 1, 0, 0], probability=1.0, half_extents=[0.2] * 3,
                            up_in_mesh_frame=[0.0, 0.0, -1.0])
-    assert rail_eval._pose_correct(upside_down, rail_eval._mesh_ups(record))
+    assert eval_summary._pose_correct(upside_down, eval_summary._mesh_ups(record))
     plain = record.model_copy(update={"equivalent_ups": None})
-    assert not rail_eval._pose_correct(upside_down, rail_eval._mesh_ups(plain))
+    assert not eval_summary._pose_correct(upside_down, eval_summary._mesh_ups(plain))
     with pytest.raises(ValueError, match="equivalent_ups"):
         LabelRecord(mesh="m.obj", class_name="box", affordances={"chair": False}, equivalent_ups=[up])

@@ -9,8 +9,10 @@ from pathlib import Path
 
 import pytest
 
+from rail_mj.eval import cli as eval_cli
 from rail_mj.eval import run as rail_eval
-from rail_mj.dataset.procedural import generate, read_labels
+from rail_mj.dataset.labels import read_labels
+from rail_mj.dataset.procedural import generate
 from rail_mj.core.errors import UnknownAffordanceError
 from rail_mj.pipeline.chain import ObjectInput, classify
 from rail_mj.core.runfiles import folder_lock
@@ -127,7 +129,7 @@ def test_resumed_dataset_is_rebuilt_for_another_seed_and_reused_for_the_same(tmp
 def test_cli_second_run_on_one_out_names_the_holder(tmp_path, capsys):
     out = tmp_path / "out"
     with folder_lock(out, advice="wait"):
-        assert rail_eval.main(["--out", str(out), "--classes", "cup", "--per-class", "1", "--no-progress"]) == 1
+        assert eval_cli.main(["--out", str(out), "--classes", "cup", "--per-class", "1", "--no-progress"]) == 1
     err = capsys.readouterr().err
     assert err.startswith(f"error: {out} is in use by another run (pid {os.getpid()} on ")
     assert not (out / "dataset").exists()
@@ -143,7 +145,7 @@ def test_cli_second_run_on_one_out_names_the_holder(tmp_path, capsys):
     ],
 )
 def test_cli_bad_option_values(tmp_path, capsys, argv, message):
-    assert rail_eval.main(["--out", str(tmp_path / "o"), "--no-progress", *argv]) == 2
+    assert eval_cli.main(["--out", str(tmp_path / "o"), "--no-progress", *argv]) == 2
     assert message in capsys.readouterr().err
 
 
@@ -154,7 +156,7 @@ def test_broken_mesh_becomes_an_error_line(tiny_dataset, tmp_path, capsys):
     (ds / records[0].mesh).write_text("this is not a mesh\n")
     out = tmp_path / "out"
     argv = ["--dataset", str(ds), "--affordances", "cup", "--provider", "offline", "--no-render", "--no-progress"]
-    assert rail_eval.main([*argv, "--out", str(out)]) == 1  # the CLI rule: some input failed
+    assert eval_cli.main([*argv, "--out", str(out)]) == 1  # the CLI rule: some input failed
     lines = [json.loads(s) for s in (out / "results.jsonl").read_text().splitlines()]
     broken = next(ln for ln in lines if ln["mesh"] == records[0].mesh)
     assert broken["error"] and "MeshError" in broken["error"] and broken["correct"] is False
@@ -168,12 +170,12 @@ def test_cli_mesh_labelled_twice(tiny_dataset, tmp_path, capsys):
     shutil.copytree(tiny_dataset, ds)
     first = (ds / "labels.jsonl").read_text().splitlines()[0]
     (ds / "labels.jsonl").write_text((ds / "labels.jsonl").read_text() + first + "\n")
-    assert rail_eval.main(["--dataset", str(ds), "--out", str(tmp_path / "o"), "--no-progress"]) == 1
+    assert eval_cli.main(["--dataset", str(ds), "--out", str(tmp_path / "o"), "--no-progress"]) == 1
     assert f"lists {json.loads(first)['mesh']} more than once" in capsys.readouterr().err
 
 
 def test_cli_bad_dataset_folder(tmp_path, capsys):
-    assert rail_eval.main(["--dataset", str(tmp_path), "--out", str(tmp_path / "o"), "--no-progress"]) == 2
+    assert eval_cli.main(["--dataset", str(tmp_path), "--out", str(tmp_path / "o"), "--no-progress"]) == 2
     assert "labels.jsonl" in capsys.readouterr().err
 
 

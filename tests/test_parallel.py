@@ -20,6 +20,7 @@ import pytest
 import trimesh
 
 from eval_procs import CRASHER, GUARD_S, REPO, start_eval, wait_until
+from rail_mj.eval import cli as eval_cli
 from rail_mj.eval import run as rail_eval
 from rail_mj.eval.run import cases_without_timings as _cases
 from rail_mj import llm
@@ -78,10 +79,10 @@ def test_parallel_run_equals_the_serial_one(serial_run, tmp_path):
 def test_shards_merged_equal_the_serial_run(serial_run, tmp_path):
     parts = [tmp_path / f"s{i}" for i in (1, 2, 3)]
     for i, part in enumerate(parts, 1):
-        assert rail_eval.main([*ARGS, "--out", str(part), "--shard", f"{i}/3", "--workers", "1"]) == 0
+        assert eval_cli.main([*ARGS, "--out", str(part), "--shard", f"{i}/3", "--workers", "1"]) == 0
     assert len(_cases(parts[0])) == N_CASES // 3
     merged = tmp_path / "merged"
-    assert rail_eval.main(["merge", *map(str, parts[::-1]), "--out", str(merged), "--no-render"]) == 0
+    assert eval_cli.main(["merge", *map(str, parts[::-1]), "--out", str(merged), "--no-render"]) == 0
     assert _summary(merged) == _summary(serial_run)
     assert _cases(merged) == _cases(serial_run)
     # line for line in the serial run's order
@@ -89,26 +90,26 @@ def test_shards_merged_equal_the_serial_run(serial_run, tmp_path):
         json.loads(s)["key"] for s in (serial_run / "results.jsonl").read_text().splitlines()]
     # a missing shard: written, not complete, exit 1 naming it
     partial = tmp_path / "partial"
-    assert rail_eval.main(["merge", str(parts[0]), str(parts[2]), "--out", str(partial), "--no-render"]) == 1
+    assert eval_cli.main(["merge", str(parts[0]), str(parts[2]), "--out", str(partial), "--no-render"]) == 1
     summary = json.loads((partial / "summary.json").read_text())
     assert not summary["complete"] and summary["missing_shards"] == ["2/3"]
 
 
 def test_merge_refuses_runs_of_other_settings(serial_run, tmp_path, capsys):
     other = tmp_path / "other"
-    assert rail_eval.main([*ARGS[:-4], "--drops", "9", "--no-render", "--no-progress", "--out", str(other),
+    assert eval_cli.main([*ARGS[:-4], "--drops", "9", "--no-render", "--no-progress", "--out", str(other),
                            "--shard", "2/2", "--workers", "1"]) == 0
     capsys.readouterr()
-    assert rail_eval.main(["merge", str(serial_run), str(other), "--out", str(tmp_path / "m")]) == 2
+    assert eval_cli.main(["merge", str(serial_run), str(other), "--out", str(tmp_path / "m")]) == 2
     err = capsys.readouterr().err
     assert "other settings" in err and "n_drops" in err
-    assert rail_eval.main(["merge", str(tmp_path / "nothing"), "--out", str(tmp_path / "m")]) == 2
+    assert eval_cli.main(["merge", str(tmp_path / "nothing"), "--out", str(tmp_path / "m")]) == 2
     assert "plan.json" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("text", ["0/2", "3/2", "1", "a/b", "1/0"])
 def test_bad_shard_is_a_usage_error(text, tmp_path, capsys):
-    assert rail_eval.main([*ARGS, "--out", str(tmp_path / "o"), "--shard", text]) == 2
+    assert eval_cli.main([*ARGS, "--out", str(tmp_path / "o"), "--shard", text]) == 2
     assert "1 <= i <= n" in capsys.readouterr().err
 
 
@@ -237,7 +238,7 @@ def test_ray_missing_is_a_usage_error_before_any_work(tmp_path, monkeypatch, cap
 
     real = parallel.importlib.util.find_spec
     monkeypatch.setattr(parallel.importlib.util, "find_spec", lambda name: None if name == "ray" else real(name))
-    assert rail_eval.main([*ARGS, "--out", str(tmp_path / "o"), "--ray"]) == 2
+    assert eval_cli.main([*ARGS, "--out", str(tmp_path / "o"), "--ray"]) == 2
     assert "pip install -e '.[cluster]'" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()  # refused before the dataset or the lock
 
@@ -299,7 +300,7 @@ def test_resume_after_the_parallel_parent_is_stopped(serial_run, cache, tmp_path
         assert proc.returncode == 130, proc.log.read_text()
         assert not json.loads((out / "summary.json").read_text())["complete"]
     assert len(finished) < N_CASES, "the run ended before the signal: nothing was tested"
-    assert rail_eval.main([*ARGS, "--out", str(out), "--resume", "--workers", "1"]) == 0
+    assert eval_cli.main([*ARGS, "--out", str(out), "--resume", "--workers", "1"]) == 0
     keys = Counter(json.loads(s)["key"] for s in _lines(out))
     assert len(keys) == N_CASES and set(keys.values()) == {1}
     assert set(finished) <= set(_lines(out))  # nothing finished was lost or rewritten

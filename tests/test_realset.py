@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 import trimesh
 
-from rail_mj.dataset import procedural as dataset, realset
+from rail_mj.dataset import cli as dataset, realset
 from rail_mj.affordances import PAPER_AFFORDANCES, get
-from rail_mj.dataset.procedural import LabelRecord, read_labels
+from rail_mj.dataset.labels import LabelRecord, read_labels
 from rail_mj.core.errors import DatasetError
 from rail_mj.mesh import load_mesh
 from rail_mj.dataset.realset import MANIFEST, WHEELS, RealMesh, Wheel

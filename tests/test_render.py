@@ -10,19 +10,14 @@ import trimesh
 from PIL import Image
 
 from rail_mj import llm
-from rail_mj.dataset.procedural import LabelRecord
+from rail_mj.dataset.labels import LabelRecord
 from rail_mj.core.errors import RailError
-from rail_mj.render.images import (
-    AGENT_RGBA,
-    caption,
-    nothing_to_draw,
-    render_contact_sheet,
-    render_result,
-    write_frames,
-    write_image,
-)
+from rail_mj.render.captions import caption, nothing_to_draw
+from rail_mj.render.files import write_frames, write_image
+from rail_mj.render.images import render_contact_sheet, render_result
+from rail_mj.render.scene import AGENT_RGBA
 from rail_mj.core.results import AffordanceResult, PlanInfo, PoseInfo
-from rail_mj.dataset.shapes import _revolve
+from rail_mj.dataset.shapes.parts import _revolve
 from rail_mj.core.types import RailObject
 
 R_TOP, HEIGHT, WALL, BASE = 0.04, 0.07, 0.004, 0.006
@@ -176,7 +171,7 @@ def _sector_hulls(mesh: trimesh.Trimesh, config=None) -> tuple[np.ndarray, ...]:
 def test_eval_report_draws_millimetre_y_up_meshes_like_metre_z_up(tmp_path, monkeypatch):
     """write_report reads each mesh with its label's units and up axis (it drew every mesh as metres, z up)."""
     import rail_mj.mesh.quality
-    from rail_mj.eval import run as rail_eval
+    from rail_mj.eval import report, summary
 
     monkeypatch.setattr(rail_mj.mesh.quality, "decompose", _sector_hulls)
 
@@ -193,10 +188,10 @@ def test_eval_report_draws_millimetre_y_up_meshes_like_metre_z_up(tmp_path, monk
     ]
     (root / "labels.jsonl").write_text("".join(json.dumps(r.model_dump(by_alias=True)) + "\n" for r in records))
     wrong = _result(functional=False, functional_pose=None, best_plan=None)  # misclassified: it gets a picture
-    lines = [rail_eval._line(rec, "cup", wrong.model_copy(update={"object": rec.mesh})) for rec in records]
+    lines = [summary._line(rec, "cup", wrong.model_copy(update={"object": rec.mesh})) for rec in records]
     out = tmp_path / "out"
     out.mkdir()
-    rail_eval.write_report(out, rail_eval.summarize(lines), lines, root, render=True)
+    report.write_report(out, summary.summarize(lines), lines, root, render=True)
     metre, milli = _image(out / "renders" / "m.obj__cup.png"), _image(out / "renders" / "mm.obj__cup.png")
     h = 480  # the report's picture size; below it the captions differ (the object's name, its hull count)
     assert metre.shape[1] == milli.shape[1] and min(metre.shape[0], milli.shape[0]) > h

@@ -7,7 +7,7 @@ whether the paper evaluates it. How a requested name becomes a row (spelling,
 plurals, aliases) lives in :mod:`rail_mj.affordances.names`. A new affordance is a new
 row here, plus a kind file only when its physics is new.
 
-The dataset's ground truth (:mod:`rail_mj.dataset.procedural`) reads the names from here
+The dataset's ground truth (:mod:`rail_mj.dataset.ground_truth`) reads the names from here
 but keeps its own per-class truth: it is what these rules are measured against.
 """
 

@@ -1,5 +1,5 @@
 """``python -m rail_mj.dataset``: generate the procedural dataset or fetch the real-mesh set."""
 
-from rail_mj.dataset.procedural import main
+from rail_mj.dataset.cli import main
 
 raise SystemExit(main())

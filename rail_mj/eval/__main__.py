@@ -1,5 +1,5 @@
 """``python -m rail_mj.eval``: the paper's Table 1 and Table 2 on a labelled dataset."""
 
-from rail_mj.eval.run import main
+from rail_mj.eval.cli import main
 
 raise SystemExit(main())

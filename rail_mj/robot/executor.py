@@ -319,7 +319,7 @@ def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: 
     """Carry the agent along ``trajectory`` ((K, 7) via-poses of its centre, task frame), release, judge.
 
     ``render`` records the execution: an mp4 when it ends in .mp4, else a folder of PNG frames
-    (:func:`rail_mj.render.images.write_frames`), seen by one fixed camera that keeps the arm and the agent in view,
+    (:func:`rail_mj.render.files.write_frames`), seen by one fixed camera that keeps the arm and the agent in view,
     each frame captioned (:func:`caption_lines`: the object, ``affordance``, the verdict, the peak force
     against the limit, and the phase and hand force at that frame).
     """

@@ -1,7 +1,7 @@
 """The execution's video: frame size and rate, the renderer, the fixed camera, the captioned frames written.
 
 One camera keeps the arm and the agent in view for the whole execution; the frames go to an mp4 or a folder of
-PNG frames (:func:`rail_mj.render.images.write_frames`), each with its caption under it.
+PNG frames (:func:`rail_mj.render.files.write_frames`), each with its caption under it.
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ def video_camera(scene: RobotScene, sols: np.ndarray, targets: list[tuple[np.nda
                  ) -> mujoco.MjvCamera:
     """One fixed camera for the whole video: from the side of the base-to-object line, a little in front,
     fitted to the arm in its home posture and at every IK solution, the agent's path and the object."""
-    from rail_mj.render.images import fit_camera
+    from rail_mj.render.scene import fit_camera
 
     model = scene.model
     data = mujoco.MjData(model)
@@ -65,7 +65,8 @@ def write_video(frames: list[np.ndarray], frame_info: list[tuple[float, str, flo
                 lines: list[str], success: bool) -> None:
     """Every frame (``frame_info``: its time s, phase and hand force N) with the caption under it: the fixed
     ``lines``, then the frame's time, phase and hand force (red over the force ``limit``, N)."""
-    from rail_mj.render.images import with_caption, write_frames
+    from rail_mj.render.captions import with_caption
+    from rail_mj.render.files import write_frames
 
     ok = (30, 150, 60) if success else (190, 40, 30)
     size = max(10, VIDEO_SIZE[0] // 40)

@@ -1,0 +1,141 @@
+"""``python -m rail_mj.eval``: the paper's Table 1 and Table 2 on a labelled dataset.
+
+The command line of :func:`rail_mj.eval.run.run_eval` (what a run writes, and what a kill can lose, is told
+in :mod:`rail_mj.eval.run`) and, as ``python -m rail_mj.eval merge OUT... --out OUT``, of
+:func:`rail_mj.eval.merge.merge_runs`. How a case is scored: :data:`rail_mj.eval.summary.RULES` (also
+printed in the report). Exit status by the rule of :mod:`rail_mj.core.cli`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from pydantic import ValidationError
+
+from rail_mj.core.cli import EXIT_FAILED, EXIT_OK, report_error
+from rail_mj.core.errors import ConfigError, RailError
+from rail_mj.dataset.ground_truth import FAMILIES
+from rail_mj.eval.merge import merge_runs
+from rail_mj.eval.run import EvalConfig, parse_shard, run_eval
+from rail_mj.eval.summary import _tables, _timing_table
+from rail_mj.pipeline.parallel import cpu_count
+
+__all__ = ["main"]
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m rail_mj.eval", description=__doc__.split("\n\n")[0])
+    p.add_argument("--dataset", default="procedural", help="'procedural' or a folder with labels.jsonl")
+    p.add_argument("--per-class", type=int, default=3, help="objects per class (procedural)")
+    p.add_argument("--seed", type=int, default=0, help="dataset seed (procedural)")
+    p.add_argument("--family", default="core", choices=tuple(FAMILIES),
+                   help="procedural class family: core (default, the published set), world (shapes of real meshes, "
+                   "scan-like corruption mixed in) or all")
+    p.add_argument("--classes", help="comma-separated classes (procedural), default all of the family")
+    p.add_argument("--affordances", help="comma-separated requested affordances, default all labelled")
+    p.add_argument("--out", type=Path, required=True, help="output folder (one run at a time)")
+    p.add_argument("--resume", action="store_true", help="continue an interrupted run in --out")
+    p.add_argument("--provider", default="auto", choices=("auto", "offline", "anthropic"))
+    p.add_argument("--backend", default="auto", choices=("auto", "native", "mjx"))
+    p.add_argument("--drops", type=int, default=64, help="drops for stable-pose imagination")
+    p.add_argument("--no-render", action="store_true", help="skip the pictures in report.md")
+    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--workers", type=int, default=None,
+                   help=f"worker processes, one object each at a time (default: every core, {cpu_count()} here; "
+                        "1 runs in this process); with --ray and no ADDRESS, the local Ray's CPUs")
+    p.add_argument("--ray", nargs="?", const="", default=None, metavar="ADDRESS",
+                   help="run the objects as Ray tasks on the cluster at ADDRESS, or on a local Ray without one "
+                        "(pip install -e '.[cluster]')")
+    p.add_argument("--shard", help="i/n: evaluate every n-th labelled object from the i-th (1-based); "
+                                   "join the parts with `python -m rail_mj.eval merge`")
+    return p
+
+
+def _merge_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="python -m rail_mj.eval merge",
+        description="Join the output folders of one evaluation's --shard runs into the files one serial run writes.",
+    )
+    p.add_argument("inputs", nargs="+", type=Path, metavar="OUT", help="output folders of the shard runs")
+    p.add_argument("--out", type=Path, required=True, help="folder for the merged results (empty, or a merge's)")
+    p.add_argument("--no-render", action="store_true", help="skip the pictures in report.md")
+    return p
+
+
+#: The command-line option of each EvalConfig field, for error messages.
+_OPTIONS = {"per_class": "--per-class", "dataset_seed": "--seed", "n_drops": "--drops"}
+
+
+def _config(args: argparse.Namespace) -> EvalConfig:
+    split = lambda s: [x.strip() for x in s.split(",") if x.strip()] if s else None  # noqa: E731
+    try:
+        return EvalConfig(
+            dataset=args.dataset,
+            per_class=args.per_class,
+            dataset_seed=args.seed,
+            family=args.family,
+            classes=split(args.classes),
+            affordances=split(args.affordances),
+            provider=args.provider,
+            backend=args.backend,
+            n_drops=args.drops,
+            render=not args.no_render,
+        )
+    except ValidationError as exc:
+        problems = "; ".join(
+            f"{_OPTIONS.get(str(e['loc'][0]), e['loc'][0])} {e['input']!r}: {e['msg']}" for e in exc.errors()
+        )
+        raise ConfigError(f"bad option value: {problems}") from None
+
+
+def _print_outcome(summary: dict, out: Path) -> int:
+    print(_tables(summary))
+    print("\n" + _timing_table(summary))
+    print(f"\nwrote {out / 'results.jsonl'}, {out / 'summary.json'}, {out / 'report.md'}")
+    for key, message in summary["errors"].items():
+        print(f"error: {key}: {message}", file=sys.stderr)
+    if summary.get("missing_shards"):
+        print(f"error: shards {', '.join(summary['missing_shards'])} were not given; merge again with them",
+              file=sys.stderr)
+    if not summary["complete"]:
+        print(
+            f"error: {out / 'results.jsonl'} does not hold each of the {summary['n_expected']} expected "
+            "cases exactly once; "
+            + ("rerun the shard runs with --resume, then merge again" if "merged_from" in summary
+               else "rerun with --resume"),
+            file=sys.stderr,
+        )
+    return EXIT_OK if summary["complete"] and not summary["errors"] else EXIT_FAILED
+
+
+def _merge_main(argv: Sequence[str]) -> int:
+    args = _merge_parser().parse_args(argv)
+    try:
+        summary = merge_runs(args.inputs, args.out, render=not args.no_render)
+    except RailError as exc:
+        return report_error(exc)
+    return _print_outcome(summary, args.out)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """CLI entry point; exit status by the rule in :mod:`rail_mj.core.cli`. ``merge ...`` joins shard runs."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv[:1] == ["merge"]:
+        return _merge_main(argv[1:])
+    args = _parser().parse_args(argv)
+    try:
+        summary = run_eval(
+            _config(args), args.out, resume=args.resume, progress=not args.no_progress, workers=args.workers,
+            executor="local" if args.ray is None else "ray", ray_address=args.ray or None,
+            shard=None if args.shard is None else parse_shard(args.shard),
+        )
+    except KeyboardInterrupt as exc:
+        code = report_error(exc)
+        print(f"finished lines are in {args.out / 'results.jsonl'}; rerun with --resume", file=sys.stderr)
+        return code
+    except RailError as exc:
+        return report_error(exc)
+    return _print_outcome(summary, args.out)
