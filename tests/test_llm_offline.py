@@ -10,31 +10,22 @@ import pytest
 
 from rail_mj.affordances import LIQUID_RADIUS, PAPER_AFFORDANCES, REGISTRY
 from rail_mj.core.errors import ConfigError, UnknownAffordanceError
+from rail_mj.core.profile import AgentLayout, CandidateInteraction, PoseCandidates, ResultSummary
 from rail_mj.core.results import BasinInfo
 from rail_mj.core.types import Outcomes, StablePose
+from rail_mj.imagination.inputs import agent_setup, layout_offsets, trajectory_array
+from rail_mj.imagination.summary import result_summary
 from rail_mj.llm import (
-    AgentLayout,
-    CandidateInteraction,
     FunctionalPoseRequest,
     ImaginationProfile,
-    PoseCandidates,
-    ResultSummary,
-    agent_setup,
     analyze_functional_poses,
     functional_pose_request,
     generate_profile,
     get_provider,
     known_affordances,
     normalize_affordance,
-    result_summary,
-    trajectory_array,
 )
-from rail_mj.llm.checks import (
-    InvalidAnswerError,
-    check_layout,
-    check_trajectories,
-    layout_offsets,
-)
+from rail_mj.llm.checks import InvalidAnswerError, check_layout, check_trajectories
 from rail_mj.scoring import compile_scoring
 
 
@@ -68,16 +59,17 @@ def test_every_affordance_makes_a_valid_profile_that_scales(name):
         assert len(p.plans.plans) >= 5
         assert [t.plan for t in p.trajectories.trajectories] == [pl.name for pl in p.plans.plans]
         assert ImaginationProfile.model_validate_json(p.model_dump_json()) == p
-        setup = agent_setup(p)
+        setup = agent_setup(p.agent.mjcf, p.layout)
         assert setup.offsets.shape == (p.layout.n_agents, 3)
     kind = REGISTRY[name].kind
-    liquid = REGISTRY[name].droplets.max_radius <= LIQUID_RADIUS  # a drop of water has the same size in any vessel
+    # a drop of water has the same size in any vessel
+    liquid = REGISTRY[name].params.droplets.max_radius <= LIQUID_RADIUS
     grows = kind in ("container", "dish", "surface", "storage") and name not in _AGENT_AT_LEAST_SIZE
     if grows and not liquid:  # seat and bed agents stay human-sized
         assert small.agent.mjcf != large.agent.mjcf
     h_small = np.asarray(small.obb_dims) / 2
-    start_small = trajectory_array(small, h_small)[0][0, :3]
-    start_large = trajectory_array(small, 2 * h_small)[0][0, :3]
+    start_small = trajectory_array(small.trajectories.trajectories, h_small)[0][0, :3]
+    start_large = trajectory_array(small.trajectories.trajectories, 2 * h_small)[0][0, :3]
     assert not np.allclose(start_small, start_large)  # the same profile adapts to the pose's size
 
 
@@ -131,7 +123,7 @@ def test_provider_selection(monkeypatch):
     with pytest.raises(ConfigError, match="valid: auto, offline, anthropic"):
         get_provider("gpt")
     with pytest.raises(ConfigError, match="half_extents"):
-        trajectory_array(generate_profile("cup", [0.1, 0.08, 0.08]), [0.05, -1.0, 0.04])
+        trajectory_array(generate_profile("cup", [0.1, 0.08, 0.08]).trajectories.trajectories, [0.05, -1.0, 0.04])
 
 
 def test_layout_and_trajectory_checks_reject_overlap_and_bad_starts():
@@ -376,7 +368,7 @@ def test_stage_7_request_from_one_batch():
     one = _outcomes(np.random.default_rng(2).uniform(-0.03, 0.03, (27, 3)), h)
     batch = Outcomes(**{f.name: np.repeat(getattr(one, f.name), 2 * n_plans, axis=0)
                         for f in dataclasses.fields(one) if getattr(one, f.name) is not None})
-    trajectories = [trajectory_array(profile, poses[i].half_extents) for i in kept]
+    trajectories = [trajectory_array(profile.trajectories.trajectories, poses[i].half_extents) for i in kept]
     scores = np.full(2 * n_plans, -1.0)
     assert functional_pose_request(profile, poses, kept, batch, scores, trajectories) is None
     scores[n_plans + 1] = 0.3  # one success, in pose 2

@@ -1,8 +1,9 @@
 """What each affordance is: the registry (names, aliases, kind, definition, sizes, pose envelope, paper flag).
 
 The kinds of physics that imagine them live in :mod:`rail_mj.affordances.kinds`,
-which the offline provider imports; this package itself needs no LLM or physics
-module, so the dataset's ground truth can read the names without them.
+which register themselves and their rows' parameter models; the registry imports
+them for those models. This package needs no LLM or simulator module, so the
+dataset's ground truth can read the names without them.
 """
 
 from __future__ import annotations
@@ -14,9 +15,6 @@ from rail_mj.affordances.registry import (
     PAPER_AFFORDANCES,
     PERSON_HEIGHT,
     REGISTRY,
-    Affordance,
-    Droplets,
-    KindName,
     for_request,
     get,
     known_affordances,
@@ -24,6 +22,7 @@ from rail_mj.affordances.registry import (
     normalize,
     request_scale,
 )
+from rail_mj.affordances.row import Affordance, KindParams
 
 __all__ = [
     "ANY",
@@ -35,8 +34,7 @@ __all__ = [
     "PAPER_AFFORDANCES",
     "REGISTRY",
     "Affordance",
-    "Droplets",
-    "KindName",
+    "KindParams",
     "get",
     "known_affordances",
     "label_key",

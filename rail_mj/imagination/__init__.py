@@ -16,10 +16,10 @@ from collections.abc import Sequence
 import numpy as np
 
 from rail_mj.core.errors import ImaginationError
-from rail_mj.imagination.backend import BACKENDS, Backend, Progress, get_backend, resolve_backend
-from rail_mj.imagination.batch import Placement, RolloutBatch, prepare
-from rail_mj.imagination.config import ImaginationConfig
 from rail_mj.core.types import AgentSetup, Outcomes, RailObject, StablePose, StablePoses
+from rail_mj.imagination.backend import BACKENDS, Backend, Progress, get_backend, resolve_backend
+from rail_mj.imagination.batch import Placement, RolloutBatch, pose_plan, prepare, rollout_index
+from rail_mj.imagination.config import ImaginationConfig
 
 __all__ = [
     "BACKENDS",
@@ -29,8 +29,10 @@ __all__ = [
     "RolloutBatch",
     "get_backend",
     "imagine",
+    "pose_plan",
     "prepare",
     "resolve_backend",
+    "rollout_index",
 ]
 
 

@@ -16,13 +16,15 @@ import numpy as np
 
 from rail_mj.core.errors import ImaginationError
 from rail_mj.core.geometry import follow_task_frame, quat_angle, quat_to_angvel, slerp, task_origin, tilt, to_task_frame
+from rail_mj.core.types import AgentSetup, Outcomes, RailObject, StablePose
 from rail_mj.imagination.config import ImaginationConfig
 from rail_mj.mjcf import Scene
-from rail_mj.core.types import AgentSetup, Outcomes, RailObject, StablePose
 
 __all__ = [
     "DriveTable",
     "Placement",
+    "rollout_index",
+    "pose_plan",
     "RolloutBatch",
     "prepare",
     "plan_rows",
@@ -70,6 +72,18 @@ class DriveTable:
 
         return DriveTable(pos=hold(self.pos), quat=hold(self.quat), linvel=rest(self.linvel),
                           angvel=rest(self.angvel), n_drive=self.n_drive)
+
+
+def rollout_index(pose: int, plan: int, n_plans: int) -> int:
+    """The rollout of the ``pose``-th imagined pose and its plan ``plan`` in a pose-major batch of ``n_plans``
+    plans per pose (:meth:`Placement.of`)."""
+    return pose * n_plans + plan
+
+
+def pose_plan(rollout: int, n_plans: int) -> tuple[int, int]:
+    """(imagined pose, plan) of a rollout in a pose-major batch: the inverse of :func:`rollout_index`."""
+    pose, plan = divmod(rollout, n_plans)
+    return pose, plan
 
 
 @dataclass(frozen=True)

@@ -517,6 +517,7 @@ def render_contact_sheet(
 
     from rail_mj import llm
     from rail_mj.imagination import imagine
+    from rail_mj.imagination.inputs import agent_setup, trajectory_array
 
     why = nothing_to_draw(result)
     if why is not None:
@@ -532,8 +533,10 @@ def render_contact_sheet(
     n = len(result.stable_poses)
     plans = [_best_plan(result, i) for i in range(n)]
     poses = [p.to_pose() for p in result.stable_poses]
-    trajectories = [[llm.trajectory_array(profile, p.half_extents, p.basin)[j]] for p, j in zip(poses, plans)]
-    outcomes = imagine(obj, poses, llm.agent_setup(profile), trajectories, backend=result.backend or "native")
+    trajectories = [[trajectory_array(profile.trajectories.trajectories, p.half_extents, p.basin)[j]]
+                    for p, j in zip(poses, plans)]
+    outcomes = imagine(obj, poses, agent_setup(profile.agent.mjcf, profile.layout), trajectories,
+                       backend=result.backend or "native")
 
     tw, th = tile
     size = max(11, tw // 30)
