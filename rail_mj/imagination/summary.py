@@ -2,7 +2,7 @@
 
 The summary's fractions are defined with :class:`rail_mj.core.profile.ResultSummary`
 (:data:`~rail_mj.core.profile.BENEATH_MIDDLE`, :data:`~rail_mj.core.profile.OPEN_SECTOR`,
-which the container kind's rules read too); rollouts are pose-major
+which the container kind's rules read too, both from that module when they run); rollouts are pose-major
 (:func:`rail_mj.imagination.batch.rollout_index`).
 """
 
@@ -12,9 +12,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+import rail_mj.core.profile as profile
 from rail_mj.core.profile import (
-    BENEATH_MIDDLE,
-    OPEN_SECTOR,
     CandidateInteraction,
     MotionPlan,
     PoseCandidates,
@@ -34,7 +33,7 @@ def result_summary(outcomes: Outcomes, b: int) -> ResultSummary:
     q = outcomes.agent_quat[b]
     cos_tilt = np.clip(1.0 - 2.0 * (q[:, 1] ** 2 + q[:, 2] ** 2), -1.0, 1.0)
     rel = pos - outcomes.object_pos[b]  # the object may have slid under the agents' impacts
-    beneath = (rel[:, 0] / h[0]) ** 2 + (rel[:, 1] / h[1]) ** 2 < BENEATH_MIDDLE  # the container's leak test
+    beneath = (rel[:, 0] / h[0]) ** 2 + (rel[:, 1] / h[1]) ** 2 < profile.BENEATH_MIDDLE  # the container's leak test
     return ResultSummary(
         frac_inside_bbox=float(np.mean(np.all(np.abs(pos) < h, axis=1))),
         frac_on_ground=float(np.mean(outcomes.contacts_ground[b] > 0)),
@@ -56,7 +55,7 @@ def _frac_open_side(outcomes: Outcomes, b: int) -> float:
     inside = np.all(np.abs(outcomes.agent_pos[b]) < outcomes.object_half_extents[b], axis=1)
     if not inside.any():
         return 0.0
-    return float(np.mean(outcomes.agent_open_sector[b][inside] >= OPEN_SECTOR))
+    return float(np.mean(outcomes.agent_open_sector[b][inside] >= profile.OPEN_SECTOR))
 
 
 def pose_candidates(

@@ -131,10 +131,10 @@ class Kind(ABC):
 #: Every registered kind by name, one instance each (:func:`register_kind` fills it).
 KINDS: dict[str, Kind] = {}
 
-_K = TypeVar("_K", bound=type[Kind])
+_KindT = TypeVar("_KindT", bound=Kind)
 
 
-def register_kind(cls: _K) -> _K:
+def register_kind(cls: type[_KindT]) -> type[_KindT]:
     """Class decorator: register a concrete kind under its ``name`` (one instance in :data:`KINDS`) and its
     ``params_model`` as the model its rows' params must be. A name registered twice is a ConfigError."""
     if cls.name in KINDS:

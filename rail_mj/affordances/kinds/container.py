@@ -16,6 +16,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import cast
 
+import rail_mj.core.profile as profile
 from rail_mj.affordances.kinds.base import (
     SCORING_HEADER,
     SIDES,
@@ -28,7 +29,6 @@ from rail_mj.affordances.kinds.base import (
 )
 from rail_mj.affordances.row import Affordance, KindParams
 from rail_mj.core.profile import (
-    BENEATH_MIDDLE,
     AgentLayout,
     CandidateInteraction,
     MotionPlan,
@@ -178,7 +178,7 @@ class Container(Kind):
         envelope = aff.envelope.doc()
         # a vessel's height/width upper bound is its rim's, which stage 7 sees (a saucepan's handle rises above it)
         body = _BODY.format(min_frac=0.5, max_tilt=math.radians(15), name=aff.name, envelope=envelope,
-                            object_cond=aff.envelope.source(rim_aspect=True), beneath=BENEATH_MIDDLE)
+                            object_cond=aff.envelope.source(rim_aspect=True), beneath=profile.BENEATH_MIDDLE)
         return ScoringCode(description="Success when more than half the droplets rest inside the object's box "
                                        "below the rim and off the ground, none leaks through to the ground under "
                                        f"the object, the object is upright and its pose has "
