@@ -12,9 +12,10 @@ from rail_mj.dataset.shapes import parts as shape_parts
 from rail_mj.affordances import get
 from rail_mj.affordances.kinds import kind_of
 from rail_mj.affordances.kinds.container import MIN_DEPTH
+from rail_mj.core.profile import CandidateInteraction, ResultSummary
 from rail_mj.core.results import BasinInfo
-from rail_mj.llm import generate_profile, trajectory_array
-from rail_mj.llm.schemas import CandidateInteraction, ResultSummary
+from rail_mj.imagination.inputs import trajectory_array
+from rail_mj.llm import generate_profile
 from rail_mj.mesh import object_from_mesh
 from rail_mj.pipeline.chain import Pipeline, RunConfig
 from rail_mj.stable_poses.poses import pose_from_up
@@ -123,8 +124,8 @@ def test_pours_aim_at_a_saucepans_pan_not_at_its_box_centre_over_the_handle():
     # the pose's yaw may turn the handle to -x or +x: compare lengths and the direction along x
     assert abs(abs(pose.basin.opening[0]) - np.linalg.norm(middle)) < 0.01 and abs(pose.basin.opening[1]) < 0.01
     profile = generate_profile("bowl", [float(v) for v in pan.obb_dims])
-    at_box = trajectory_array(profile, pose.half_extents)
-    at_opening = trajectory_array(profile, pose.half_extents, pose.basin)
+    at_box = trajectory_array(profile.trajectories.trajectories, pose.half_extents)
+    at_opening = trajectory_array(profile.trajectories.trajectories, pose.half_extents, pose.basin)
     for a, b in zip(at_box, at_opening):
         assert np.allclose(b[:, :2] - a[:, :2], pose.basin.opening) and np.allclose(b[:, 2], a[:, 2])
 
@@ -205,11 +206,8 @@ def test_the_enclosure_probe_does_not_leave_through_a_baskets_slots() -> None:
 def test_a_console_on_its_back_holds_water_in_compartments_too_short_for_a_bather() -> None:
     """On its back a TV console's open compartments face up and hold water, 0.5-0.9 m long each: no basin a person
     lies in. A bathtub's one basin is 1.3 m long; the analyser refuses the console's pose and keeps the tub's."""
-    from rail_mj.llm import (
-        FunctionalPoseRequest,
-        PoseCandidates,
-        analyze_functional_poses,
-    )
+    from rail_mj.core.profile import PoseCandidates
+    from rail_mj.llm import FunctionalPoseRequest, analyze_functional_poses
 
     console = object_from_mesh(shapes.console(np.random.default_rng([9, 0])).mesh, name="console")
     lying = pose_from_up(console, np.array([0.0, -1.0, 0.0]), 1.0)  # its open front up

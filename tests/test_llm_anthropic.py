@@ -15,9 +15,9 @@ from messages_server import (
 )
 
 from rail_mj.core.errors import FragmentError, ProviderError, StageError
+from rail_mj.core.profile import AgentLayout
 from rail_mj.core.results import BasinInfo
 from rail_mj.llm import (
-    AgentLayout,
     AgentModel,
     AgentModelRequest,
     AnalyzerRequest,
@@ -165,13 +165,8 @@ def test_missing_key_is_a_config_error(monkeypatch):
 
 
 def test_functional_pose_analyzer_through_the_client(provider_for):
-    from rail_mj.llm import (
-        CandidateInteraction,
-        FunctionalPoseRequest,
-        PoseCandidates,
-        ResultSummary,
-        analyze_functional_poses,
-    )
+    from rail_mj.core.profile import CandidateInteraction, PoseCandidates, ResultSummary
+    from rail_mj.llm import FunctionalPoseRequest, analyze_functional_poses
 
     summary = ResultSummary(frac_inside_bbox=0.9, frac_on_ground=0.0, frac_touching_object=0.8, mean_height=-0.4,
                             object_tilt_deg=1.0, agent_tilt_deg=5.0, agent_speed=0.0)

@@ -9,32 +9,24 @@ import numpy as np
 import pytest
 
 from rail_mj.affordances import LIQUID_RADIUS, PAPER_AFFORDANCES, REGISTRY
+from rail_mj.affordances.kinds import ContainerParams
 from rail_mj.core.errors import ConfigError, UnknownAffordanceError
+from rail_mj.core.profile import AgentLayout, CandidateInteraction, PoseCandidates, ResultSummary
 from rail_mj.core.results import BasinInfo
 from rail_mj.core.types import Outcomes, StablePose
+from rail_mj.imagination.inputs import agent_setup, layout_offsets, trajectory_array
+from rail_mj.imagination.summary import result_summary
 from rail_mj.llm import (
-    AgentLayout,
-    CandidateInteraction,
     FunctionalPoseRequest,
     ImaginationProfile,
-    PoseCandidates,
-    ResultSummary,
-    agent_setup,
     analyze_functional_poses,
     functional_pose_request,
     generate_profile,
     get_provider,
     known_affordances,
     normalize_affordance,
-    result_summary,
-    trajectory_array,
 )
-from rail_mj.llm.checks import (
-    InvalidAnswerError,
-    check_layout,
-    check_trajectories,
-    layout_offsets,
-)
+from rail_mj.llm.checks import InvalidAnswerError, check_layout, check_trajectories
 from rail_mj.scoring import compile_scoring
 
 
@@ -68,16 +60,18 @@ def test_every_affordance_makes_a_valid_profile_that_scales(name):
         assert len(p.plans.plans) >= 5
         assert [t.plan for t in p.trajectories.trajectories] == [pl.name for pl in p.plans.plans]
         assert ImaginationProfile.model_validate_json(p.model_dump_json()) == p
-        setup = agent_setup(p)
+        setup = agent_setup(p.agent.mjcf, p.layout)
         assert setup.offsets.shape == (p.layout.n_agents, 3)
     kind = REGISTRY[name].kind
-    liquid = REGISTRY[name].droplets.max_radius <= LIQUID_RADIUS  # a drop of water has the same size in any vessel
+    # a drop of water has the same size in any vessel
+    params = REGISTRY[name].params  # only a container's rows have droplets (the others never were liquid)
+    liquid = isinstance(params, ContainerParams) and params.droplets.max_radius <= LIQUID_RADIUS
     grows = kind in ("container", "dish", "surface", "storage") and name not in _AGENT_AT_LEAST_SIZE
     if grows and not liquid:  # seat and bed agents stay human-sized
         assert small.agent.mjcf != large.agent.mjcf
     h_small = np.asarray(small.obb_dims) / 2
-    start_small = trajectory_array(small, h_small)[0][0, :3]
-    start_large = trajectory_array(small, 2 * h_small)[0][0, :3]
+    start_small = trajectory_array(small.trajectories.trajectories, h_small)[0][0, :3]
+    start_large = trajectory_array(small.trajectories.trajectories, 2 * h_small)[0][0, :3]
     assert not np.allclose(start_small, start_large)  # the same profile adapts to the pose's size
 
 
@@ -131,7 +125,7 @@ def test_provider_selection(monkeypatch):
     with pytest.raises(ConfigError, match="valid: auto, offline, anthropic"):
         get_provider("gpt")
     with pytest.raises(ConfigError, match="half_extents"):
-        trajectory_array(generate_profile("cup", [0.1, 0.08, 0.08]), [0.05, -1.0, 0.04])
+        trajectory_array(generate_profile("cup", [0.1, 0.08, 0.08]).trajectories.trajectories, [0.05, -1.0, 0.04])
 
 
 def test_layout_and_trajectory_checks_reject_overlap_and_bad_starts():
@@ -354,14 +348,14 @@ def test_plate_pose_with_the_rim_around_the_food_wins():
 
 def test_the_leak_test_is_defined_once_for_the_scoring_and_the_analyser(monkeypatch):
     """result_summary and the container scoring source each wrote their own 0.25 ellipse."""
-    from rail_mj.affordances.kinds import container
+    from rail_mj.core import profile
 
     h, dims = [0.04, 0.04, 0.05], [0.1, 0.08, 0.08]
     pos = np.random.default_rng(0).uniform(-0.03, 0.03, (27, 3))
     pos[0] = [0.7 * h[0], 0.0, -0.045]  # on the ground, 0.7 of the half size off the middle
     out = dataclasses.replace(_outcomes(pos, h), contacts_ground=np.eye(1, 27, dtype=np.int64))
     assert result_summary(out, 0).frac_through_object == 0.0 and _score("cup", dims, out) > 0
-    monkeypatch.setattr(container, "BENEATH_MIDDLE", 0.9**2)  # a wider middle: that droplet came through
+    monkeypatch.setattr(profile, "BENEATH_MIDDLE", 0.9**2)  # a wider middle: that droplet came through
     assert result_summary(out, 0).frac_through_object == pytest.approx(1 / 27)
     assert _score("cup", dims, out) == -1.0
 
@@ -376,7 +370,7 @@ def test_stage_7_request_from_one_batch():
     one = _outcomes(np.random.default_rng(2).uniform(-0.03, 0.03, (27, 3)), h)
     batch = Outcomes(**{f.name: np.repeat(getattr(one, f.name), 2 * n_plans, axis=0)
                         for f in dataclasses.fields(one) if getattr(one, f.name) is not None})
-    trajectories = [trajectory_array(profile, poses[i].half_extents) for i in kept]
+    trajectories = [trajectory_array(profile.trajectories.trajectories, poses[i].half_extents) for i in kept]
     scores = np.full(2 * n_plans, -1.0)
     assert functional_pose_request(profile, poses, kept, batch, scores, trajectories) is None
     scores[n_plans + 1] = 0.3  # one success, in pose 2
@@ -411,9 +405,9 @@ def test_a_bowl_on_its_side_holds_a_puddle_not_a_cup_of_water():
     """A 12 cm bowl tipped on its side keeps droplets in the curve of its wall, a basin 2 cm deep at the bottom of
     a 12 cm pose; upright a cup's water stands up to its rim."""
     pour = _candidate("above", [0.0, 0.0, 0.2])
-    side = PoseCandidates(pose_index=0, probability=0.6, half_extents=[0.062, 0.06, 0.06], 
+    side = PoseCandidates(pose_index=0, probability=0.6, half_extents=[0.062, 0.06, 0.06],
                           basin=BasinInfo(rim=0.02, opening=[0.0, 0.0], length=0.05), candidates=[pour])
-    upright = PoseCandidates(pose_index=1, probability=0.4, half_extents=[0.045, 0.045, 0.05], 
+    upright = PoseCandidates(pose_index=1, probability=0.4, half_extents=[0.045, 0.045, 0.05],
                              basin=BasinInfo(rim=0.1, opening=[0.0, 0.0], length=0.08), candidates=[pour])
     verdict = analyze_functional_poses(FunctionalPoseRequest(affordance="cup", expected_outcome="held",
                                                              poses=[side, upright]))

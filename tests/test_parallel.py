@@ -18,18 +18,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
-
 from eval_procs import CRASHER, GUARD_S, REPO, start_eval, wait_until
 from rail_mj.eval import cli as eval_cli
 from rail_mj.eval import run as rail_eval
 from rail_mj.eval.run import cases_without_timings as _cases
 from rail_mj import llm
 from rail_mj.core.errors import ConfigError
+from rail_mj.core.paths import CACHE_ENV
 from rail_mj.imagination import ImaginationConfig, get_backend, imagine
 from rail_mj.imagination.config import THREADS_ENV
+from rail_mj.imagination.inputs import agent_setup, trajectory_array
 from rail_mj.mesh import load_object
 from rail_mj.pipeline.parallel import largest_first, object_task, plan_workers, run_tasks
-from rail_mj.core.paths import CACHE_ENV
 from rail_mj.pipeline.chain import ObjectInput, RunConfig, classify
 from rail_mj.stable_poses.poses import find_stable_poses
 
@@ -145,8 +145,8 @@ def cup_scene(cache, tmp_path_factory):
     obj = load_object(path)
     poses = find_stable_poses(obj, n_drops=8)
     profile = llm.generate_profile("cup", obj.obb_dims, "offline")
-    agents = llm.agent_setup(profile)
-    return obj, poses, agents, [llm.trajectory_array(profile, p.half_extents) for p in poses]
+    agents = agent_setup(profile.agent.mjcf, profile.layout)
+    return obj, poses, agents, [trajectory_array(profile.trajectories.trajectories, p.half_extents) for p in poses]
 
 
 def test_mujoco_threads_do_not_change_imagination(cup_scene):

@@ -8,16 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from rail_mj.llm import (
-    CandidateInteraction,
-    FunctionalPoseRequest,
-    PoseCandidates,
-    ResultSummary,
-    analyze_functional_poses,
-    generate_profile,
-)
-from rail_mj.scoring import compile_scoring
+from rail_mj.core.profile import CandidateInteraction, PoseCandidates, ResultSummary
 from rail_mj.core.types import Outcomes
+from rail_mj.llm import FunctionalPoseRequest, analyze_functional_poses, generate_profile
+from rail_mj.scoring import compile_scoring
 
 #: An upholstered armchair as it stands: rolled arms and a back make its box 0.91 m wide around a 0.55 m seat.
 ARMCHAIR = [0.455, 0.375, 0.395]

@@ -4,8 +4,9 @@ The rows live in :mod:`rail_mj.affordances.registry`; how a name in words become
 aliases, a request's agent and its scale, the offline request parser) lives in :mod:`rail_mj.affordances.names`.
 
 The kinds of physics that imagine them live in :mod:`rail_mj.affordances.kinds`,
-which the offline provider imports; this package itself needs no LLM or physics
-module, so the dataset's ground truth can read the names without them.
+which register themselves and their rows' parameter models; the registry imports
+them for those models. This package needs no LLM or simulator module, so the
+dataset's ground truth can read the names without them.
 """
 
 from __future__ import annotations
@@ -18,11 +19,9 @@ from rail_mj.affordances.registry import (
     PAPER_AFFORDANCES,
     PERSON_HEIGHT,
     REGISTRY,
-    Affordance,
-    Droplets,
-    KindName,
     known_affordances,
 )
+from rail_mj.affordances.row import Affordance, KindParams
 
 __all__ = [
     "ANY",
@@ -34,8 +33,7 @@ __all__ = [
     "PAPER_AFFORDANCES",
     "REGISTRY",
     "Affordance",
-    "Droplets",
-    "KindName",
+    "KindParams",
     "get",
     "known_affordances",
     "label_key",

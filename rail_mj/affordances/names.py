@@ -16,7 +16,8 @@ import re
 from dataclasses import dataclass
 from typing import Literal
 
-from rail_mj.affordances.registry import FIGURE_HEIGHTS, PERSON_HEIGHT, REGISTRY, Affordance, known_affordances
+from rail_mj.affordances.registry import FIGURE_HEIGHTS, PERSON_HEIGHT, REGISTRY, known_affordances
+from rail_mj.affordances.row import Affordance
 from rail_mj.core.errors import ConfigError, UnknownAffordanceError
 
 __all__ = [

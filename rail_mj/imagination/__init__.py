@@ -18,7 +18,7 @@ import numpy as np
 from rail_mj.core.errors import ImaginationError
 from rail_mj.core.types import AgentSetup, Outcomes, RailObject, StablePose, StablePoses
 from rail_mj.imagination.backend import Backend, Progress
-from rail_mj.imagination.batch import Placement, RolloutBatch, prepare
+from rail_mj.imagination.batch import Placement, RolloutBatch, pose_plan, prepare, rollout_index
 from rail_mj.imagination.config import ImaginationConfig
 from rail_mj.imagination.registry import BACKENDS, get_backend, resolve_backend
 
@@ -30,8 +30,10 @@ __all__ = [
     "RolloutBatch",
     "get_backend",
     "imagine",
+    "pose_plan",
     "prepare",
     "resolve_backend",
+    "rollout_index",
 ]
 
 

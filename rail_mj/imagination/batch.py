@@ -23,6 +23,8 @@ from rail_mj.mjcf import Scene
 __all__ = [
     "DriveTable",
     "Placement",
+    "rollout_index",
+    "pose_plan",
     "RolloutBatch",
     "prepare",
     "plan_rows",
@@ -70,6 +72,18 @@ class DriveTable:
 
         return DriveTable(pos=hold(self.pos), quat=hold(self.quat), linvel=rest(self.linvel),
                           angvel=rest(self.angvel), n_drive=self.n_drive)
+
+
+def rollout_index(pose: int, plan: int, n_plans: int) -> int:
+    """The rollout of the ``pose``-th imagined pose and its plan ``plan`` in a pose-major batch of ``n_plans``
+    plans per pose (:meth:`Placement.of`)."""
+    return pose * n_plans + plan
+
+
+def pose_plan(rollout: int, n_plans: int) -> tuple[int, int]:
+    """(imagined pose, plan) of a rollout in a pose-major batch: the inverse of :func:`rollout_index`."""
+    pose, plan = divmod(rollout, n_plans)
+    return pose, plan
 
 
 @dataclass(frozen=True)

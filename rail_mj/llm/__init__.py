@@ -1,4 +1,8 @@
-"""The LLM stages: typed schemas, prompts, providers (offline library, Anthropic), response cache."""
+"""The LLM stages: typed stage schemas, prompts, providers (offline library, Anthropic), response cache.
+
+The profile's neutral types (plans, via-poses, layout, scoring source, rollout summaries) are
+:mod:`rail_mj.core.profile`'s; what the simulator takes from a profile is :mod:`rail_mj.imagination.inputs`.
+"""
 
 from __future__ import annotations
 
@@ -9,33 +13,24 @@ from rail_mj.llm.prompts import PROMPT_VERSION
 from rail_mj.llm.providers import OfflineProvider, Provider, ProviderConfig, get_provider
 from rail_mj.llm.schemas import (
     AffordanceAnalysis,
-    AgentLayout,
     AgentModel,
     AgentModelRequest,
     AnalyzerRequest,
-    CandidateInteraction,
     FunctionalPoseRequest,
     FunctionalPoseVerdict,
     ImaginationProfile,
     LayoutRequest,
-    MotionPlan,
     MotionPlans,
     PlannerRequest,
-    PlanTrajectory,
-    PoseCandidates,
     PoseVerdict,
     Request,
     RequestText,
-    ResultSummary,
-    ScoringCode,
     ScoringRequest,
     TaskDescription,
-    TrajectoryRequest,
     Trajectories,
-    ViaPose,
+    TrajectoryRequest,
 )
 from rail_mj.llm.stages import (
-    agent_setup,
     analyze_affordance,
     analyze_functional_poses,
     functional_pose_request,
@@ -46,46 +41,35 @@ from rail_mj.llm.stages import (
     generate_trajectories,
     parse_request_text,
     plan_motions,
-    result_summary,
     task_description,
     task_profile,
-    trajectory_array,
 )
 
 __all__ = [
     "AffordanceAnalysis",
-    "AgentLayout",
     "AgentModel",
     "AgentModelRequest",
     "AnalyzerRequest",
     "AnthropicConfig",
     "AnthropicProvider",
-    "CandidateInteraction",
     "FunctionalPoseRequest",
     "FunctionalPoseVerdict",
     "ImaginationProfile",
     "InvalidAnswerError",
     "LayoutRequest",
-    "MotionPlan",
     "MotionPlans",
     "OfflineProvider",
     "PROMPT_VERSION",
-    "PlanTrajectory",
     "PlannerRequest",
-    "PoseCandidates",
     "PoseVerdict",
     "Provider",
     "Request",
     "RequestText",
     "ProviderConfig",
-    "ResultSummary",
-    "ScoringCode",
     "ScoringRequest",
     "TaskDescription",
     "TrajectoryRequest",
     "Trajectories",
-    "ViaPose",
-    "agent_setup",
     "analyze_affordance",
     "analyze_functional_poses",
     "functional_pose_request",
@@ -99,8 +83,6 @@ __all__ = [
     "normalize_affordance",
     "parse_request_text",
     "plan_motions",
-    "result_summary",
     "task_description",
     "task_profile",
-    "trajectory_array",
 ]

@@ -13,19 +13,20 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from rail_mj.core.errors import LLMError
+from rail_mj.core.errors import LLMError, ScoringRuntimeError
+from rail_mj.core.profile import AgentLayout, ScoringCode
+from rail_mj.imagination.inputs import via_positions
 from rail_mj.llm.schemas import (
     AffordanceAnalysis,
-    AgentLayout,
     AgentModel,
     FunctionalPoseRequest,
     FunctionalPoseVerdict,
     MotionPlans,
-    ScoringCode,
     ScoringRequest,
     TaskDescription,
     Trajectories,
 )
+from rail_mj.mjcf import check_fragment
 
 __all__ = [
     "InvalidAnswerError",
@@ -33,9 +34,7 @@ __all__ = [
     "agent_geometry",
     "check_analysis",
     "check_agent",
-    "layout_offsets",
     "check_layout",
-    "via_positions",
     "candidate_half_extents",
     "check_trajectories",
     "check_scoring",
@@ -68,8 +67,6 @@ class AgentGeometry:
 
 def agent_geometry(agent: AgentModel) -> AgentGeometry:
     """Validate the fragment (``rail_mj.mjcf.check_fragment``) and measure its bounding radius and mass."""
-    from rail_mj.mjcf import check_fragment  # imported when first needed: the scene module pulls in more
-
     model = check_fragment(agent.mjcf).compile()
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
@@ -106,16 +103,6 @@ def check_agent(agent: AgentModel, task: TaskDescription) -> AgentGeometry:
     return geometry
 
 
-def layout_offsets(layout: AgentLayout) -> np.ndarray:
-    """Agent positions (N, 3) about the layout centre, x fastest."""
-    axes = [
-        (np.arange(n) - (n - 1) / 2.0) * s
-        for n, s in ((layout.nx, layout.sx), (layout.ny, layout.sy), (layout.nz, layout.sz))
-    ]
-    z, y, x = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
-    return np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
-
-
 def check_layout(layout: AgentLayout, radius: float) -> None:
     """Neighbouring agents must not overlap: spacing ≥ agent diameter on every axis with more than one agent."""
     tight = [
@@ -125,19 +112,6 @@ def check_layout(layout: AgentLayout, radius: float) -> None:
     ]
     if tight:
         raise InvalidAnswerError(f"agents overlap along {', '.join(tight)}; make the spacing at least the diameter")
-
-
-def via_positions(trajectory_via: list, half_extents: np.ndarray,
-                  opening: np.ndarray | None = None) -> np.ndarray:
-    """Positions (K, 3) in metres of via-poses for the half extents ``h`` of one pose and its ``opening`` (x, y
-    of its basin from the box centre, m; None without one)."""
-    rel = np.array([v.rel for v in trajectory_via], dtype=float)
-    off = np.array([v.offset_m for v in trajectory_via], dtype=float)
-    pos = rel * np.asarray(half_extents, dtype=float) + off
-    if opening is not None:
-        at_opening = np.array([v.anchor == "opening" for v in trajectory_via])
-        pos[at_opening, :2] += np.asarray(opening, dtype=float)
-    return pos
 
 
 def candidate_half_extents(obb_dims: list[float]) -> list[np.ndarray]:
@@ -199,7 +173,6 @@ def check_scoring(scoring: ScoringCode, request: ScoringRequest) -> None:
     The batch (:func:`rail_mj.scoring.probe_outcomes`) has the request's number of agents and plans over
     every axis-aligned orientation of its object's box; the code must return one finite score per rollout.
     """
-    from rail_mj.core.errors import ScoringRuntimeError
     from rail_mj.scoring import WorkerStartError, compile_scoring, probe_outcomes
 
     score = compile_scoring(scoring.source)

@@ -11,28 +11,33 @@ prompts' few-shot examples.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
-# the kinds module, not its names: the kind files import rail_mj.llm.schemas, whose package imports this module
-from rail_mj.affordances import REGISTRY, Affordance, get, known_affordances, kinds
+from pydantic import BaseModel
+
+from rail_mj.affordances import REGISTRY, Affordance, get, kinds, known_affordances
 from rail_mj.affordances import normalize as normalize_affordance
 from rail_mj.affordances.names import parse_words
-from rail_mj.core.errors import UnknownAffordanceError
+from rail_mj.core.errors import ConfigError, UnknownAffordanceError
+from rail_mj.core.profile import AgentLayout, CandidateInteraction, PlanTrajectory, ScoringCode
 from rail_mj.llm.schemas import (
     AffordanceAnalysis,
-    AgentLayout,
     AgentModel,
-    CandidateInteraction,
+    AgentModelRequest,
+    AnalyzerRequest,
     FunctionalPoseRequest,
     FunctionalPoseVerdict,
+    LayoutRequest,
     MotionPlans,
-    PlanTrajectory,
+    PlannerRequest,
     PoseVerdict,
     Request,
     RequestText,
-    ScoringCode,
+    ScoringRequest,
     TaskDescription,
     Trajectories,
+    TrajectoryRequest,
 )
 
 __all__ = [
@@ -46,6 +51,8 @@ __all__ = [
     "offline_scoring",
     "offline_functional_poses",
     "offline_request",
+    "ANSWERS",
+    "answer",
 ]
 
 
@@ -182,3 +189,24 @@ def offline_request(request: RequestText) -> Request:
     """The request parser by rules (:func:`rail_mj.affordances.names.parse_words`)."""
     words = parse_words(request.text)
     return Request(text=request.text, agent=words.agent, affordance=words.affordance, preposition=words.preposition)
+
+
+#: The offline answer to each request type (looked up by name when called, so a patched function answers).
+ANSWERS: dict[type[BaseModel], Callable[[Any], BaseModel]] = {
+    AnalyzerRequest: lambda r: offline_analysis(r.task),
+    AgentModelRequest: lambda r: offline_agent(r.task),
+    LayoutRequest: lambda r: offline_layout(r.task),
+    PlannerRequest: lambda r: offline_plans(r.task),
+    TrajectoryRequest: lambda r: offline_trajectories(r.task, r.layout),
+    ScoringRequest: lambda r: offline_scoring(r.task),
+    FunctionalPoseRequest: lambda r: offline_functional_poses(r),
+    RequestText: lambda r: offline_request(r),
+}
+
+
+def answer(request: BaseModel) -> BaseModel:
+    """The offline library's answer to a stage request (:data:`ANSWERS`); ConfigError for any other request."""
+    handler = next((ANSWERS[t] for t in type(request).__mro__ if t in ANSWERS), None)
+    if handler is None:
+        raise ConfigError(f"the offline provider has no answer for a {type(request).__name__}")
+    return handler(request)

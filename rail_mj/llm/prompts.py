@@ -11,7 +11,8 @@ from functools import cache
 
 from pydantic import BaseModel
 
-from rail_mj.llm import offline
+import rail_mj.llm.offline as offline
+from rail_mj.core.types import SCORING_ARGS
 from rail_mj.llm.schemas import (
     AffordanceAnalysis,
     AgentLayout,
@@ -27,10 +28,9 @@ from rail_mj.llm.schemas import (
     ScoringCode,
     ScoringRequest,
     TaskDescription,
-    TrajectoryRequest,
     Trajectories,
+    TrajectoryRequest,
 )
-from rail_mj.core.types import SCORING_ARGS
 
 __all__ = ["StageSpec", "PROMPT_VERSION", "STAGES", "system_prompt", "user_prompt", "repair_prompt"]
 

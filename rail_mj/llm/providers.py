@@ -6,19 +6,9 @@ import os
 from dataclasses import fields
 from typing import Any
 
+import rail_mj.llm.offline as offline
 from rail_mj.core.errors import ConfigError, StageError
-from rail_mj.llm import offline
 from rail_mj.llm.provider_base import REJECTIONS, Provider, ProviderConfig
-from rail_mj.llm.schemas import (
-    AgentModelRequest,
-    AnalyzerRequest,
-    FunctionalPoseRequest,
-    LayoutRequest,
-    PlannerRequest,
-    RequestText,
-    ScoringRequest,
-    TrajectoryRequest,
-)
 
 __all__ = ["Provider", "ProviderConfig", "OfflineProvider", "PROVIDERS", "get_provider", "REJECTIONS"]
 
@@ -46,24 +36,7 @@ class OfflineProvider(Provider):
         return "offline-library"
 
     def answer(self, stage, request, check):
-        if isinstance(request, AnalyzerRequest):
-            result = offline.offline_analysis(request.task)
-        elif isinstance(request, AgentModelRequest):
-            result = offline.offline_agent(request.task)
-        elif isinstance(request, LayoutRequest):
-            result = offline.offline_layout(request.task)
-        elif isinstance(request, PlannerRequest):
-            result = offline.offline_plans(request.task)
-        elif isinstance(request, TrajectoryRequest):
-            result = offline.offline_trajectories(request.task, request.layout)
-        elif isinstance(request, ScoringRequest):
-            result = offline.offline_scoring(request.task)
-        elif isinstance(request, FunctionalPoseRequest):
-            result = offline.offline_functional_poses(request)
-        elif isinstance(request, RequestText):
-            result = offline.offline_request(request)
-        else:
-            raise ConfigError(f"the offline provider has no answer for a {type(request).__name__}")
+        result = offline.answer(request)
         try:
             check(result)
         except REJECTIONS as exc:

@@ -5,7 +5,7 @@ the provider carries its settings (retries, cache, model), fixed when it is
 made. :func:`task_description` resolves the affordance name once, through the
 provider; :func:`task_profile` chains stages 1–6 into an
 :class:`ImaginationProfile` and :func:`generate_profile` does both. Stage 7's
-request is built from the rollouts here too (:func:`functional_pose_request`).
+request wraps the rollouts' pose candidates (:func:`functional_pose_request`).
 """
 
 from __future__ import annotations
@@ -16,6 +16,10 @@ from typing import Any
 import numpy as np
 
 from rail_mj.core.errors import ConfigError, UnknownAffordanceError
+from rail_mj.core.profile import AgentLayout, ScoringCode
+from rail_mj.core.types import Outcomes, StablePose
+from rail_mj.imagination.inputs import layout_offsets
+from rail_mj.imagination.summary import pose_candidates
 from rail_mj.llm.checks import (
     InvalidAnswerError,
     agent_geometry,
@@ -26,37 +30,27 @@ from rail_mj.llm.checks import (
     check_scoring,
     check_trajectories,
     check_verdict,
-    layout_offsets,
-    via_positions,
 )
 from rail_mj.llm.prompts import PROMPT_VERSION, STAGES
 from rail_mj.llm.providers import Provider, get_provider
 from rail_mj.llm.schemas import (
     AffordanceAnalysis,
-    AgentLayout,
     AgentModel,
     AgentModelRequest,
     AnalyzerRequest,
-    CandidateInteraction,
     FunctionalPoseRequest,
     FunctionalPoseVerdict,
     ImaginationProfile,
     LayoutRequest,
     MotionPlans,
     PlannerRequest,
-    PlanTrajectory,
-    PoseCandidates,
     Request,
     RequestText,
-    ResultSummary,
-    ScoringCode,
     ScoringRequest,
     TaskDescription,
-    TrajectoryRequest,
     Trajectories,
+    TrajectoryRequest,
 )
-from rail_mj.core.results import BasinInfo
-from rail_mj.core.types import AgentSetup, Basin, Outcomes, StablePose
 
 __all__ = [
     "analyze_affordance",
@@ -69,9 +63,6 @@ __all__ = [
     "task_description",
     "task_profile",
     "generate_profile",
-    "trajectory_array",
-    "agent_setup",
-    "result_summary",
     "functional_pose_request",
     "parse_request_text",
 ]
@@ -228,72 +219,6 @@ def generate_profile(
     return task_profile(task_description(affordance, obb_dims, prov), prov, half_extents=half_extents)
 
 
-def trajectory_array(profile_or_traj: ImaginationProfile | Trajectories | PlanTrajectory,
-                     half_extents: Sequence[float] | np.ndarray,
-                     basin: Basin | None = None) -> list[np.ndarray]:
-    """Via-poses per plan as (K, 7) arrays (task-frame position xyz, quat wxyz) for one pose's ``h`` and
-    ``basin`` (:attr:`rail_mj.core.types.StablePose.basin`: where pours anchored at the opening aim)."""
-    h = np.asarray(half_extents, dtype=float)
-    if h.shape != (3,) or not np.all(np.isfinite(h)) or np.any(h <= 0):
-        raise ConfigError(f"half_extents must be three positive finite values; got {h.tolist()}")
-    if isinstance(profile_or_traj, ImaginationProfile):
-        trajs = profile_or_traj.trajectories.trajectories
-    elif isinstance(profile_or_traj, Trajectories):
-        trajs = profile_or_traj.trajectories
-    else:
-        trajs = [profile_or_traj]
-    out = []
-    for t in trajs:
-        quat = np.array([v.quat for v in t.via_poses], dtype=float)
-        quat /= np.linalg.norm(quat, axis=1, keepdims=True)
-        opening = None if basin is None else basin.opening
-        out.append(np.concatenate([via_positions(t.via_poses, h, opening), quat], axis=1))
-    return out
-
-
-def agent_setup(profile: ImaginationProfile) -> AgentSetup:
-    """The agent fragment and grid offsets the imagination needs."""
-    return AgentSetup(fragment=profile.agent.mjcf, offsets=layout_offsets(profile.layout),
-                      collide_agents=profile.layout.collide_agents)
-
-
-def result_summary(outcomes: Outcomes, b: int) -> ResultSummary:
-    """Summary of rollout ``b`` for the Functional Pose Analyzer."""
-    # here, not at module level: the kinds import rail_mj.llm.schemas, whose package imports this module
-    from rail_mj.affordances.kinds.container import BENEATH_MIDDLE
-
-    h = outcomes.object_half_extents[b]
-    pos = outcomes.agent_pos[b]
-    q = outcomes.agent_quat[b]
-    cos_tilt = np.clip(1.0 - 2.0 * (q[:, 1] ** 2 + q[:, 2] ** 2), -1.0, 1.0)
-    rel = pos - outcomes.object_pos[b]  # the object may have slid under the agents' impacts
-    beneath = (rel[:, 0] / h[0]) ** 2 + (rel[:, 1] / h[1]) ** 2 < BENEATH_MIDDLE  # the container's leak test
-    return ResultSummary(
-        frac_inside_bbox=float(np.mean(np.all(np.abs(pos) < h, axis=1))),
-        frac_on_ground=float(np.mean(outcomes.contacts_ground[b] > 0)),
-        frac_touching_object=float(np.mean(outcomes.contacts_object[b] > 0)),
-        mean_height=float(np.mean(pos[:, 2]) / h[2]),
-        object_tilt_deg=float(np.degrees(outcomes.object_tilt[b])),
-        agent_tilt_deg=float(np.mean(np.degrees(np.arccos(cos_tilt)))),
-        agent_speed=float(np.mean(np.linalg.norm(outcomes.agent_vel[b], axis=1))),
-        frac_through_object=float(np.mean(beneath & (outcomes.contacts_ground[b] > 0))),
-        frac_beneath_middle=float(np.mean(beneath)),
-        frac_open_side=_frac_open_side(outcomes, b),
-    )
-
-
-def _frac_open_side(outcomes: Outcomes, b: int) -> float:
-    """Of the agents inside the box, the fraction whose enclosure probe found an open sector; 0 without a probe."""
-    from rail_mj.affordances.kinds.container import OPEN_SECTOR  # as in result_summary
-
-    if outcomes.agent_open_sector is None:
-        return 0.0
-    inside = np.all(np.abs(outcomes.agent_pos[b]) < outcomes.object_half_extents[b], axis=1)
-    if not inside.any():
-        return 0.0
-    return float(np.mean(outcomes.agent_open_sector[b][inside] >= OPEN_SECTOR))
-
-
 def functional_pose_request(
     profile: ImaginationProfile,
     poses: Sequence[StablePose],
@@ -304,39 +229,13 @@ def functional_pose_request(
 ) -> FunctionalPoseRequest | None:
     """Stage 7's request from one batched imagination; None when no plan scored above 0 in any pose.
 
-    ``kept`` are the indices into ``poses`` that were imagined, in batch order (rollout
-    ``k * n_plans + j`` is pose ``kept[k]``, plan ``j``); ``scores`` (B,) and ``trajectories``
-    (per kept pose, per plan, (K, 7)) come from the same batch. A pose is put to the analyser
-    only with a candidate; its failed plans go along as evidence.
+    The poses and their candidates are :func:`rail_mj.imagination.summary.pose_candidates` of the
+    profile's plans (``kept``, ``scores`` and ``trajectories`` as there).
     """
-    n_plans = len(profile.plans.plans)
-    pose_candidates = []
-    for k, i in enumerate(kept):
-        if not np.any(scores[k * n_plans : (k + 1) * n_plans] > 0):
-            continue
-        tried = [
-            CandidateInteraction(
-                plan=plan.name,
-                description=plan.description,
-                via_poses=trajectories[k][j][:, :3].tolist(),
-                score=float(scores[k * n_plans + j]),
-                summary=result_summary(outcomes, k * n_plans + j),
-            )
-            for j, plan in enumerate(profile.plans.plans)
-        ]
-        pose_candidates.append(
-            PoseCandidates(
-                pose_index=i,
-                probability=float(poses[i].probability),
-                half_extents=[float(v) for v in poses[i].half_extents],
-                basin=BasinInfo.of(poses[i].basin),
-                candidates=[c for c in tried if c.score > 0],
-                failed=[c for c in tried if c.score <= 0],
-            )
-        )
-    if not pose_candidates:
+    poses_with_candidates = pose_candidates(profile.plans.plans, poses, kept, outcomes, scores, trajectories)
+    if not poses_with_candidates:
         return None
     return FunctionalPoseRequest(
-        affordance=profile.affordance, expected_outcome=profile.analysis.expected_outcome, poses=pose_candidates,
+        affordance=profile.affordance, expected_outcome=profile.analysis.expected_outcome, poses=poses_with_candidates,
         scale=profile.scale,
     )

@@ -20,13 +20,14 @@ from pydantic import BaseModel, ConfigDict, Field
 from rail_mj import llm
 from rail_mj.affordances import request_scale
 from rail_mj.core.errors import ConfigError, RailError
-from rail_mj.imagination import imagine, resolve_backend
+from rail_mj.core.results import AffordanceResult, PlanInfo, PoseInfo
+from rail_mj.core.types import RailObject, StablePoses
+from rail_mj.imagination import imagine, pose_plan, resolve_backend, rollout_index
+from rail_mj.imagination.inputs import agent_setup, trajectory_array
 from rail_mj.llm.schemas import ImaginationProfile
 from rail_mj.mesh import load_object, mesh_notes
-from rail_mj.core.results import AffordanceResult, PlanInfo, PoseInfo
 from rail_mj.scoring import ScoringFunction, compile_scoring
 from rail_mj.stable_poses.poses import find_stable_poses, pose_from_up
-from rail_mj.core.types import RailObject, StablePoses
 
 __all__ = ["PoseMode", "RunConfig", "ObjectInput", "Pipeline", "classify", "as_placed_pose"]
 
@@ -177,9 +178,10 @@ class Pipeline:
             result.timings = timings
             return result
 
-        agents = llm.agent_setup(profile)
+        agents = agent_setup(profile.agent.mjcf, profile.layout)
         result.agent_offsets = agents.offsets.tolist()
-        trajectories = [llm.trajectory_array(profile, poses[i].half_extents, poses[i].basin) for i in kept]
+        trajectories = [trajectory_array(profile.trajectories.trajectories, poses[i].half_extents, poses[i].basin)
+                        for i in kept]
         t = time.perf_counter()
         outcomes = imagine(obj, [poses[i] for i in kept], agents, trajectories, backend=self.backend)
         timings["imagination"] = time.perf_counter() - t
@@ -194,10 +196,10 @@ class Pipeline:
 
         # Without the analyser: the best-scoring successful rollout decides (Table 2 ablation).
         best_b = int(np.argmax(scores))
-        result.evidence_pose = kept[best_b // n_plans]
+        result.evidence_pose = kept[pose_plan(best_b, n_plans)[0]]
         result.evidence_agent_pos = outcomes.agent_pos[best_b].tolist()
         if scores[best_b] > 0:
-            result.pose_without_analyzer = pose_infos[kept[best_b // n_plans]]
+            result.pose_without_analyzer = pose_infos[kept[pose_plan(best_b, n_plans)[0]]]
 
         t = time.perf_counter()
         verdict = self._analyse(profile, poses, kept, outcomes, scores, trajectories)
@@ -210,7 +212,7 @@ class Pipeline:
         if verdict.best_pose is None or verdict.best_plan is None:
             return result
         plan_idx = result.plans.index(verdict.best_plan)
-        b = kept.index(verdict.best_pose) * n_plans + plan_idx
+        b = rollout_index(kept.index(verdict.best_pose), plan_idx, n_plans)
         plan = profile.plans.plans[plan_idx]
         result.functional = True
         result.functional_pose = pose_infos[verdict.best_pose]

@@ -26,6 +26,7 @@ from rail_mj.core.errors import RailError
 from rail_mj.core.results import AffordanceResult
 from rail_mj.core.types import RailObject
 from rail_mj.imagination import imagine
+from rail_mj.imagination.inputs import agent_setup, trajectory_array
 from rail_mj.mesh import load_object
 from rail_mj.render.captions import (
     _CAPTION_BG,
@@ -126,8 +127,10 @@ def render_contact_sheet(
     n = len(result.stable_poses)
     plans = [_best_plan(result, i) for i in range(n)]
     poses = [p.to_pose() for p in result.stable_poses]
-    trajectories = [[llm.trajectory_array(profile, p.half_extents, p.basin)[j]] for p, j in zip(poses, plans)]
-    outcomes = imagine(obj, poses, llm.agent_setup(profile), trajectories, backend=result.backend or "native")
+    trajectories = [[trajectory_array(profile.trajectories.trajectories, p.half_extents, p.basin)[j]]
+                    for p, j in zip(poses, plans)]
+    outcomes = imagine(obj, poses, agent_setup(profile.agent.mjcf, profile.layout), trajectories,
+                       backend=result.backend or "native")
 
     tw, th = tile
     size = max(11, tw // 30)

@@ -1,11 +1,15 @@
-"""The Kind protocol: the physics one kind of affordance is imagined with, for every row of that kind.
+"""The Kind protocol and the kinds' registry: the physics one kind of affordance is imagined with.
 
 A kind answers the offline provider's stages for an affordance of its kind:
 the agent (stage 2) and its layout (3), the plans (4) and their via-poses (5),
 the scoring source (6), and the Functional Pose Analyzer's rules (7) for one
 candidate and for a pose's candidates together. Everything scales with the
 object's OBB dims. Directions (task frame): front = +x, back = −x, left = +y,
-right = −y. Via-poses are ``rel * h + offset_m`` (see :mod:`rail_mj.llm.schemas`).
+right = −y. Via-poses are ``rel * h + offset_m`` (see :mod:`rail_mj.core.profile`).
+
+A kind is a plugin: a :class:`Kind` subclass decorated with :func:`register_kind`
+joins :data:`KINDS` and its parameter model (``params_model``, the fields its rows
+alone have) becomes the one its rows' ``params`` must be (docs/new_affordance.md).
 """
 
 from __future__ import annotations
@@ -14,10 +18,11 @@ import math
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import ClassVar, TypeVar
 
-from rail_mj.affordances.registry import Affordance, KindName
-from rail_mj.llm.schemas import AgentLayout, CandidateInteraction, MotionPlan, PoseCandidates, ScoringCode, ViaPose
+from rail_mj.affordances.row import KIND_PARAMS, Affordance, KindParams
+from rail_mj.core.errors import ConfigError
+from rail_mj.core.profile import AgentLayout, CandidateInteraction, MotionPlan, PoseCandidates, ScoringCode, ViaPose
 
 __all__ = [
     "SIDES",
@@ -25,6 +30,9 @@ __all__ = [
     "MAX_OBJECT_TILT_DEG",
     "AgentShape",
     "Kind",
+    "KINDS",
+    "register_kind",
+    "kind_of",
     "box_agent",
     "via",
     "side_offset",
@@ -60,9 +68,11 @@ class AgentShape:
 
 
 class Kind(ABC):
-    """One kind of imagined physics. Instances hold no state; :data:`rail_mj.affordances.kinds.KINDS` has one each."""
+    """One kind of imagined physics. Instances hold no state; :data:`KINDS` has one of each registered kind."""
 
-    name: ClassVar[KindName]
+    name: ClassVar[str]
+    #: The kind's own parameters of a row (Affordance.params); KindParams itself for a kind without any.
+    params_model: ClassVar[type[KindParams]] = KindParams
     #: Stage 1's outline of the imagination; ``expected_outcome`` takes ``{name}``, the affordance's name.
     agent_description: ClassVar[str]
     interaction_description: ClassVar[str]
@@ -116,6 +126,27 @@ class Kind(ABC):
         """First key in choosing the best pose (half extents ``h``), before the number of accepted plans; 0 unless
         a kind cares."""
         return 0
+
+
+#: Every registered kind by name, one instance each (:func:`register_kind` fills it).
+KINDS: dict[str, Kind] = {}
+
+_KindT = TypeVar("_KindT", bound=Kind)
+
+
+def register_kind(cls: type[_KindT]) -> type[_KindT]:
+    """Class decorator: register a concrete kind under its ``name`` (one instance in :data:`KINDS`) and its
+    ``params_model`` as the model its rows' params must be. A name registered twice is a ConfigError."""
+    if cls.name in KINDS:
+        raise ConfigError(f"kind {cls.name!r} is already registered ({type(KINDS[cls.name]).__qualname__})")
+    KINDS[cls.name] = cls()
+    KIND_PARAMS[cls.name] = cls.params_model
+    return cls
+
+
+def kind_of(aff: Affordance) -> Kind:
+    """The kind that imagines a registry row."""
+    return KINDS[aff.kind]
 
 
 def box_agent(label: str, half: tuple[float, float, float]) -> AgentShape:

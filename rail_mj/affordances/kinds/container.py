@@ -5,32 +5,65 @@ none came through the object, and the object stays upright. The analyser also
 asks that they sit in a cavity: their mean centre at least :data:`MIN_DEPTH` of
 the box height below the rim, and walls all round most of them (the enclosure
 probe's horizontal rays meet the object every way but in sectors narrower than
-:data:`OPEN_SECTOR` directions).
+:data:`~rail_mj.core.profile.OPEN_SECTOR` directions). A row's :class:`ContainerParams`
+size its droplets and say whether it holds water.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from typing import cast
 
+import rail_mj.core.profile as profile
 from rail_mj.affordances.kinds.base import (
     SCORING_HEADER,
     SIDES,
     AgentShape,
     Kind,
     clearance,
+    register_kind,
     side_offset,
     via,
 )
-from rail_mj.affordances.registry import Affordance
-from rail_mj.llm.schemas import AgentLayout, CandidateInteraction, MotionPlan, PoseCandidates, ScoringCode, ViaPose
+from rail_mj.affordances.row import Affordance, KindParams
+from rail_mj.core.profile import (
+    AgentLayout,
+    CandidateInteraction,
+    MotionPlan,
+    PoseCandidates,
+    ScoringCode,
+    ViaPose,
+)
 
-__all__ = ["BENEATH_MIDDLE", "MIN_DEPTH", "OPEN_SECTOR", "MAX_OPEN", "Container"]
+__all__ = ["MIN_DEPTH", "MAX_OPEN", "Droplets", "ContainerParams", "Container"]
 
-#: A point on the ground is beneath the object's middle when (x/h_x)^2 + (y/h_y)^2 is below this (an ellipse
-#: half the footprint's size): a droplet resting there came through the object, so it leaks. The scoring source
-#: (run in the sandbox, so it cannot import this) has it formatted in; stage 7's ``frac_through_object`` reads it.
-BENEATH_MIDDLE = 0.25
+
+@dataclass(frozen=True)
+class Droplets:
+    """Sizing of a container's droplet agents: radius = ``scale`` × the middle OBB dim, clipped to
+    [``min_radius``, ``max_radius``] m; at the default scale the 3x3x3 grid spans ~30% of that dim."""
+
+    scale: float = 0.045
+    min_radius: float = 0.004
+    max_radius: float = 0.05
+
+
+@dataclass(frozen=True)
+class ContainerParams(KindParams):
+    """A container row's own fields: its droplets, and whether it holds water."""
+
+    droplets: Droplets = Droplets()
+    #: it holds liquid, so a pose has a basin on the spill map (water poured in stays; an upturned desk's knee
+    #: hole, walled but for its open front, lets it run out), at least ``basin_length`` (m) long at its spill level
+    holds_water: bool = False
+    basin_length: float = 0.0
+
+    def scaled(self, factor: float) -> ContainerParams:
+        """The basin's least length scales; the droplets do not (water is water at any scale)."""
+        return replace(self, basin_length=self.basin_length * factor)
+
 
 #: Horizontal offset (units of h) of the above_<side> plans from the pose's opening (or its box centre, in a pose
 #: without a basin): a handle the basin map missed shifts the box centre off the cavity's axis by a fraction of
@@ -41,11 +74,6 @@ _OFFSET = 0.3
 #: whose decomposed top is slightly grooved holds droplets just under its top (a few % of its height); a cavity
 #: holds them near its floor, even a goblet's bowl on its stem (about a third of the height below the rim).
 MIN_DEPTH = 0.2
-
-#: Consecutive directions of the enclosure probe (:data:`rail_mj.imagination.batch.PROBE_DIRECTIONS`, 16, 22.5 deg
-#: apart) free of the object that make a droplet's side open: 4 span 67.5 deg, wider than a chance line-up of a
-#: basket's slots, narrower than the gap between an upturned table's legs or a seat's open front.
-OPEN_SECTOR = 4
 
 #: Largest fraction of the droplets inside that may lie open to one side: a cavity walls its droplets all round.
 MAX_OPEN = 0.5
@@ -97,14 +125,17 @@ def _basin_fault(aff: Affordance, pose: PoseCandidates) -> str:
     if pose.basin.rim < _FILL * height:
         return (f"water poured into it stands {pose.basin.rim:.3f} m deep at most, under {_FILL:.2f} of its {height:.2f} m "
                 f"height: a puddle in a wall (a vessel on its side), not a {aff.name} filled from above")
-    if pose.basin.length < aff.basin_length:
+    basin_length = cast(ContainerParams, aff.params).basin_length
+    if pose.basin.length < basin_length:
         return (f"its basin holds water {pose.basin.length:.2f} m long; a {aff.name}'s is at least "
-                f"{aff.basin_length:g} m")
+                f"{basin_length:g} m")
     return ""
 
 
+@register_kind
 class Container(Kind):
     name = "container"
+    params_model = ContainerParams
     agent_description = ("Small spheres standing for droplets of liquid (or items bigger than the holes of a "
                          "basket), sized to the object's opening, in a 3x3x3 grid.")
     interaction_description = ("The grid of droplets is brought above the object's opening (its deepest basin seen "
@@ -114,7 +145,7 @@ class Container(Kind):
                         "and the {name} stays upright.")
 
     def agent(self, aff: Affordance, dims: Sequence[float]) -> AgentShape:
-        d = aff.droplets
+        d = cast(ContainerParams, aff.params).droplets
         r = max(d.min_radius, min(d.max_radius, d.scale * dims[1]))
         mass = 1000.0 * 4.0 / 3.0 * math.pi * r**3  # water
         # rolling friction lets droplets that miss come to rest instead of rolling on the ground forever
@@ -147,7 +178,7 @@ class Container(Kind):
         envelope = aff.envelope.doc()
         # a vessel's height/width upper bound is its rim's, which stage 7 sees (a saucepan's handle rises above it)
         body = _BODY.format(min_frac=0.5, max_tilt=math.radians(15), name=aff.name, envelope=envelope,
-                            object_cond=aff.envelope.source(rim_aspect=True), beneath=BENEATH_MIDDLE)
+                            object_cond=aff.envelope.source(rim_aspect=True), beneath=profile.BENEATH_MIDDLE)
         return ScoringCode(description="Success when more than half the droplets rest inside the object's box "
                                        "below the rim and off the ground, none leaks through to the ground under "
                                        f"the object, the object is upright and its pose has "
@@ -179,5 +210,5 @@ class Container(Kind):
         if leaks:
             return [], (f"droplets poured into the object ({', '.join(leaks)}) came through it to the ground "
                         f"beneath; a {aff.name} that leaks does not hold")
-        why = _basin_fault(aff, pose) if aff.holds_water else ""
+        why = _basin_fault(aff, pose) if cast(ContainerParams, aff.params).holds_water else ""
         return ([], why) if why else (accepted, "")

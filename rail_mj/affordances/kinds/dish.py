@@ -6,14 +6,15 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from rail_mj.affordances.kinds.base import AgentShape, rest_scoring
+from rail_mj.affordances.kinds.base import AgentShape, register_kind, rest_scoring
 from rail_mj.affordances.kinds.lowering import Lowering
-from rail_mj.affordances.registry import Affordance
-from rail_mj.llm.schemas import CandidateInteraction, PoseCandidates, ScoringCode
+from rail_mj.affordances.row import Affordance
+from rail_mj.core.profile import CandidateInteraction, PoseCandidates, ScoringCode
 
 __all__ = ["Dish"]
 
 
+@register_kind
 class Dish(Lowering):
     name = "dish"
     agent_description = "One flat disc standing for a portion of food, sized to the object."

@@ -4,16 +4,25 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from rail_mj.affordances.kinds.base import AgentShape, box_agent, rest_bounds, rest_scoring, rest_window, rest_words
+from rail_mj.affordances.kinds.base import (
+    AgentShape,
+    box_agent,
+    register_kind,
+    rest_bounds,
+    rest_scoring,
+    rest_window,
+    rest_words,
+)
 from rail_mj.affordances.kinds.lowering import Lowering
-from rail_mj.affordances.registry import Affordance
-from rail_mj.llm.schemas import ScoringCode
+from rail_mj.affordances.row import Affordance
+from rail_mj.core.profile import ScoringCode
 
 __all__ = ["Lie"]
 
 _HALF_Z = 0.075  # the torso's half height, m
 
 
+@register_kind
 class Lie(Lowering):
     name = "lie"
     agent_description = "One box standing for a lying person's torso, about 0.5 x 0.35 x 0.15 m."

@@ -11,8 +11,8 @@ from collections.abc import Sequence
 from typing import ClassVar
 
 from rail_mj.affordances.kinds.base import SIDES, AgentShape, Kind, clearance, rest_accept, side_offset, via
-from rail_mj.affordances.registry import Affordance
-from rail_mj.llm.schemas import AgentLayout, CandidateInteraction, MotionPlan, ViaPose
+from rail_mj.affordances.row import Affordance
+from rail_mj.core.profile import AgentLayout, CandidateInteraction, MotionPlan, ViaPose
 
 __all__ = ["Lowering"]
 

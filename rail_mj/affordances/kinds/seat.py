@@ -9,7 +9,10 @@ on its level, as it does on a bench or a sofa).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from typing import cast
 
 from rail_mj.affordances.kinds.base import (
     SIDES,
@@ -17,6 +20,7 @@ from rail_mj.affordances.kinds.base import (
     Kind,
     box_agent,
     clearance,
+    register_kind,
     rest_accept,
     rest_bounds,
     rest_scoring,
@@ -25,10 +29,24 @@ from rail_mj.affordances.kinds.base import (
     side_offset,
     via,
 )
-from rail_mj.affordances.registry import Affordance
-from rail_mj.llm.schemas import AgentLayout, CandidateInteraction, MotionPlan, PoseCandidates, ScoringCode, ViaPose
+from rail_mj.affordances.row import Affordance, KindParams
+from rail_mj.core.profile import AgentLayout, CandidateInteraction, MotionPlan, PoseCandidates, ScoringCode, ViaPose
 
-__all__ = ["Seat"]
+__all__ = ["SeatParams", "Seat"]
+
+
+@dataclass(frozen=True)
+class SeatParams(KindParams):
+    """A seat row's own fields: how many sit on it, and the height above which it has a back."""
+
+    persons: int = 1  # people who sit on it side by side (1: a seat for one)
+    #: a seat higher than this (m, the sitter's bottom) has a back rising behind the sitter (a bar chair; a high
+    #: seat without one is a stool, or a table's top)
+    perch: float = math.inf
+
+    def scaled(self, factor: float) -> SeatParams:
+        """The perch height scales; the number of sitters does not."""
+        return replace(self, perch=self.perch * factor)
 
 #: The contact patch of a sitting pelvis, 0.2 m across: fits the narrowest seat (0.3 m) and the gap between
 #: armrests as the object's convex hulls render it (a 0.28 m box lands on the armrests of a dataset chair).
@@ -64,8 +82,10 @@ _SAME_LEVEL = 0.15
 _BESIDE_PLANS = (("beside_front", 1.0), ("beside_back", -1.0))
 
 
+@register_kind
 class Seat(Kind):
     name = "seat"
+    params_model = SeatParams
     agent_description = "One box standing for a sitting person's pelvis's contact patch, 0.2 x 0.2 x 0.1 m."
     interaction_description = ("The pelvis is lowered onto the object from above, or arrives from the front, back, "
                                "left or right above seat height and is then lowered; it is also lowered a little "
@@ -120,8 +140,9 @@ class Seat(Kind):
         ok, why = rest_accept(c, h, rest_window(aff, _HALF[2] * aff.scale), 15)
         bottom = (c.summary.mean_height + 1.0) * h[2] - _HALF[2] * aff.scale
         rise = (1.0 - c.summary.mean_height) * h[2]  # of the object above the pelvis's centre
-        if ok and bottom > aff.perch and rise < _PERCH_BACK * aff.scale:
-            return False, (f"the seat is {bottom:.2f} m high, above a sitter's knees ({aff.perch:g} m), and nothing "
+        perch = cast(SeatParams, aff.params).perch
+        if ok and bottom > perch and rise < _PERCH_BACK * aff.scale:
+            return False, (f"the seat is {bottom:.2f} m high, above a sitter's knees ({perch:g} m), and nothing "
                            f"rises {_PERCH_BACK * aff.scale:g} m behind the sitter: a {aff.name} that high has a back")
         return ok, why
 
@@ -144,10 +165,11 @@ class Seat(Kind):
         beside = {c.plan for c in accepted
                   if c.plan in dict(_BESIDE_PLANS) and abs(c.summary.mean_height - level) <= _SAME_LEVEL}
         both = len(beside) == len(_BESIDE_PLANS)
-        if aff.persons == 1 and both:
+        persons = cast(SeatParams, aff.params).persons
+        if persons == 1 and both:
             return [], (f"a second pelvis also rests on the seat's level {_BESIDE * aff.scale:g} m to either side "
                         f"along its length: a seat for more than one, not a {aff.name}")
-        if aff.persons > 1 and not both:
+        if persons > 1 and not both:
             return [], (f"a second pelvis does not rest on the seat's level {_BESIDE * aff.scale:g} m to either side "
                         f"along its length: a {aff.name} seats people side by side")
         return centre + area, ""

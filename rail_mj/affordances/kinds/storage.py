@@ -10,12 +10,13 @@ from rail_mj.affordances.kinds.base import (
     Kind,
     box_agent,
     clearance,
+    register_kind,
     rest_scoring,
     side_offset,
     via,
 )
-from rail_mj.affordances.registry import Affordance
-from rail_mj.llm.schemas import AgentLayout, CandidateInteraction, MotionPlan, ScoringCode, ViaPose
+from rail_mj.affordances.row import Affordance
+from rail_mj.core.profile import AgentLayout, CandidateInteraction, MotionPlan, ScoringCode, ViaPose
 
 __all__ = ["Storage"]
 
@@ -24,6 +25,7 @@ __all__ = ["Storage"]
 _MID_Z = 0.15
 
 
+@register_kind
 class Storage(Kind):
     name = "storage"
     agent_description = "One small box standing for a stored item, sized to the object's depth."

@@ -7,12 +7,15 @@ upturned tub meets a wall at the edge."""
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import cast
 
 from rail_mj.affordances.kinds.base import (
     SIDES,
     AgentShape,
     box_agent,
     clearance,
+    register_kind,
     rest_bounds,
     rest_scoring,
     rest_window,
@@ -21,10 +24,17 @@ from rail_mj.affordances.kinds.base import (
     via,
 )
 from rail_mj.affordances.kinds.lowering import Lowering
-from rail_mj.affordances.registry import Affordance
-from rail_mj.llm.schemas import AgentLayout, CandidateInteraction, MotionPlan, PoseCandidates, ScoringCode, ViaPose
+from rail_mj.affordances.row import Affordance, KindParams
+from rail_mj.core.profile import AgentLayout, CandidateInteraction, MotionPlan, PoseCandidates, ScoringCode, ViaPose
 
-__all__ = ["Surface"]
+__all__ = ["SurfaceParams", "Surface"]
+
+
+@dataclass(frozen=True)
+class SurfaceParams(KindParams):
+    """A surface row's own field: whether it is used from beside it."""
+
+    legroom: bool = False  # used from beside it, so a person's feet go under its top's edge
 
 _HALF_Z = 0.015  # the book's half height, m
 #: How many of the five lowering plans must succeed: a top at least half a metre across holds the box placed
@@ -42,8 +52,10 @@ _SLIDE_LIFT = 0.035
 _SLIDES = tuple(f"under_{side}" for side, _, _ in SIDES)
 
 
+@register_kind
 class Surface(Lowering):
     name = "surface"
+    params_model = SurfaceParams
     agent_description = "One flat box standing for a book or a dish placed on the object."
     interaction_description = ("The box is lowered onto the object from above at its centre and at offsets to each "
                                "side; released at the first contact.")
@@ -100,7 +112,7 @@ class Surface(Lowering):
                         f"centre and off centre ({_MIN_PLANS} needed)")
         # under the top: the slid box ends under the middle of the footprint, not in a recess at its edge (a
         # bathtub on its side, whose feet stick out sideways, leaves 10 cm between them)
-        if aff.legroom and not any(c.plan in _SLIDES and c.summary.frac_beneath_middle > 0
+        if cast(SurfaceParams, aff.params).legroom and not any(c.plan in _SLIDES and c.summary.frac_beneath_middle > 0
                                    for c in pose.candidates + pose.failed):
             return [], (f"the box slid in {_SLIDE_LIFT:g} m above the floor from every side stops at the object's "
                         f"edge: no room for feet under the top, which a {aff.name} is used from beside")

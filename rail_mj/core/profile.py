@@ -1,0 +1,165 @@
+"""The imagination profile's neutral types: what the kinds produce and the LLM stages wrap.
+
+Plans, via-poses and trajectories, the agents' layout, the scoring source, and
+the summary of a rollout that stage 7 judges (with the two constants that
+define its leak and enclosure fractions). The LLM's stage requests and answers
+(:mod:`rail_mj.llm.schemas`) are built from these; the JSON shapes are the
+prompts' schemas.
+
+Trajectories are pose-independent: every via-pose position is
+``rel * h + offset_m`` in the task frame (see :mod:`rail_mj.core.types`), where
+``h`` are the half extents of the object's bounding box in the stable pose
+being imagined. ``rel`` is in units of ``h`` (``(0, 0, 1)`` is the centre of
+the top face, ``(0, 0, -1)`` the ground under the centre), ``offset_m`` is in
+metres (clearances that depend on the agent, not the object). One profile
+therefore serves every stable pose of the object.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from rail_mj.core.results import BasinInfo
+
+__all__ = [
+    "Vec3",
+    "Quat",
+    "Scale",
+    "ProfileModel",
+    "BENEATH_MIDDLE",
+    "OPEN_SECTOR",
+    "AgentLayout",
+    "MotionPlan",
+    "ViaPose",
+    "PlanTrajectory",
+    "ScoringCode",
+    "ResultSummary",
+    "CandidateInteraction",
+    "PoseCandidates",
+]
+
+Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
+Quat = Annotated[list[float], Field(min_length=4, max_length=4, description="unit quaternion w, x, y, z")]
+
+
+class ProfileModel(BaseModel):
+    """Base of the profile's and the stages' models: frozen, no fields beyond the declared ones."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+#: Agent scale: the request's agent against a person (rail_mj.affordances.request_scale; a doll 0.18).
+Scale = Annotated[float, Field(gt=0, le=10, description="size of the agent the object is for, relative to a "
+                                                        "person's (a doll: 0.18); every real-world size of the "
+                                                        "affordance scales by it")]
+
+#: A point on the ground is beneath the object's middle when (x/h_x)^2 + (y/h_y)^2 is below this (an ellipse
+#: half the footprint's size): a droplet resting there came through the object, so it leaks. The scoring source
+#: (run in the sandbox, so it cannot import this) has it formatted in; stage 7's ``frac_through_object`` reads it.
+BENEATH_MIDDLE = 0.25
+
+#: Consecutive directions of the enclosure probe (:data:`rail_mj.imagination.batch.PROBE_DIRECTIONS`, 16, 22.5 deg
+#: apart) free of the object that make a droplet's side open: 4 span 67.5 deg, wider than a chance line-up of a
+#: basket's slots, narrower than the gap between an upturned table's legs or a seat's open front.
+OPEN_SECTOR = 4
+
+
+class AgentLayout(ProfileModel):
+    """Output of stage 3: a world-aligned grid of identical agents about the layout centre."""
+
+    nx: int = Field(ge=1, le=12)
+    ny: int = Field(ge=1, le=12)
+    nz: int = Field(ge=1, le=12)
+    sx: float = Field(gt=0, description="spacing along x between neighbouring agent centres, m")
+    sy: float = Field(gt=0, description="spacing along y, m")
+    sz: float = Field(gt=0, description="spacing along z, m")
+    collide_agents: bool = Field(description="whether agents collide with each other (droplets pile up)")
+
+    @property
+    def n_agents(self) -> int:
+        return self.nx * self.ny * self.nz
+
+
+class MotionPlan(ProfileModel):
+    """One high-level plan in language, step by step from the start to the end point."""
+
+    name: str = Field(description="short identifier, e.g. above, front, back, left, right")
+    description: str
+
+
+class ViaPose(ProfileModel):
+    """A via-pose of the layout centre: position ``rel * h + offset_m`` in the task frame, from the box centre or
+    from the pose's opening."""
+
+    rel: Vec3 = Field(description="position in units of the object's half extents h (task frame)")
+    offset_m: Vec3 = Field(description="additional offset in metres (agent-size clearances)")
+    quat: Quat
+    anchor: Literal["box", "opening"] = Field(
+        "box", description="'box': x and y from the centre of the object's box; 'opening': from the middle of the "
+                           "pose's deepest basin seen from above (where a pour aims; a long handle moves the box "
+                           "centre off it), or the box centre in a pose without a basin")
+
+
+class PlanTrajectory(ProfileModel):
+    """The via-poses of one plan, first = start (outside the object), last = end."""
+
+    plan: str
+    via_poses: list[ViaPose] = Field(min_length=2, max_length=8)
+
+
+class ScoringCode(ProfileModel):
+    """Output of stage 6: vectorised numpy source of ``def score(...)``, success when > 0."""
+
+    description: str
+    source: str
+
+
+class ResultSummary(ProfileModel):
+    """A rollout's resultant configuration, summarised over its agents."""
+
+    frac_inside_bbox: float = Field(description="agents with |x|<h_x, |y|<h_y, |z|<h_z")
+    frac_on_ground: float = Field(description="agents touching the ground")
+    frac_touching_object: float = Field(description="agents touching the object")
+    mean_height: float = Field(description="mean agent z divided by h_z (task frame; top = 1, ground = -1)")
+    object_tilt_deg: float
+    agent_tilt_deg: float = Field(description="mean angle between agent +z and task +z")
+    agent_speed: float = Field(description="mean agent speed at the end, m/s")
+    frac_through_object: float = Field(
+        0.0, description="agents on the ground beneath the middle of the object (within half its footprint): "
+                         "they came through it"
+    )
+    frac_beneath_middle: float = Field(
+        0.0, description="agents whose centre lies beneath or over the middle of the object (within half its "
+                         "footprint), whatever they rest on"
+    )
+    frac_open_side: float = Field(
+        0.0, description="agents inside the box that lie open to one side: horizontal rays from the agent leave "
+                         "without meeting the object over a sector of at least 67 deg (no enclosing wall there)"
+    )
+
+
+class CandidateInteraction(ProfileModel):
+    """A plan and what happened: a candidate when its score said success, evidence when it said failure."""
+
+    plan: str
+    description: str
+    via_poses: list[Vec3] = Field(description="layout-centre positions in this pose's task frame, m")
+    score: float
+    summary: ResultSummary
+
+
+class PoseCandidates(ProfileModel):
+    """One stable pose and its candidate functional interactions."""
+
+    pose_index: int = Field(ge=0)
+    probability: float = Field(ge=0, le=1)
+    half_extents: Vec3
+    basin: BasinInfo | None = Field(None, description="where water poured into the object's deepest basin stands "
+                                                      "in this pose: its spill level (the rim's lowest point, below "
+                                                      "a rising handle), opening and length; null without a basin")
+    candidates: list[CandidateInteraction]
+    failed: list[CandidateInteraction] = Field(
+        default_factory=list, description="the pose's plans that the scoring function called failures: evidence"
+    )
