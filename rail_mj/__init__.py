@@ -39,7 +39,7 @@ _LAZY = {
     "RunConfig": "rail_mj.pipeline.chain",
     "AffordanceResult": "rail_mj.core.results",
     "imagine": "rail_mj.imagination",
-    "find_stable_poses": "rail_mj.stable_poses.poses",
+    "find_stable_poses": "rail_mj.stable_poses",
     "load_object": "rail_mj.mesh.objects",
 }
 

@@ -16,7 +16,7 @@ from rail_mj.llm import generate_profile, trajectory_array
 from rail_mj.llm.schemas import CandidateInteraction, ResultSummary
 from rail_mj.mesh.objects import object_from_mesh
 from rail_mj.pipeline.chain import Pipeline, RunConfig
-from rail_mj.stable_poses.poses import pose_from_up
+from rail_mj.stable_poses import pose_from_up
 
 
 @pytest.fixture(autouse=True)

@@ -30,7 +30,7 @@ from rail_mj.mesh.objects import load_object
 from rail_mj.pipeline.parallel import largest_first, object_task, plan_workers, run_tasks
 from rail_mj.core.paths import CACHE_ENV
 from rail_mj.pipeline.chain import ObjectInput, RunConfig, classify
-from rail_mj.stable_poses.poses import find_stable_poses
+from rail_mj.stable_poses import find_stable_poses
 
 CLASSES, PER_CLASS, AFFORDANCE = ["solid_box", "cone", "solid_cylinder"], 4, "bathtub"
 N_CASES = len(CLASSES) * PER_CLASS

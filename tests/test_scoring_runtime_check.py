@@ -24,7 +24,7 @@ from rail_mj.llm.offline import (
     offline_scoring,
 )
 from rail_mj.scoring import WorkerStartError, close_workers, compile_scoring, pool, probe_outcomes
-from rail_mj.stable_poses.poses import pose_from_up
+from rail_mj.stable_poses import pose_from_up
 from rail_mj.core.types import SCORING_ARGS, AgentSetup, RailObject
 
 SIGNATURE = f"def score({', '.join(SCORING_ARGS)}):\n"

@@ -25,7 +25,7 @@ from rail_mj.llm.schemas import ImaginationProfile
 from rail_mj.mesh.objects import load_object, mesh_notes
 from rail_mj.core.results import AffordanceResult, PlanInfo, PoseInfo
 from rail_mj.scoring import ScoringFunction, compile_scoring
-from rail_mj.stable_poses.poses import find_stable_poses, pose_from_up
+from rail_mj.stable_poses import find_stable_poses, pose_from_up
 from rail_mj.core.types import RailObject, StablePoses
 
 __all__ = ["PoseMode", "RunConfig", "ObjectInput", "Pipeline", "classify", "as_placed_pose"]
