@@ -59,10 +59,12 @@ from rail_mj.affordances import PAPER_AFFORDANCES
 from rail_mj.core.cli import EXIT_FAILED, EXIT_OK, report_error
 from rail_mj.dataset.procedural import AFFORDANCES, DEFECTS, FAMILIES, LabelRecord, generate, normalize_affordance, read_labels
 from rail_mj.core.errors import ConfigError, DatasetError, RailError
-from rail_mj.pipeline.parallel import check_executor, cpu_count, object_task, plan_workers, run_tasks
-from rail_mj.pipeline.chain import ObjectInput, Pipeline, RunConfig
+from rail_mj.pipeline.chain import Pipeline, object_task
+from rail_mj.pipeline.config import ObjectInput, RunConfig, RunOptions
+from rail_mj.pipeline.parallel import check_executor, cpu_count, plan_workers, run_tasks
 from rail_mj.core.results import AffordanceResult, PoseInfo
 from rail_mj.core.runfiles import atomic_write_text, folder_lock
+from rail_mj.stable_poses import StablePoseConfig
 
 __all__ = [
     "POSE_TOLERANCE_DEG", "PLAN_FILE", "EvalConfig", "run_eval", "merge_runs", "parse_shard", "summarize",
@@ -75,9 +77,11 @@ PLAN_FILE = "plan.json"
 PER_OBJECT_STAGES = ("load", "stable_poses")
 
 
-class EvalConfig(RunConfig):
+class EvalConfig(RunOptions):
     """A run of the evaluation: the pipeline settings plus what to evaluate."""
 
+    n_drops: int = Field(64, ge=8, le=4096, description="drops for stable-pose imagination")
+    seed: int = 0
     dataset: str = "procedural"
     per_class: int = Field(3, ge=1)
     dataset_seed: int = 0
@@ -399,7 +403,8 @@ def _run_locked(
     pending = [(r, affs) for r, affs in pending if affs]
     total = sum(len(affs) for _, affs in pending)
 
-    run_cfg = RunConfig(**cfg.model_dump(include=set(RunConfig.model_fields)))
+    run_cfg = RunConfig(**cfg.model_dump(include=set(RunOptions.model_fields)),
+                        stable_poses=StablePoseConfig(n_drops=cfg.n_drops, seed=cfg.seed))
     pipe = Pipeline(run_cfg)
     config = {**cfg.model_dump(mode="json"), "backend_used": pipe.backend}
     plan = {"config": config, "shard": list(shard) if shard else None, "dataset_root": str(root.resolve()),
