@@ -136,8 +136,8 @@ def find_stable_poses(
             f"need n_drops >= 1, settle_time > 0, 0 < tolerance_deg < 90, drop_height >= 0; got {n_drops}, "
             f"{settle_time}, {tolerance_deg}, {drop_height}"
         )
-    params = dict(n_drops=n_drops, seed=seed, settle_time=settle_time, drop_height=drop_height,
-                  tolerance_deg=tolerance_deg, min_probability=min_probability)
+    params: dict[str, Any] = dict(n_drops=n_drops, seed=seed, settle_time=settle_time, drop_height=drop_height,
+                                  tolerance_deg=tolerance_deg, min_probability=min_probability)
     physics = config.physics.model_dump(exclude={"nthread"})  # threads do not change a drop's outcome
     if physics != drop_physics().model_dump(exclude={"nthread"}):  # the default's entries keep their keys
         params["physics"] = physics
