@@ -28,7 +28,7 @@ import trimesh
 
 from rail_mj.imagination import ImaginationConfig, get_backend, imagine, prepare
 from rail_mj.imagination.mjx import hull_bucket
-from rail_mj.stable_poses.poses import find_stable_poses, pose_from_up
+from rail_mj.stable_poses import find_stable_poses, pose_from_up
 from rail_mj.core.types import AgentSetup, RailObject
 
 jax.config.update("jax_cpu_enable_async_dispatch", False)

@@ -35,11 +35,11 @@ __version__ = "0.1.0"
 
 _LAZY = {
     "classify": "rail_mj.pipeline.chain",
-    "ObjectInput": "rail_mj.pipeline.chain",
-    "RunConfig": "rail_mj.pipeline.chain",
+    "ObjectInput": "rail_mj.pipeline.config",
+    "RunConfig": "rail_mj.pipeline.config",
     "AffordanceResult": "rail_mj.core.results",
     "imagine": "rail_mj.imagination",
-    "find_stable_poses": "rail_mj.stable_poses.poses",
+    "find_stable_poses": "rail_mj.stable_poses",
     "load_object": "rail_mj.mesh",
 }
 

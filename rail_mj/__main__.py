@@ -1,138 +1,67 @@
-"""``python -m rail_mj MESH --affordance NAME``: one object, one verdict, for people.
+"""``rail-mj COMMAND ...`` (or ``python -m rail_mj COMMAND ...``): the one command line, dispatching to each tool.
 
-Exit status and error output follow rail_mj.core.cli: 0 every case succeeded, 1 some case failed (its
-``error:`` line on stderr; with ``--json`` also its result line, carrying ``error``), 2 the command
-line was wrong (an empty or unknown affordance, a bad option value) and nothing ran, 130 interrupted.
-A picture asked for (``--render``, ``--contact-sheet``) of a result that has nothing to draw (its
-dimension check failed, so nothing was imagined) is not written; a line on stderr says why, and that
-alone is not a failure.
+Each command is its module's ``main(argv)``, imported when it runs; ``rail-mj MESH -a NAME`` with no command is
+``rail-mj classify MESH -a NAME``, as ``python -m rail_mj MESH -a NAME`` always was. Exit status and error output
+follow rail_mj.core.cli: an unknown command is a usage error (exit 2) naming the valid ones.
 """
 
 from __future__ import annotations
 
-import argparse
-import json
-import math
+import importlib
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from rail_mj.core.cli import EXIT_FAILED, EXIT_OK, report_error
-from rail_mj.core.errors import RailError
+from rail_mj.core.cli import EXIT_OK, report_error
+from rail_mj.core.errors import ConfigError
 
-__all__ = ["main"]
+__all__ = ["COMMANDS", "main"]
 
-
-def _describe(r) -> str:
-    lines = [f"{r.object}: {r.requested!r} -> {'FUNCTIONAL' if r.functional else 'not functional'}"]
-    for note in r.mesh_notes:
-        lines.append(f"  mesh: {note}")
-    if not r.dims_fit:
-        lines.append(f"  dimension check failed: {'; '.join(r.analyzer_reasons)}")
-        if r.alternative:
-            lines.append(f"  the analyser suggests: {r.alternative}")
-    if r.functional_pose is not None:
-        p = r.functional_pose
-        lines.append(
-            f"  functional pose #{p.index} (p={p.probability:.2f}): pos {[round(v, 3) for v in p.pos]}, "
-            f"quat {[round(v, 3) for v in p.quat]}, mesh up {[round(v, 2) for v in p.up_in_mesh_frame]}"
-        )
-    if r.best_plan is not None:
-        lines.append(f"  best interaction: {r.best_plan.name} (score {r.best_plan.score:.2f}): {r.best_plan.description}")
-    for reason in r.analyzer_reasons if r.dims_fit else []:
-        lines.append(f"  analyser: {reason}")
-    lines.append("  timings: " + ", ".join(f"{k} {v:.2f}s" for k, v in r.timings.items()))
-    return "\n".join(lines)
+#: command -> ("module:function" taking the command's arguments and returning the exit status, what it does)
+COMMANDS: dict[str, tuple[str, str]] = {
+    "classify": ("rail_mj.pipeline.cli:main", "one mesh, one verdict: classify MESH -a NAME [--json] [--explain] "
+                                              "[--render PNG]"),
+    "eval": ("rail_mj.eval.run:main", "the paper's Tables 1 and 2 on a labelled dataset; `eval merge` joins shards"),
+    "dataset": ("rail_mj.dataset.procedural:main", "generate the labelled procedural dataset; `dataset real` fetches "
+                                                   "the real-mesh set"),
+    "robot": ("rail_mj.robot.__main__:main", "fetch the Panda model, run the execution demo or the robot experiment"),
+}
+_DEFAULT = "classify"
 
 
-def _metres_per_unit(text: str) -> float:
-    value = float(text)
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"must be a positive number of metres per mesh unit, got {text}")
-    return value
+def _command(name: str) -> Callable[[Sequence[str]], int]:
+    module, function = COMMANDS[name][0].split(":")
+    return getattr(importlib.import_module(module), function)
 
 
-def _picture_path(text: str) -> Path:
-    path = Path(text)
-    if path.suffix.lower() not in (".png", ".jpg", ".jpeg"):
-        raise argparse.ArgumentTypeError(f"must name a .png or .jpg file, got {text}")
-    return path
+def _help() -> str:
+    width = max(map(len, COMMANDS))
+    rows = "\n".join(f"  {name:<{width}}  {what}" for name, (_, what) in COMMANDS.items())
+    return (f"usage: rail-mj COMMAND [ARGS ...]\n"
+            f"       rail-mj MESH -a NAME [...]   (the same as rail-mj {_DEFAULT})\n\n"
+            f"commands:\n{rows}\n\n`rail-mj COMMAND --help` shows a command's options.")
 
 
-def _pictures(args: argparse.Namespace, results) -> None:
-    """Write the requested pictures of the first functional result, else the first one with a rollout to
-    draw; when no result has one, say why (that is an answer, not an error)."""
-    from rail_mj.render.captions import nothing_to_draw
-    from rail_mj.render.images import render_contact_sheet, render_result
-
-    targets = [p for p in (args.render, args.contact_sheet) if p is not None]
-    done = [r for r in results if not r.error]
-    if not done:
-        print(f"no picture written to {', '.join(map(str, targets))}: every case failed", file=sys.stderr)
-        return
-    shown = next((r for r in done if r.functional), next((r for r in done if nothing_to_draw(r) is None), None))
-    if shown is None:
-        for r in done:
-            print(f"no picture written: {nothing_to_draw(r)}", file=sys.stderr)
-        return
-    from rail_mj.mesh import load_object
-
-    obj = load_object(args.mesh, units=args.units, up=args.up)
-    if args.render:
-        render_result(obj, shown, args.render, draw_mesh=args.draw_mesh)
-        print(f"wrote {args.render}", file=sys.stderr)
-    if args.contact_sheet:
-        sheet = render_contact_sheet(obj, shown, args.contact_sheet, draw_mesh=args.draw_mesh)
-        print(f"wrote {args.contact_sheet} ({len(sheet.tiles)} stable poses)", file=sys.stderr)
+def _names_a_command(word: str) -> bool:
+    """Whether ``word``, first on the command line, is meant as a command rather than a mesh file."""
+    return not word.startswith("-") and not Path(word).suffix and not Path(word).exists()
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m rail_mj", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("mesh", type=Path, help="OBJ, STL, PLY, OFF, GLB or GLTF file")
-    p.add_argument("--affordance", "-a", action="append", required=True, help="requested use; repeat for several")
-    p.add_argument("--units", type=_metres_per_unit, default=1.0, help="metres per mesh unit (0.001 for millimetres)")
-    p.add_argument("--up", choices=("z", "y"), default="z", help="the mesh's up axis")
-    p.add_argument("--provider", default="auto", help="auto | offline | anthropic")
-    p.add_argument("--backend", default="auto", help="auto | native | mjx")
-    p.add_argument("--json", action="store_true", help="print the results as JSON lines")
-    p.add_argument("--explain", action="store_true",
-                   help="show why: every stable pose (probability, up axis, box size, envelope), each plan's score "
-                        "in it, the analyser's rules that fired, and the verdict; with --json under \"explain\"")
-    p.add_argument("--render", type=_picture_path, metavar="PNG",
-                   help="write a captioned picture of the functional pose (else the best-scoring one) with the agents")
-    p.add_argument("--contact-sheet", type=_picture_path, metavar="PNG",
-                   help="write one grid picture of every stable pose with its best-scoring plan (re-imagines them)")
-    p.add_argument("--draw-mesh", action="store_true",
-                   help="draw the original mesh in the pictures instead of its CoACD hulls")
-    args = p.parse_args(argv)
-
-    from rail_mj.render.explain import explain, format_explanation
-    from rail_mj.pipeline.chain import ObjectInput, classify
-
-    try:
-        results = classify(
-            [ObjectInput(path=args.mesh, units=args.units, up=args.up)],
-            args.affordance,
-            provider=args.provider,
-            backend=args.backend,
-            progress=False,
-        )
-        for r in results:
-            if r.error:
-                print(f"error: {r.object}: {r.requested!r}: {r.error}", file=sys.stderr)
-            if args.json:
-                print(json.dumps({**r.model_dump(mode="json"), "explain": explain(r).model_dump(mode="json")})
-                      if args.explain else r.model_dump_json())
-            elif args.explain:
-                print(format_explanation(explain(r)))
-            elif not r.error:
-                print(_describe(r))
-        if args.render or args.contact_sheet:
-            _pictures(args, results)
-    except (RailError, KeyboardInterrupt) as exc:
-        return report_error(exc, json_out=args.json)
-    return EXIT_OK if all(r.error is None for r in results) else EXIT_FAILED
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv[:1] and argv[0] in COMMANDS:
+        return _command(argv[0])(argv[1:])
+    if argv[:1] in (["-h"], ["--help"]):
+        print(_help())
+        return EXIT_OK
+    if not argv:
+        print(_help(), file=sys.stderr)
+        return report_error(ConfigError(f"give a command ({', '.join(COMMANDS)}) or a mesh file"))
+    if _names_a_command(argv[0]):
+        return report_error(ConfigError(
+            f"unknown command {argv[0]!r}; valid: {', '.join(COMMANDS)} (or a mesh file: rail-mj MESH -a NAME)"
+        ))
+    return _command(_DEFAULT)(argv)
 
 
 if __name__ == "__main__":

@@ -16,6 +16,7 @@ from rail_mj.dataset import procedural as dataset
 from rail_mj.__main__ import main as rail_main
 from rail_mj.core.errors import ConfigError, DatasetError, RobotError
 from rail_mj.pipeline.chain import classify
+from rail_mj.pipeline.config import RunConfig
 from rail_mj.robot import __main__ as robot_cli
 
 
@@ -55,7 +56,7 @@ def test_library_refuses_empty_names_before_any_work(garbage_stl: Path, no_work:
     with pytest.raises(ConfigError, match="no affordance requested.*cup"):
         classify([garbage_stl], [], provider="offline", progress=False)
     with pytest.raises(ConfigError, match="non-empty"):
-        pipeline.Pipeline(pipeline.RunConfig(provider="offline")).classify_object(garbage_stl, ["cup", ""])
+        pipeline.Pipeline(RunConfig(provider="offline")).classify_object(garbage_stl, ["cup", ""])
 
 
 def test_unknown_offline_affordance_exits_2_with_the_known_names(garbage_stl: Path, no_work: None, capsys) -> None:

@@ -17,8 +17,9 @@ from rail_mj.core.results import BasinInfo
 from rail_mj.imagination.inputs import trajectory_array
 from rail_mj.llm import generate_profile
 from rail_mj.mesh import object_from_mesh
-from rail_mj.pipeline.chain import Pipeline, RunConfig
-from rail_mj.stable_poses.poses import pose_from_up
+from rail_mj.pipeline.chain import Pipeline
+from rail_mj.pipeline.config import RunConfig
+from rail_mj.stable_poses import StablePoseConfig, pose_from_up
 
 
 @pytest.fixture(autouse=True)
@@ -56,7 +57,7 @@ def _block_with_pocket(size: tuple[float, float, float], depth: float, wall: flo
 
 def _verdict(mesh: trimesh.Trimesh, name: str, affordance: str):
     obj = object_from_mesh(mesh, name=name)
-    pipe = Pipeline(RunConfig(provider="offline", n_drops=16))
+    pipe = Pipeline(RunConfig(provider="offline", stable_poses=StablePoseConfig(n_drops=16)))
     return pipe.run(obj, pipe.stable_poses(obj), affordance)
 
 

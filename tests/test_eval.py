@@ -14,7 +14,8 @@ from rail_mj.eval import run as rail_eval
 from rail_mj.dataset.labels import read_labels
 from rail_mj.dataset.procedural import generate
 from rail_mj.core.errors import UnknownAffordanceError
-from rail_mj.pipeline.chain import ObjectInput, classify
+from rail_mj.pipeline.chain import classify
+from rail_mj.pipeline.config import ObjectInput
 from rail_mj.core.runfiles import folder_lock
 
 SUMMARY_KEYS = {"classification", "functional_pose", "baseline_dims", "timing", "config"}

@@ -6,7 +6,7 @@ import trimesh
 
 from rail_mj.core.errors import FragmentError, ImaginationError
 from rail_mj.imagination import ImaginationConfig, get_backend, imagine, prepare
-from rail_mj.stable_poses.poses import pose_from_up
+from rail_mj.stable_poses import pose_from_up
 from rail_mj.core.types import AgentSetup, RailObject
 
 DROPLET = '<mujoco><worldbody><body name="drop"><geom type="sphere" size="0.006" mass="0.001"/></body></worldbody></mujoco>'

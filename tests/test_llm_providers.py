@@ -17,7 +17,8 @@ from rail_mj.llm import (
     get_provider,
     task_description,
 )
-from rail_mj.pipeline.chain import Pipeline, RunConfig
+from rail_mj.pipeline.chain import Pipeline
+from rail_mj.pipeline.config import RunConfig
 
 CUP_DIMS = [0.12, 0.09, 0.09]
 

@@ -29,9 +29,10 @@ from rail_mj.imagination import ImaginationConfig, get_backend, imagine
 from rail_mj.imagination.config import THREADS_ENV
 from rail_mj.imagination.inputs import agent_setup, trajectory_array
 from rail_mj.mesh import load_object
-from rail_mj.pipeline.parallel import largest_first, object_task, plan_workers, run_tasks
-from rail_mj.pipeline.chain import ObjectInput, RunConfig, classify
-from rail_mj.stable_poses.poses import find_stable_poses
+from rail_mj.pipeline.parallel import largest_first, plan_workers, run_tasks
+from rail_mj.pipeline.chain import classify, object_task
+from rail_mj.pipeline.config import ObjectInput, RunConfig
+from rail_mj.stable_poses import StablePoseConfig, find_stable_poses
 
 CLASSES, PER_CLASS, AFFORDANCE = ["solid_box", "cone", "solid_cylinder"], 4, "bathtub"
 N_CASES = len(CLASSES) * PER_CLASS
@@ -131,7 +132,7 @@ def test_a_result_does_not_depend_on_the_object_before_it(cache, tmp_path):
     # two boxes within one profile size bin: the first one's profile was reused for the second, whose
     # dimension check then quoted (and judged) the first one's size
     first, second = _box(tmp_path / "a.stl", (0.30, 0.20, 0.10)), _box(tmp_path / "b.stl", (0.29, 0.195, 0.098))
-    kw = dict(provider="offline", progress=False, workers=1, config=RunConfig(n_drops=8))
+    kw = dict(provider="offline", progress=False, workers=1, config=RunConfig(stable_poses=StablePoseConfig(n_drops=8)))
     (alone,) = classify([second], ["cup"], **kw)
     after = classify([first, second], ["cup"], **kw)[1]
     assert "largest 0.290 m" in after.analyzer_reasons[0]
@@ -194,7 +195,8 @@ def test_a_crashed_worker_is_an_error_line_and_the_run_goes_on(cache, tmp_path, 
     boxes = [_box(tmp_path / f"b{i}.stl", (0.2 + 0.1 * i, 0.1, 0.05)) for i in range(3)]
     seen = []
     results = classify([boxes[0], Crasher(), boxes[1], boxes[2]], [AFFORDANCE, "table"], provider="offline",
-                       workers=2, config=RunConfig(n_drops=8), progress=lambda d, t, r: seen.append((d, t)))
+                       workers=2, config=RunConfig(stable_poses=StablePoseConfig(n_drops=8)),
+                       progress=lambda d, t, r: seen.append((d, t)))
     assert [r.object for r in results[2:4]] == ["crasher.obj"] * 2
     for r in results[2:4]:
         assert r.error.startswith("WorkerError: the worker process") and "SIGSEGV" in r.error
@@ -206,9 +208,10 @@ def test_a_crashed_worker_is_an_error_line_and_the_run_goes_on(cache, tmp_path, 
 def test_workers_do_not_load_the_anthropic_sdk_or_jax(cache, tmp_path):
     path = _box(tmp_path / "b.stl", (0.2, 0.1, 0.05))
     code = (
-        "import sys; from rail_mj.pipeline.parallel import object_task, run_object; from rail_mj.pipeline.chain import RunConfig; "
+        "import sys; from rail_mj.pipeline.chain import object_task, run_object; "
+        "from rail_mj.pipeline.config import RunConfig; from rail_mj.stable_poses import StablePoseConfig; "
         f"print(run_object(object_task(0, {str(path)!r}, ['cup'], "
-        "RunConfig(provider='offline', backend='native', n_drops=8)))[:12]); "
+        "RunConfig(provider='offline', backend='native', stable_poses=StablePoseConfig(n_drops=8))))[:12]); "
         "print(sorted(m for m in ('anthropic', 'jax') if m in sys.modules))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=GUARD_S, cwd=REPO)

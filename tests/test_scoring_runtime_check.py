@@ -26,7 +26,7 @@ from rail_mj.llm.offline import (
     offline_scoring,
 )
 from rail_mj.scoring import WorkerStartError, close_workers, compile_scoring, pool, probe_outcomes
-from rail_mj.stable_poses.poses import pose_from_up
+from rail_mj.stable_poses import pose_from_up
 
 SIGNATURE = f"def score({', '.join(SCORING_ARGS)}):\n"
 CUP = TaskDescription(affordance="cup", obb_dims=[0.12, 0.09, 0.09])

@@ -5,7 +5,7 @@ import pytest
 import trimesh
 
 from rail_mj.core.errors import ConfigError
-from rail_mj.stable_poses.poses import find_stable_poses, pose_from_up
+from rail_mj.stable_poses import find_stable_poses, pose_from_up
 from rail_mj.core.types import RailObject
 
 

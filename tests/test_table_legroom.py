@@ -9,7 +9,9 @@ import trimesh
 
 from rail_mj.dataset.shapes import parts as shape_parts
 from rail_mj.mesh import object_from_mesh
-from rail_mj.pipeline.chain import Pipeline, RunConfig
+from rail_mj.pipeline.chain import Pipeline
+from rail_mj.pipeline.config import RunConfig
+from rail_mj.stable_poses import StablePoseConfig
 
 
 @pytest.fixture(autouse=True)
@@ -23,7 +25,7 @@ def _box(lo: tuple[float, float, float], hi: tuple[float, float, float]) -> trim
 
 def _table_verdict(mesh: trimesh.Trimesh, name: str):
     obj = object_from_mesh(mesh, name=name)
-    pipe = Pipeline(RunConfig(provider="offline", n_drops=16))
+    pipe = Pipeline(RunConfig(provider="offline", stable_poses=StablePoseConfig(n_drops=16)))
     return pipe.run(obj, pipe.stable_poses(obj), "table")
 
 

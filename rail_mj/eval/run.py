@@ -51,8 +51,10 @@ from rail_mj.dataset.labels import LabelRecord, read_labels
 from rail_mj.dataset.procedural import generate
 from rail_mj.eval.report import write_report
 from rail_mj.eval.summary import _line, summarize
-from rail_mj.pipeline.chain import ObjectInput, Pipeline, RunConfig
-from rail_mj.pipeline.parallel import check_executor, cpu_count, object_task, plan_workers, run_tasks
+from rail_mj.pipeline.chain import Pipeline, object_task
+from rail_mj.pipeline.config import ObjectInput, RunConfig, RunOptions
+from rail_mj.pipeline.parallel import check_executor, cpu_count, plan_workers, run_tasks
+from rail_mj.stable_poses import StablePoseConfig
 
 __all__ = [
     "PLAN_FILE",
@@ -67,9 +69,11 @@ __all__ = [
 PLAN_FILE = "plan.json"
 
 
-class EvalConfig(RunConfig):
+class EvalConfig(RunOptions):
     """A run of the evaluation: the pipeline settings plus what to evaluate."""
 
+    n_drops: int = Field(64, ge=8, le=4096, description="drops for stable-pose imagination")
+    seed: int = 0
     dataset: str = "procedural"
     per_class: int = Field(3, ge=1)
     dataset_seed: int = 0
@@ -255,7 +259,8 @@ def _run_locked(
     pending = [(r, affs) for r, affs in pending if affs]
     total = sum(len(affs) for _, affs in pending)
 
-    run_cfg = RunConfig(**cfg.model_dump(include=set(RunConfig.model_fields)))
+    run_cfg = RunConfig(**cfg.model_dump(include=set(RunOptions.model_fields)),
+                        stable_poses=StablePoseConfig(n_drops=cfg.n_drops, seed=cfg.seed))
     pipe = Pipeline(run_cfg)
     config = {**cfg.model_dump(mode="json"), "backend_used": pipe.backend}
     plan = {"config": config, "shard": list(shard) if shard else None, "dataset_root": str(root.resolve()),

@@ -7,15 +7,15 @@ compiled scoring functions).
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from collections.abc import Callable, Iterable, Sequence
 from contextlib import closing
 from pathlib import Path
-from typing import Literal
+from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
 
 from rail_mj import llm
 from rail_mj.affordances import request_scale
@@ -26,48 +26,14 @@ from rail_mj.imagination import imagine, pose_plan, resolve_backend, rollout_ind
 from rail_mj.imagination.inputs import agent_setup, trajectory_array
 from rail_mj.llm.schemas import ImaginationProfile
 from rail_mj.mesh import load_object, mesh_notes
+from rail_mj.pipeline.config import ObjectInput, PoseMode, RunConfig
+from rail_mj.pipeline.parallel import ObjectTask, run_tasks
 from rail_mj.scoring import ScoringFunction, compile_scoring
-from rail_mj.stable_poses.poses import find_stable_poses, pose_from_up
+from rail_mj.stable_poses import find_stable_poses, pose_from_up
 
-__all__ = ["PoseMode", "RunConfig", "ObjectInput", "Pipeline", "classify", "as_placed_pose"]
+__all__ = ["Pipeline", "classify", "as_placed_pose", "object_task", "run_object"]
 
 ProgressCallback = Callable[[int, int, AffordanceResult], None]
-#: ``stable``: imagine every stable pose found by dropping the object; ``as_placed``: only the pose it stands in.
-PoseMode = Literal["stable", "as_placed"]
-
-
-class RunConfig(BaseModel):
-    """Settings of a classification run."""
-
-    model_config = ConfigDict(extra="forbid")
-
-    provider: str = Field("auto", description="auto | offline | anthropic")
-    backend: str = Field("auto", description="auto | native | mjx")
-    model: str | None = Field(None, description="LLM model name (anthropic provider)")
-    n_drops: int = Field(64, ge=8, le=4096, description="drops for stable-pose imagination")
-    seed: int = 0
-    max_retries: int = Field(2, ge=0, le=10, description="LLM repair rounds per stage")
-    cache: bool = Field(True, description="cache LLM answers on disk")
-    profile_bin: float = Field(
-        0.1, gt=0, le=1.0, description="relative size bin within which a profile is reused"
-    )
-    min_pose_probability: float = Field(
-        0.0, ge=0, lt=1, description="stable poses rarer than this are not imagined"
-    )
-    pose: PoseMode = Field("stable", description="stable: search the stable poses; as_placed: the object's "
-                                                 "pose as it stands (mesh frame z up, on the ground)")
-    agent: str | None = Field(None, description="the request's agent (doll, apple, ...): a figure scales every "
-                                                "real-world size of the affordance (rail_mj.affordances."
-                                                "request_scale)")
-
-
-class ObjectInput(BaseModel):
-    """A mesh file and how to read it."""
-
-    path: Path
-    units: float = Field(1.0, gt=0, description="metres per mesh unit")
-    up: Literal["z", "y"] = "z"
-    name: str | None = None
 
 
 def _check_names(affordances: Sequence[str]) -> None:
@@ -95,7 +61,10 @@ class Pipeline:
     """Runs the whole chain for (object, affordance) pairs, reusing profiles and scoring code."""
 
     def __init__(self, config: RunConfig | None = None):
-        self.config = config or RunConfig()
+        # the defaults of the config are taken here, in the process that runs it: a task's config, built by
+        # the parent, leaves an unset ImaginationConfig.nthread to this worker's RAIL_MJ_THREADS
+        config = config or RunConfig()
+        self.config = type(config).model_validate(config.model_dump(exclude_unset=True))
         self.backend = resolve_backend(self.config.backend)
         # the run's LLM settings go to the provider once; every stage then reads them from it
         options = {"model": self.config.model} if self.config.model else {}
@@ -125,12 +94,13 @@ class Pipeline:
             return item
         if not isinstance(item, ObjectInput):
             item = ObjectInput(path=Path(item))
-        return load_object(item.path, units=item.units, up=item.up, name=item.name)
+        return load_object(item.path, units=item.units, up=item.up, name=item.name,
+                           decomposition=self.config.decomposition)
 
     def stable_poses(self, obj: RailObject) -> StablePoses:
         if self.config.pose == "as_placed":
             return as_placed_pose(obj)
-        return find_stable_poses(obj, n_drops=self.config.n_drops, seed=self.config.seed)
+        return find_stable_poses(obj, self.config.stable_poses)
 
     # ---- per-affordance work --------------------------------------------------------
     def profile(self, affordance: str, obb_dims: Sequence[float]) -> ImaginationProfile:
@@ -183,7 +153,8 @@ class Pipeline:
         trajectories = [trajectory_array(profile.trajectories.trajectories, poses[i].half_extents, poses[i].basin)
                         for i in kept]
         t = time.perf_counter()
-        outcomes = imagine(obj, [poses[i] for i in kept], agents, trajectories, backend=self.backend)
+        outcomes = imagine(obj, [poses[i] for i in kept], agents, trajectories, backend=self.backend,
+                           config=self.config.imagination)
         timings["imagination"] = time.perf_counter() - t
 
         t = time.perf_counter()
@@ -304,8 +275,6 @@ def classify(
     :mod:`rail_mj.pipeline.parallel`. A worker that crashes on an object gives error results for it. Each
     result is the same however the objects were spread.
     """
-    from rail_mj.pipeline.parallel import object_task, run_tasks
-
     _check_names(affordances)
     update = {"provider": provider, "backend": backend}
     if pose is not None:
@@ -314,7 +283,7 @@ def classify(
         update["pose"] = pose
     if agent is not None:
         update["agent"] = agent
-    cfg = RunConfig.model_validate({**(config or RunConfig()).model_dump(), **update})
+    cfg = RunConfig.model_validate({**(config or RunConfig()).model_dump(exclude_unset=True), **update})
     pipe = Pipeline(cfg)
     pipe.check_affordances(affordances)
     task_cfg = cfg.model_copy(update={"provider": pipe.provider_name, "backend": pipe.backend})
@@ -341,3 +310,28 @@ def classify(
         if bar is not None:
             bar.close()
     return [r for results in per_object for r in results]
+
+
+def run_object(task: ObjectTask) -> str:
+    """Classify one object; JSON ``{"results": [...]}``, or ``{"error": ...}`` when something other than a
+    :class:`~rail_mj.core.errors.RailError` stopped it (those are per-case error results already).
+
+    The task callable of :mod:`rail_mj.pipeline.parallel`. Every task builds a fresh Pipeline, so a result
+    depends on the object and the settings only, never on the worker or on what ran before. A Pipeline reuses
+    one profile across objects of similar size, and that reuse made a verdict depend on which object of a size
+    bin it met first. Seeds are per object (``RunConfig.stable_poses.seed``), and MuJoCo's batch gives
+    bit-identical states at any thread count.
+    """
+    try:
+        results = Pipeline(task.config).classify_object(task.item, list(task.affordances))
+    except Exception as exc:  # noqa: BLE001 - one object's unexpected failure is that object's error, not the run's
+        return json.dumps({"error": f"{type(exc).__name__}: {exc}"})
+    return json.dumps({"results": [r.model_dump(mode="json") for r in results]})
+
+
+def object_task(index: int, item: Any, affordances: Sequence[str], config: RunConfig) -> ObjectTask:
+    """A task that :func:`run_object` runs, labelled as :meth:`Pipeline.classify_object` names the object in its
+    error results."""
+    label = item.name if isinstance(item, RailObject) else str(getattr(item, "path", item))
+    return ObjectTask(index=index, item=item, label=label, affordances=tuple(affordances), config=config,
+                      run=run_object)

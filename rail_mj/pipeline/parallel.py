@@ -1,9 +1,10 @@
 """Batch classification spread over processes or a Ray cluster: one task per object.
 
-A task is one object with every requested affordance of it: loading (CoACD included), stable poses, then
-each affordance (:meth:`rail_mj.pipeline.chain.Pipeline.classify_object`). :func:`run_tasks` yields each task's
-results as the task finishes; callers place them by :attr:`ObjectTask.index` and write them from one process,
-so a results file has a single writer.
+A task is one object with every requested affordance of it, and the task callable that classifies it
+(:attr:`ObjectTask.run`, a module-level function, so a worker process or a Ray task imports it by name;
+:func:`rail_mj.pipeline.chain.run_object` runs the whole chain). The callable returns the JSON text of the
+task's results. :func:`run_tasks` yields each task's results as the task finishes; callers place them by
+:attr:`ObjectTask.index` and write them from one process, so a results file has a single writer.
 
 * ``workers=1``: the tasks run one after another in this process, MuJoCo on every core. No crash isolation.
 * ``workers=N`` (``executor="local"``): N worker processes. They are fresh interpreters (``subprocess``: no
@@ -20,11 +21,6 @@ so a results file has a single writer.
 
 Results come back as JSON text. The parent never unpickles what a worker that parsed an untrusted mesh sends.
 
-Every task builds a fresh Pipeline, so a result depends on the object and the settings only, never on the
-worker or on what ran before. A Pipeline reuses one profile across objects of similar size, and that reuse
-made a verdict depend on which object of a size bin it met first. Seeds are per object (``RunConfig.seed``),
-and MuJoCo's batch gives bit-identical states at any thread count.
-
 Caches on a cluster: hulls and stable poses are keyed by a content hash (the mesh arrays plus the settings)
 and written to a temporary file that is then renamed. So the workers of one machine share them safely, and
 so do the nodes of a cluster when ``RAIL_MJ_CACHE`` points to shared storage. Without shared storage, each
@@ -34,6 +30,7 @@ it, and reuses them afterwards. The results do not depend on which node computed
 
 from __future__ import annotations
 
+import importlib
 import importlib.util
 import json
 import os
@@ -45,7 +42,7 @@ import tempfile
 import threading
 import time
 from collections import deque
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
 from pathlib import Path
@@ -53,14 +50,14 @@ from typing import TYPE_CHECKING, Any
 
 from rail_mj.core.errors import ConfigError, WorkerError
 from rail_mj.imagination.config import THREADS_ENV
+from rail_mj.pipeline.config import ObjectInput
 
 if TYPE_CHECKING:
-    from rail_mj.pipeline.chain import RunConfig
     from rail_mj.core.results import AffordanceResult
+    from rail_mj.pipeline.config import RunConfig
 
 __all__ = [
-    "EXECUTORS", "ObjectTask", "object_task", "cpu_count", "plan_workers", "check_executor", "run_object",
-    "largest_first", "run_tasks", "serve",
+    "EXECUTORS", "ObjectTask", "cpu_count", "plan_workers", "check_executor", "largest_first", "run_tasks", "serve",
 ]
 
 EXECUTORS = ("local", "ray")
@@ -83,14 +80,9 @@ class ObjectTask:
     label: str  # the object's name in error results
     affordances: tuple[str, ...]
     config: RunConfig
-
-
-def object_task(index: int, item: Any, affordances: Sequence[str], config: RunConfig) -> ObjectTask:
-    """A task, labelled as :meth:`Pipeline.classify_object` names the object in its error results."""
-    from rail_mj.core.types import RailObject
-
-    label = item.name if isinstance(item, RailObject) else str(getattr(item, "path", item))
-    return ObjectTask(index=index, item=item, label=label, affordances=tuple(affordances), config=config)
+    #: classifies the task's object: JSON ``{"results": [...]}``, or ``{"error": ...}`` when something other
+    #: than a RailError stopped it; a module-level function (workers import it by name)
+    run: Callable[[ObjectTask], str]
 
 
 def cpu_count() -> int:
@@ -113,18 +105,6 @@ def plan_workers(workers: int | None, n_tasks: int) -> tuple[int, int]:
         )
     n = max(1, min(workers, n_tasks))
     return n, max(1, cores // n)
-
-
-def run_object(task: ObjectTask) -> str:
-    """Classify one object; JSON ``{"results": [...]}``, or ``{"error": ...}`` when something other than a
-    :class:`~rail_mj.core.errors.RailError` stopped it (those are per-case error results already)."""
-    from rail_mj.pipeline.chain import Pipeline
-
-    try:
-        results = Pipeline(task.config).classify_object(task.item, list(task.affordances))
-    except Exception as exc:  # noqa: BLE001 - one object's unexpected failure is that object's error, not the run's
-        return json.dumps({"error": f"{type(exc).__name__}: {exc}"})
-    return json.dumps({"results": [r.model_dump(mode="json") for r in results]})
 
 
 def _failed(task: ObjectTask, message: str) -> list[AffordanceResult]:
@@ -173,18 +153,31 @@ def run_tasks(
     after the results already back have been yielded. Raises :class:`WorkerError` when no worker starts.
     """
     check_executor(executor, ray_address, workers)
+    for run in {t.run for t in tasks}:
+        _check_importable(run)
     if executor == "ray":
         return _ray_tasks(largest_first(tasks), ray_address, workers)
     n, threads = plan_workers(workers, len(tasks))
     if n == 1:
-        return ((t, _decode(t, run_object(t))) for t in tasks)
+        return ((t, _decode(t, t.run(t))) for t in tasks)
     return _local_tasks(largest_first(tasks), n, threads)
+
+
+def _check_importable(run: Callable) -> None:
+    """Refuse a task callable that a worker cannot import by its name (a lambda, a nested function)."""
+    module = getattr(run, "__module__", None)
+    name = getattr(run, "__qualname__", "")
+    found = importlib.import_module(module) if module else None
+    for part in name.split("."):
+        found = getattr(found, part, None)
+    if found is not run:
+        raise ConfigError(f"the task callable {run!r} cannot be imported by name ({module}:{name}) in a worker; "
+                          "give a module-level function")
 
 
 def _size(item: Any) -> int:
     """A task's expected cost: the mesh's bytes on disk (CoACD and the stable poses grow with the mesh), or its
     array bytes for an in-memory object; 0 when unknown."""
-    from rail_mj.pipeline.chain import ObjectInput
     from rail_mj.core.types import RailObject
 
     if isinstance(item, RailObject):
@@ -207,9 +200,10 @@ def largest_first(tasks: Sequence[ObjectTask]) -> list[ObjectTask]:
 # ---- local worker processes -----------------------------------------------------------------------------
 
 
-def serve(fd: int) -> None:
+def serve(fd: int, modules: Sequence[str] = ()) -> None:
     """A worker's loop: tasks arrive pickled on socket ``fd`` (from the parent, which it trusts), results go
-    back as JSON; it ends when the parent closes the socket or dies."""
+    back as JSON; it ends when the parent closes the socket or dies. ``modules`` (those of the task callables)
+    are imported before the worker says it is ready."""
     conn = Connection(fd)
     parent = os.getppid()
 
@@ -219,21 +213,21 @@ def serve(fd: int) -> None:
         os._exit(1)  # orphaned (the parent was killed): stop computing for nobody
 
     threading.Thread(target=watch_parent, daemon=True).start()
-    import rail_mj.pipeline.chain  # noqa: F401 - the slow imports, before saying ready
-
+    for module in modules:  # the slow imports, before saying ready
+        importlib.import_module(module)
     conn.send_bytes(_READY)
     while True:
         try:
             task = conn.recv()
         except EOFError:
             return
-        conn.send_bytes(run_object(task).encode())
+        conn.send_bytes(task.run(task).encode())
 
 
 class _Worker:
     """One worker process and its end of the socket; its output goes to a temporary file."""
 
-    def __init__(self, threads: int):
+    def __init__(self, threads: int, modules: Sequence[str]):
         ours, theirs = socket.socketpair()
         self.log = tempfile.TemporaryFile()
         package_root = str(Path(__file__).resolve().parents[2])  # the rail_mj this process runs
@@ -241,8 +235,9 @@ class _Worker:
         env["PYTHONPATH"] = os.pathsep.join(p for p in (package_root, env.get("PYTHONPATH")) if p)
         try:
             self.proc = subprocess.Popen(
-                [sys.executable, "-c", "import sys; from rail_mj.pipeline.parallel import serve; serve(int(sys.argv[1]))",
-                 str(theirs.fileno())],
+                [sys.executable, "-c",
+                 "import sys; from rail_mj.pipeline.parallel import serve; serve(int(sys.argv[1]), sys.argv[2:])",
+                 str(theirs.fileno()), *modules],
                 pass_fds=(theirs.fileno(),), env=env, stdin=subprocess.DEVNULL, stdout=self.log,
                 stderr=subprocess.STDOUT, start_new_session=True,
             )
@@ -288,10 +283,11 @@ def _stop(workers: Sequence[_Worker]) -> None:
 
 def _local_tasks(tasks: Sequence[ObjectTask], n: int, threads: int) -> Iterator[tuple[ObjectTask, list]]:
     queue = deque(tasks)
+    modules = sorted({t.run.__module__ for t in tasks})
     workers: list[_Worker] = []
     try:
         for _ in range(n):
-            workers.append(_Worker(threads))
+            workers.append(_Worker(threads, modules))
         while queue or any(w.task is not None for w in workers):
             live = [w for w in workers if w.task is not None or not w.ready]
             by_conn = {w.conn: w for w in live}
@@ -313,7 +309,7 @@ def _local_tasks(tasks: Sequence[ObjectTask], n: int, threads: int) -> Iterator[
                     workers.remove(w)
                     _stop([w])
                     if queue:
-                        workers.append(_Worker(threads))
+                        workers.append(_Worker(threads, modules))
                     if task is None:  # died between tasks: nothing was lost
                         continue
                     yield task, _failed(task, f"WorkerError: {why}, while on {task.label}; nothing was recorded "
@@ -350,7 +346,7 @@ def _drain(workers: Sequence[_Worker]) -> Iterator[tuple[ObjectTask, list]]:
 def _ray_task(task: ObjectTask) -> str:
     # a Ray worker process is reused across tasks: one CPU each, so one MuJoCo thread (Ray sets OMP_NUM_THREADS)
     os.environ[THREADS_ENV] = "1"
-    return run_object(task)
+    return task.run(task)
 
 
 def _ray_tasks(

@@ -1,0 +1,72 @@
+"""The settings of a classification run, as one tree: the run's own options and each stage's config.
+
+:class:`RunConfig` nests the configs of the stages it runs: ``decomposition`` (CoACD, rail_mj.mesh),
+``stable_poses`` (:class:`~rail_mj.stable_poses.StablePoseConfig`) and ``imagination``
+(:class:`~rail_mj.imagination.ImaginationConfig`); the :class:`~rail_mj.pipeline.chain.Pipeline` passes each
+down to its stage. Its defaults give the chain's defaults. :class:`ObjectInput` is one mesh file to classify.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from rail_mj.imagination.config import ImaginationConfig
+from rail_mj.mesh import DecompositionConfig
+from rail_mj.stable_poses.config import StablePoseConfig
+
+__all__ = ["PoseMode", "RunOptions", "RunConfig", "ObjectInput"]
+
+#: ``stable``: imagine every stable pose found by dropping the object; ``as_placed``: only the pose it stands in.
+PoseMode = Literal["stable", "as_placed"]
+
+
+class RunOptions(BaseModel):
+    """The run's own options (no stage's config): provider, backend, LLM, profile reuse, poses and agent."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    provider: str = Field("auto", description="auto | offline | anthropic")
+    backend: str = Field("auto", description="auto | native | mjx")
+    model: str | None = Field(None, description="LLM model name (anthropic provider)")
+    max_retries: int = Field(2, ge=0, le=10, description="LLM repair rounds per stage")
+    cache: bool = Field(True, description="cache LLM answers on disk")
+    profile_bin: float = Field(
+        0.1, gt=0, le=1.0, description="relative size bin within which a profile is reused"
+    )
+    min_pose_probability: float = Field(
+        0.0, ge=0, lt=1, description="stable poses rarer than this are not imagined"
+    )
+    pose: PoseMode = Field("stable", description="stable: search the stable poses; as_placed: the object's "
+                                                 "pose as it stands (mesh frame z up, on the ground)")
+    agent: str | None = Field(None, description="the request's agent (doll, apple, ...): a figure scales every "
+                                                "real-world size of the affordance (rail_mj.affordances."
+                                                "request_scale)")
+
+
+def _run_drops() -> StablePoseConfig:
+    """A run's stable-pose search: 64 drops."""
+    return StablePoseConfig(n_drops=64)
+
+
+class RunConfig(RunOptions):
+    """Settings of a classification run: its options and the config of each stage."""
+
+    decomposition: DecompositionConfig | None = Field(
+        None, description="CoACD settings; None: chosen per mesh (rail_mj.mesh.decomposition_for), with "
+                          "the hull quality guard"
+    )
+    stable_poses: StablePoseConfig = Field(default_factory=_run_drops, description="the stable-pose search")
+    imagination: ImaginationConfig = Field(default_factory=ImaginationConfig,
+                                           description="physics and driving of the imagination rollouts")
+
+
+class ObjectInput(BaseModel):
+    """A mesh file and how to read it."""
+
+    path: Path
+    units: float = Field(1.0, gt=0, description="metres per mesh unit")
+    up: Literal["z", "y"] = "z"
+    name: str | None = None
