@@ -21,8 +21,8 @@ __all__ = ["COMMANDS", "main"]
 COMMANDS: dict[str, tuple[str, str]] = {
     "classify": ("rail_mj.pipeline.cli:main", "one mesh, one verdict: classify MESH -a NAME [--json] [--explain] "
                                               "[--render PNG]"),
-    "eval": ("rail_mj.eval.run:main", "the paper's Tables 1 and 2 on a labelled dataset; `eval merge` joins shards"),
-    "dataset": ("rail_mj.dataset.procedural:main", "generate the labelled procedural dataset; `dataset real` fetches "
+    "eval": ("rail_mj.eval.cli:main", "the paper's Tables 1 and 2 on a labelled dataset; `eval merge` joins shards"),
+    "dataset": ("rail_mj.dataset.cli:main", "generate the labelled procedural dataset; `dataset real` fetches "
                                                    "the real-mesh set"),
     "robot": ("rail_mj.robot.__main__:main", "fetch the Panda model, run the execution demo or the robot experiment"),
 }
