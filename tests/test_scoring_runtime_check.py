@@ -12,6 +12,7 @@ import trimesh
 from messages_server import MessagesServer, offline_answer, schema_title, text_reply
 
 from rail_mj.core.errors import StageError, UnsafeCodeError
+from rail_mj.core.types import SCORING_ARGS, AgentSetup, RailObject
 from rail_mj.imagination import ImaginationConfig, imagine
 from rail_mj.llm import AnthropicProvider, ScoringCode, ScoringRequest, TaskDescription, generate_scoring
 from rail_mj.llm.checks import InvalidAnswerError, candidate_half_extents, check_scoring
@@ -25,7 +26,6 @@ from rail_mj.llm.offline import (
 )
 from rail_mj.scoring import WorkerStartError, close_workers, compile_scoring, pool, probe_outcomes
 from rail_mj.stable_poses.poses import pose_from_up
-from rail_mj.core.types import SCORING_ARGS, AgentSetup, RailObject
 
 SIGNATURE = f"def score({', '.join(SCORING_ARGS)}):\n"
 CUP = TaskDescription(affordance="cup", obb_dims=[0.12, 0.09, 0.09])
