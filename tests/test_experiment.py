@@ -47,7 +47,8 @@ def test_a_resumed_run_keeps_finished_rows(tmp_path, monkeypatch):
         return _row(task.name, True, None, 1.0)
 
     monkeypatch.setattr("rail_mj.robot.experiment.run_task", fake)
-    tasks = (Task("kept", "demo:cup", 0, "put the water in the cup"), Task("new", "demo:cup", 1, "put water in the cup"))
+    tasks = (Task("kept", "demo:cup", 0, "put the water in the cup"),
+             Task("new", "demo:cup", 1, "put water in the cup"))
     s = run_experiment(tasks=tasks, scan=False, json_path=tmp_path / "summary.json", progress=None)
     assert ran == ["new"] and s["n_tasks"] == 2
     assert [json.loads(x)["task"] for x in (tmp_path / "summary.jsonl").read_text().splitlines()[-1:]] == ["new"]
@@ -83,9 +84,9 @@ def test_a_plan_on_a_scan_turned_half_a_turn_is_carried_out_on_the_real_object_t
     # "left" (+y on the scan: the shelf's open front) was pushed into the real shelf's back wall
     import numpy as np
 
+    from rail_mj.core.types import StablePose
     from rail_mj.robot.control import RobotConfig
     from rail_mj.robot.experiment import plan_in_true_frame
-    from rail_mj.core.types import StablePose
 
     robot = RobotConfig()
     half = np.array([0.1, 0.06, 0.05])

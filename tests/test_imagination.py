@@ -5,12 +5,14 @@ import pytest
 import trimesh
 
 from rail_mj.core.errors import FragmentError, ImaginationError
+from rail_mj.core.types import AgentSetup, RailObject
 from rail_mj.imagination import ImaginationConfig, get_backend, imagine, prepare
 from rail_mj.stable_poses import pose_from_up
-from rail_mj.core.types import AgentSetup, RailObject
 
-DROPLET = '<mujoco><worldbody><body name="drop"><geom type="sphere" size="0.006" mass="0.001"/></body></worldbody></mujoco>'
-BLOCK = '<mujoco><worldbody><body name="block"><geom type="box" size="{s} {s} {s}" mass="{m}"/></body></worldbody></mujoco>'
+DROPLET = ('<mujoco><worldbody><body name="drop"><geom type="sphere" size="0.006" mass="0.001"/></body>'
+           '</worldbody></mujoco>')
+BLOCK = ('<mujoco><worldbody><body name="block"><geom type="box" size="{s} {s} {s}" mass="{m}"/></body>'
+         '</worldbody></mujoco>')
 FAST = ImaginationConfig(settle_time=1.5)
 
 
@@ -61,7 +63,8 @@ def cup_poses(cup):
 
 def _pour_plans(cup_poses):
     above = cup_poses[0].half_extents[2] + 0.04
-    return [np.array([[0, 0, above, 1, 0, 0, 0]]), np.array([[0, 0, above + 0.05, 1, 0, 0, 0], [0, 0, above, 1, 0, 0, 0]])]
+    return [np.array([[0, 0, above, 1, 0, 0, 0]]),
+            np.array([[0, 0, above + 0.05, 1, 0, 0, 0], [0, 0, above, 1, 0, 0, 0]])]
 
 
 def _pour(cup, cup_poses, backend, n=3, collide=True):

@@ -8,6 +8,8 @@ import pytest
 import trimesh
 
 from rail_mj.core.errors import FragmentError, SceneError
+from rail_mj.core.types import AgentSetup, RailObject
+from rail_mj.mesh import reduce_hull
 from rail_mj.mjcf import (
     AGENT_BIT,
     GROUND_BIT,
@@ -22,8 +24,6 @@ from rail_mj.mjcf import (
     check_fragment,
     hull_geom_name,
 )
-from rail_mj.mesh import reduce_hull
-from rail_mj.core.types import AgentSetup, RailObject
 
 ONE = '<worldbody><body><geom size="0.01"/></body></worldbody>'  # a minimal agent body, inlined below
 BALL = '<mujoco><worldbody><body name="ball"><geom type="sphere" size="0.02" mass="0.01"/></body></worldbody></mujoco>'
@@ -382,8 +382,8 @@ def test_fragment_caps_are_checked_before_mujoco_parses(kind: str, pattern: str,
 
 def test_robot_executor_refuses_a_flexcomp_fragment(obj: RailObject, tmp_path) -> None:
     """rail_mj.robot.execute compiled agent fragments without the fragment rules."""
-    from rail_mj.robot import execute
     from rail_mj.core.types import StablePose
+    from rail_mj.robot import execute
 
     trimesh.creation.box().export(tmp_path / "box.stl")
     pose = StablePose(pos=np.zeros(3), quat=np.array([1.0, 0, 0, 0]), probability=1.0,

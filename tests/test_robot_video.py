@@ -4,7 +4,6 @@ with a caption under every frame."""
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from rail_mj.robot import RobotConfig, execute
 from rail_mj.robot import executor as robot_executor

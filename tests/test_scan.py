@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from rail_mj.robot.scan import ScanError as _ScanError, load_open3d as _load_open3d  # noqa: E402
+from rail_mj.robot.scan import ScanError as _ScanError
+from rail_mj.robot.scan import load_open3d as _load_open3d
 
 try:
     _load_open3d()
@@ -16,6 +17,7 @@ except _ScanError:  # the [scan] extra is not installed: .ci/run's extras step r
     pytest.skip("the [scan] extra (open3d-cpu) is not installed", allow_module_level=True)
 
 from rail_mj.core.errors import ConfigError, RailError, RobotError  # noqa: E402
+from rail_mj.core.types import RailObject, StablePose  # noqa: E402
 from rail_mj.mesh import load_mesh, mesh_hash  # noqa: E402
 from rail_mj.robot.demo import upright_pose  # noqa: E402
 from rail_mj.robot.scan import (  # noqa: E402
@@ -31,7 +33,6 @@ from rail_mj.robot.scan import (  # noqa: E402
     true_mesh_world,
 )
 from rail_mj.robot.scan.views import reach_views as _reach_views  # noqa: E402
-from rail_mj.core.types import RailObject, StablePose  # noqa: E402
 
 BOX = np.array([0.08, 0.06, 0.10])  # x, y, z: m
 

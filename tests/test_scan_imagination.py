@@ -6,18 +6,19 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rail_mj.robot.scan import ScanError as _ScanError, load_open3d as _load_open3d
+from rail_mj.robot.scan import ScanError as _ScanError
+from rail_mj.robot.scan import load_open3d as _load_open3d
 
 try:
     _load_open3d()
 except _ScanError:  # the [scan] extra is not installed: .ci/run's extras step runs these
     pytest.skip("the [scan] extra (open3d-cpu) is not installed", allow_module_level=True)
 
+from rail_mj.core.types import StablePose  # noqa: E402
 from rail_mj.mesh import object_from_mesh, repair_mesh  # noqa: E402
 from rail_mj.pipeline.chain import classify  # noqa: E402
 from rail_mj.robot.demo import make_object, upright_pose  # noqa: E402
 from rail_mj.robot.scan import ScanConfig, scan_object  # noqa: E402
-from rail_mj.core.types import StablePose  # noqa: E402
 
 
 def _upside_down(obj) -> StablePose:
@@ -99,9 +100,8 @@ def test_a_deep_bins_cavity_stays_open_down_to_its_bottom():
 def test_a_scanned_plate_is_a_plate_as_placed():
     # fans across the plate's rim closed the scan but left food resting on top (not functional); the volume
     # closing, chosen because the fans lay where views saw through, keeps the plate a plate
-    from rail_mj.robot.experiment import TASKS, task_object
-
     from rail_mj.pipeline.chain import as_placed_pose
+    from rail_mj.robot.experiment import TASKS, task_object
 
     plate = task_object(next(t for t in TASKS if t.name == "plate"))
     result = scan_object(plate, as_placed_pose(plate)[0])  # as the experiment places it

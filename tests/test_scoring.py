@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from rail_mj.core.errors import ConfigError, ScoringRuntimeError, UnsafeCodeError
+from rail_mj.core.types import SCORING_ARGS, Outcomes
 from rail_mj.scoring import (
     RejectedCodeError,
     close_workers,
@@ -15,7 +16,6 @@ from rail_mj.scoring import (
     worker_count,
 )
 from rail_mj.scoring.pool import _worker_env
-from rail_mj.core.types import SCORING_ARGS, Outcomes
 
 SIGNATURE = f"def score({', '.join(SCORING_ARGS)}):"
 

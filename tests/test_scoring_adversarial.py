@@ -15,9 +15,8 @@ import numpy as np
 import pytest
 
 from rail_mj.core.errors import ScoringRuntimeError, UnsafeCodeError
-from rail_mj.scoring import compile_scoring, warm_up
-from rail_mj.scoring import pool
 from rail_mj.core.types import SCORING_ARGS
+from rail_mj.scoring import compile_scoring, pool, warm_up
 
 SIGNATURE = f"def score({', '.join(SCORING_ARGS)}):\n"
 LEGIT = SIGNATURE + "    return np.sum(contacts_object, axis=1) - 0.5\n"

@@ -15,7 +15,12 @@ from rail_mj.core.errors import StageError, UnsafeCodeError
 from rail_mj.core.profile import ScoringCode
 from rail_mj.core.types import SCORING_ARGS, AgentSetup, RailObject
 from rail_mj.imagination import ImaginationConfig, imagine
-from rail_mj.llm import AnthropicProvider, ScoringRequest, TaskDescription, generate_scoring
+from rail_mj.llm import (
+    AnthropicProvider,
+    ScoringRequest,
+    TaskDescription,
+    generate_scoring,
+)
 from rail_mj.llm.checks import InvalidAnswerError, candidate_half_extents, check_scoring
 from rail_mj.llm.offline import (
     known_affordances,
@@ -25,7 +30,13 @@ from rail_mj.llm.offline import (
     offline_plans,
     offline_scoring,
 )
-from rail_mj.scoring import WorkerStartError, close_workers, compile_scoring, pool, probe_outcomes
+from rail_mj.scoring import (
+    WorkerStartError,
+    close_workers,
+    compile_scoring,
+    pool,
+    probe_outcomes,
+)
 from rail_mj.stable_poses import pose_from_up
 
 SIGNATURE = f"def score({', '.join(SCORING_ARGS)}):\n"

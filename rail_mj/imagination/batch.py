@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import cast
 
 import mujoco
 import numpy as np
@@ -152,7 +153,8 @@ def _plan_samples(via: np.ndarray, cfg: ImaginationConfig) -> tuple[np.ndarray, 
     via = np.asarray(via, dtype=np.float64)
     if via.ndim != 2 or via.shape[1] != 7 or via.shape[0] < 1 or not np.all(np.isfinite(via)):
         raise ImaginationError(
-            f"a trajectory must be a finite (K, 7) array of via-poses (pos xyz + quat wxyz), K >= 1; got shape {via.shape}"
+            f"a trajectory must be a finite (K, 7) array of via-poses (pos xyz + quat wxyz), K >= 1; "
+            f"got shape {via.shape}"
         )
     quats = via[:, 3:] / np.linalg.norm(via[:, 3:], axis=1, keepdims=True)
     pos_list, quat_list = [via[:1, :3]], [quats[:1]]
@@ -330,7 +332,9 @@ def open_sectors(scene: Scene, qpos: np.ndarray) -> np.ndarray:
         escaped = np.zeros((scene.n_agents, n_rays), dtype=bool)
         for i, a in enumerate(scene.agent_qpos):
             p = to_object @ (qpos[b, a : a + 3] - qpos[b, o : o + 3])
-            mujoco.mj_multiRay(scene.surface, data, p, vecs, None, 1, -1, geomid, dist, None, n_rays, 100.0)
+            mujoco.mj_multiRay(scene.surface, data, p, vecs, None, True, -1, geomid, dist, None, n_rays, 100.0)
             escaped[i] = geomid < 0
-        out[b] = _longest_run(escaped.reshape(scene.n_agents, PROBE_DIRECTIONS, _SUB_RAYS).all(axis=2))
+        out[b] = _longest_run(
+            cast(np.ndarray, escaped.reshape(scene.n_agents, PROBE_DIRECTIONS, _SUB_RAYS).all(axis=2))
+        )
     return out

@@ -19,7 +19,7 @@ import jax
 import jax.numpy as jnp
 import mujoco
 import numpy as np
-from mujoco import mjx
+from mujoco import mjx  # pyright: ignore[reportAttributeAccessIssue]  # the generated stubs omit the subpackage
 
 from rail_mj.core.errors import ImaginationError
 from rail_mj.core.types import AgentSetup, Outcomes, RailObject

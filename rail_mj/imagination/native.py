@@ -34,7 +34,7 @@ class NativeBackend(Backend):
         sim = mujoco.batch.Batch(scene.model, n_worlds, nthread=cfg.nthread, persistent=True)
         qpos, qvel = sim.bind("qpos"), sim.bind("qvel")
         qfrc = sim.bind("qfrc_constraint")
-        sim.reset(stage=mujoco.mjtStage.mjSTAGE_NONE)
+        sim.reset(stage=mujoco.mjtStage.mjSTAGE_NONE)  # pyright: ignore[reportArgumentType]  # it takes int(stage)
         qpos[:] = batch.initial_qpos(scene)
         qvel[:] = 0.0
         sim.forward()

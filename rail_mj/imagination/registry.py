@@ -41,4 +41,4 @@ def _shared(name: str, config: ImaginationConfig) -> Backend:
 
 def get_backend(name: str = "auto", config: ImaginationConfig | None = None) -> Backend:
     """The process-wide backend ``name`` (``auto``, ``native``, ``mjx``) with ``config`` (default settings if None)."""
-    return _shared(resolve_backend(name), config or ImaginationConfig())
+    return _shared(resolve_backend(name), config or ImaginationConfig())  # pyright: ignore[reportArgumentType]  # frozen: hashable

@@ -148,7 +148,8 @@ def _axis_depths(mesh: trimesh.Trimesh, bounds: np.ndarray, axis: int, n: int) -
 
 
 def hull_quality(mesh: trimesh.Trimesh, hulls: tuple[np.ndarray, ...]) -> HullQuality:
-    """Volume ratio, excess (filled cavities) and missing surface of ``hulls`` against ``mesh`` (:class:`HullQuality`)."""
+    """Volume ratio, excess (filled cavities) and missing surface of ``hulls`` against ``mesh``
+    (:class:`HullQuality`)."""
     equations = [ConvexHull(h).equations for h in hulls]
     bounds = np.asarray(mesh.bounds, dtype=np.float64)
     extents = np.ptp(bounds, axis=0)

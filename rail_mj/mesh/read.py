@@ -10,10 +10,11 @@ from __future__ import annotations
 import io
 import re
 from pathlib import Path
-from typing import Literal
+from typing import Literal, cast
 
 import numpy as np
 import trimesh
+import trimesh.resolvers
 
 from rail_mj.core.errors import ConfigError, MeshError
 from rail_mj.mesh.repair import MAX_FACES, _fail, _too_many_faces, repair_mesh
@@ -140,7 +141,7 @@ def _read(path: Path) -> trimesh.Trimesh:
         meshes = [g for g in loaded.dump() if isinstance(g, trimesh.Trimesh)] if loaded.geometry else []
         if not meshes:
             raise _fail(label, "has no faces (a scene without triangle meshes); a mesh needs triangles")
-        return trimesh.util.concatenate(meshes)
+        return cast(trimesh.Trimesh, trimesh.util.concatenate(meshes))
     if not isinstance(loaded, trimesh.Trimesh):
         raise _fail(label, f"has no faces (it holds a {type(loaded).__name__}); a mesh needs triangles")
     return loaded

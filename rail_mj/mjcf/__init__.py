@@ -2,6 +2,18 @@
 
 from __future__ import annotations
 
+from rail_mj.mjcf.compose import (
+    OWNER_GROUND,
+    OWNER_OBJECT,
+    OWNER_OTHER,
+    Scene,
+    ScenePhysics,
+    add_agent,
+    add_object,
+    build_scene,
+    compose_scene,
+    count_contacts,
+)
 from rail_mj.mjcf.scene import (
     AGENT_BIT,
     FRICTION,
@@ -21,18 +33,6 @@ from rail_mj.mjcf.scene import (
     agent_prefix,
     check_fragment,
     hull_geom_name,
-)
-from rail_mj.mjcf.compose import (
-    OWNER_GROUND,
-    OWNER_OBJECT,
-    OWNER_OTHER,
-    Scene,
-    ScenePhysics,
-    add_agent,
-    add_object,
-    build_scene,
-    compose_scene,
-    count_contacts,
 )
 
 __all__ = [

@@ -31,6 +31,7 @@ import trimesh
 from scipy.spatial import ConvexHull
 
 from rail_mj.core.errors import SceneError
+from rail_mj.core.types import AgentSetup, RailObject
 from rail_mj.mjcf.scene import (
     AGENT_BIT,
     FRICTION,
@@ -45,7 +46,6 @@ from rail_mj.mjcf.scene import (
     check_fragment,
     hull_geom_name,
 )
-from rail_mj.core.types import AgentSetup, RailObject
 
 __all__ = [
     "OWNER_GROUND",
@@ -155,7 +155,7 @@ def count_contacts(geom_owner: np.ndarray, geom_pairs: np.ndarray, n_agents: int
 def _contact(geom: mujoco.MjsGeom, solref: list[float], contype: int, conaffinity: int) -> None:
     geom.contype = contype
     geom.conaffinity = conaffinity
-    geom.solref = solref
+    geom.solref = solref  # pyright: ignore[reportAttributeAccessIssue]  # stub: any sequence works
 
 
 def _mesh_inertia(obj: RailObject, physics: ScenePhysics) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
@@ -174,8 +174,8 @@ def add_object(
     spec: mujoco.MjSpec,
     obj: RailObject,
     *,
-    pos: Sequence[float] = (0.0, 0.0, 0.0),
-    quat: Sequence[float] = (1.0, 0.0, 0.0, 0.0),
+    pos: Sequence[float] | np.ndarray = (0.0, 0.0, 0.0),
+    quat: Sequence[float] | np.ndarray = (1.0, 0.0, 0.0, 0.0),
     free: bool = True,
     physics: ScenePhysics = ScenePhysics(),
     hull_boxes: int = 0,
@@ -205,9 +205,10 @@ def add_object(
             to_origin, extents = trimesh.bounds.oriented_bounds(np.asarray(hull))
             frame = np.linalg.inv(to_origin)
             box_quat = np.zeros(4)
-            mujoco.mju_mat2Quat(box_quat, np.ascontiguousarray(frame[:3, :3]).ravel())
+            mujoco.mju_mat2Quat(box_quat, np.ascontiguousarray(frame[:3, :3], dtype=np.float64).ravel())
             geom = body.add_geom(name=hull_geom_name(i), type=mujoco.mjtGeom.mjGEOM_BOX,
-                                 size=np.maximum(extents / 2, 1e-4), pos=frame[:3, 3], quat=box_quat)
+                                 size=np.maximum(extents / 2, 1e-4),
+                                 pos=frame[:3, 3], quat=box_quat)  # pyright: ignore[reportArgumentType]  # stub: arrays work
         else:
             mesh = spec.add_mesh(name=hull_geom_name(i))
             mesh.uservert = np.asarray(hull, dtype=np.float64).ravel().tolist()
@@ -217,8 +218,8 @@ def add_object(
             # compensate, so a geom at the body origin shows the vertices exactly where they are.
             geom = body.add_geom(name=hull_geom_name(i), type=mujoco.mjtGeom.mjGEOM_MESH, meshname=hull_geom_name(i))
         geom.mass = float(obj.mass * share)  # hulls may overlap: split the object's mass by hull volume
-        geom.rgba = [0.8, 0.6, 0.4, 1.0]
-        geom.friction = physics.friction3
+        geom.rgba = [0.8, 0.6, 0.4, 1.0]  # pyright: ignore[reportAttributeAccessIssue]  # stub: any sequence works
+        geom.friction = physics.friction3  # pyright: ignore[reportAttributeAccessIssue]  # stub: any sequence works
         _contact(geom, solref, OBJECT_BIT, GROUND_BIT | AGENT_BIT)
     # pad to the bucket's geom count with tiny massless boxes hidden inside the first hull, so a new
     # object of the same bucket has the same shapes (MJX compiles once per bucket)
@@ -226,7 +227,7 @@ def add_object(
     for i in range(len(obj.hulls), hull_boxes):
         geom = body.add_geom(name=f"{OBJECT_BODY}/pad{i}", type=mujoco.mjtGeom.mjGEOM_BOX, size=[1e-5] * 3, pos=inner)
         geom.mass = 0.0
-        geom.friction = physics.friction3
+        geom.friction = physics.friction3  # pyright: ignore[reportAttributeAccessIssue]  # stub: any sequence works
         _contact(geom, solref, OBJECT_BIT, GROUND_BIT | AGENT_BIT)
     return body
 
@@ -236,8 +237,8 @@ def add_agent(
     fragment: mujoco.MjSpec,
     i: int,
     *,
-    pos: Sequence[float],
-    quat: Sequence[float],
+    pos: Sequence[float] | np.ndarray,
+    quat: Sequence[float] | np.ndarray,
     physics: ScenePhysics = ScenePhysics(),
     collide_agents: bool = True,
 ) -> mujoco.MjsBody:
@@ -276,7 +277,7 @@ def _add_agents(
                   collide_agents=agents.collide_agents)
 
 
-def _pose(label: str, value: Sequence[float], n: int) -> np.ndarray:
+def _pose(label: str, value: Sequence[float] | np.ndarray, n: int) -> np.ndarray:
     arr = np.asarray(value, dtype=np.float64)
     if arr.shape != (n,) or not np.isfinite(arr).all() or (n == 4 and np.linalg.norm(arr) < 1e-9):
         raise SceneError(f"{label} must be {n} finite numbers (a quaternion non-zero, wxyz), got {value!r}")
@@ -286,12 +287,12 @@ def _pose(label: str, value: Sequence[float], n: int) -> np.ndarray:
 def _spec(
     obj: RailObject,
     *,
-    object_pos: Sequence[float],
-    object_quat: Sequence[float],
+    object_pos: Sequence[float] | np.ndarray,
+    object_quat: Sequence[float] | np.ndarray,
     object_free: bool,
     agents: AgentSetup | None,
-    agents_pos: Sequence[float],
-    agents_quat: Sequence[float],
+    agents_pos: Sequence[float] | np.ndarray,
+    agents_quat: Sequence[float] | np.ndarray,
     physics: ScenePhysics,
     ground: bool,
     hull_boxes: int,
@@ -311,7 +312,7 @@ def _spec(
         spec.option.enableflags |= mujoco.mjtEnableBit.mjENBL_SPECULATIVE
     if ground:
         plane = spec.worldbody.add_geom(name=GROUND_GEOM, type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0.0, 0.0, 0.05])
-        plane.friction = physics.friction3
+        plane.friction = physics.friction3  # pyright: ignore[reportAttributeAccessIssue]  # stub: any sequence works
         _contact(plane, physics.solref, GROUND_BIT, 0)
     add_object(spec, obj, pos=object_pos, quat=object_quat, free=object_free, physics=physics, hull_boxes=hull_boxes)
     if agents is not None:
@@ -379,7 +380,7 @@ def compose_scene(
         body.explicitinertial = True
         body.mass, body.ipos, body.inertia, body.iquat = mass, ipos, inertia, iquat
     if joint_damping or rolling_friction:
-        spec.joint(OBJECT_JOINT).damping = [joint_damping, 0.0, 0.0]
+        spec.joint(OBJECT_JOINT).damping = [joint_damping, 0.0, 0.0]  # pyright: ignore[reportAttributeAccessIssue]  # stub: any sequence works
         for g in body.geoms:
             g.condim = 6
             g.friction = [physics.friction, rolling_friction, rolling_friction]

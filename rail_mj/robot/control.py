@@ -35,38 +35,43 @@ class RobotConfig(BaseModel):
 
     model_config = ConfigDict(frozen=True, extra="forbid")
 
-    force_limit: float = Field(15.0, gt=0, description="contact force on hand + held agent that stops the motion, N")
+    force_limit: float = Field(default=15.0, gt=0,
+                               description="contact force on hand + held agent that stops the motion, N")
     on_force_limit: Literal["hold", "retreat"] = "hold"
-    retreat_distance: float = Field(0.02, ge=0, description="how far to back off on a force-limit event, m")
-    stiffness: float = Field(1000.0, gt=0, description="translational impedance, N/m")
-    rot_stiffness: float = Field(40.0, gt=0, description="rotational impedance, N·m/rad")
-    damping_ratio: float = Field(1.0, gt=0)
-    nullspace_stiffness: float = Field(10.0, ge=0, description="posture spring, N·m/rad")
-    speed: float = Field(0.2, gt=0, description="end-effector speed in free space (approach, lift), m/s")
-    guarded_speed: float = Field(0.04, gt=0, description="speed along the via-poses, where contact is expected, m/s")
-    compliance: float = Field(0.06, ge=0.004, description="solref time constant of the hand and agent geoms, s: "
-                                                       "soft pads bound the impact force of a touch")
-    angular_speed: float = Field(1.0, gt=0, description="rad/s")
-    dt: float = Field(0.002, gt=0, le=0.005)
-    hold_time: float = Field(0.3, ge=0, description="pause at the end of the trajectory before release, s")
-    lift_after_release: float = Field(0.08, ge=0, description="hand moves up this far after releasing, m")
-    settle_time: float = Field(3.0, gt=0, description="longest wait for the agent to come to rest, s")
-    settle_speed: float = Field(0.01, gt=0, description="agent/object speed counted as at rest, m/s")
-    ik_pos_tol: float = Field(0.005, gt=0, description="IK residual above which a pose is unreachable, m")
-    ik_rot_tol: float = Field(0.05, gt=0, description="rad")
-    ik_clearance: float = Field(0.002, ge=0, description="distance IK keeps the hand (links 4-7, fingers) from the "
-                                                       "table and the object, m")
-    ik_step: float = Field(0.02, gt=0, description="IK samples the path between via-poses this finely, m: the "
+    retreat_distance: float = Field(default=0.02, ge=0, description="how far to back off on a force-limit event, m")
+    stiffness: float = Field(default=1000.0, gt=0, description="translational impedance, N/m")
+    rot_stiffness: float = Field(default=40.0, gt=0, description="rotational impedance, N·m/rad")
+    damping_ratio: float = Field(default=1.0, gt=0)
+    nullspace_stiffness: float = Field(default=10.0, ge=0, description="posture spring, N·m/rad")
+    speed: float = Field(default=0.2, gt=0, description="end-effector speed in free space (approach, lift), m/s")
+    guarded_speed: float = Field(default=0.04, gt=0,
+                                 description="speed along the via-poses, where contact is expected, m/s")
+    compliance: float = Field(default=0.06, ge=0.004,
+                              description="solref time constant of the hand and agent geoms, s: "
+                                          "soft pads bound the impact force of a touch")
+    angular_speed: float = Field(default=1.0, gt=0, description="rad/s")
+    dt: float = Field(default=0.002, gt=0, le=0.005)
+    hold_time: float = Field(default=0.3, ge=0, description="pause at the end of the trajectory before release, s")
+    lift_after_release: float = Field(default=0.08, ge=0, description="hand moves up this far after releasing, m")
+    settle_time: float = Field(default=3.0, gt=0, description="longest wait for the agent to come to rest, s")
+    settle_speed: float = Field(default=0.01, gt=0, description="agent/object speed counted as at rest, m/s")
+    ik_pos_tol: float = Field(default=0.005, gt=0, description="IK residual above which a pose is unreachable, m")
+    ik_rot_tol: float = Field(default=0.05, gt=0, description="rad")
+    ik_clearance: float = Field(default=0.002, ge=0,
+                                description="distance IK keeps the hand (links 4-7, fingers) from the "
+                                            "table and the object, m")
+    ik_step: float = Field(default=0.02, gt=0, description="IK samples the path between via-poses this finely, m: the "
                                                 "posture the controller keeps follows collision-free solutions")
-    table_height: float = Field(0.1, gt=0, description="table top above the floor, m")
+    table_height: float = Field(default=0.1, gt=0, description="table top above the floor, m")
     table_half_size: tuple[float, float] = (0.3, 0.45)
-    object_xy: tuple[float, float] = Field((0.55, 0.0), description="where the object's task frame sits, m")
-    clearance: float = Field(0.08, ge=0, description="approach height above the object top, m")
-    agent_size: tuple[float, float] = Field((0.03, 0.045), description="graspable agent size range, m")
-    grip_gap: float = Field(0.015, ge=0, description="how far the held agent lies below the fingertips, m: more than "
+    object_xy: tuple[float, float] = Field(default=(0.55, 0.0), description="where the object's task frame sits, m")
+    clearance: float = Field(default=0.08, ge=0, description="approach height above the object top, m")
+    agent_size: tuple[float, float] = Field(default=(0.03, 0.045), description="graspable agent size range, m")
+    grip_gap: float = Field(default=0.015, ge=0,
+                            description="how far the held agent lies below the fingertips, m: more than "
                             "its soft pads sink at the force limit (9 mm at 15 N), so the fingertips do not strike "
                             "the surface it is pressed onto")
-    visual: bool = Field(False, description="load the render meshes (slower compile); forced on when rendering")
+    visual: bool = Field(default=False, description="load the render meshes (slower compile); forced on when rendering")
 
 
 def make_torque_controlled(spec: mujoco.MjSpec) -> None:

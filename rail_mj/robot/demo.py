@@ -15,7 +15,7 @@ import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, cast
 
 import numpy as np
 import trimesh
@@ -209,7 +209,7 @@ def object_from_parts(name: str, hulls: list[np.ndarray] | tuple[np.ndarray, ...
                       ) -> RailObject:
     """An object whose convex parts are given (vertex arrays; mesh frame as given): its hulls are the parts."""
     hulls = tuple(np.asarray(h, float) for h in hulls)
-    mesh = trimesh.util.concatenate([trimesh.convex.convex_hull(h) for h in hulls])
+    mesh = cast(trimesh.Trimesh, trimesh.util.concatenate([trimesh.convex.convex_hull(h) for h in hulls]))
     volume = float(sum(trimesh.convex.convex_hull(h).volume for h in hulls))
     # content hash: stable poses are cached by it, so a resized demo object must not reuse old ones
     return RailObject(name=name, mesh=mesh, hulls=hulls, mesh_hash=mesh_hash(mesh),
@@ -295,8 +295,8 @@ def case_from_result(result: Any) -> DemoCase | None:
     """The executable part of a pipeline ``AffordanceResult``; None when it found no functional pose/plan."""
     if not result.functional or result.functional_pose is None or result.best_plan is None or result.error:
         return None
-    return DemoCase(result.object, result.affordance, True, result.functional_pose.to_pose(), np.asarray(result.best_plan.via_poses, float),
-                    result.agent_fragment, result.scoring_source)
+    return DemoCase(result.object, result.affordance, True, result.functional_pose.to_pose(),
+                    np.asarray(result.best_plan.via_poses, float), result.agent_fragment, result.scoring_source)
 
 
 def plan_offline(obj: RailObject, affordance: str) -> DemoCase:

@@ -33,6 +33,7 @@ from rail_mj.robot.arm import HOME_QPOS
 from rail_mj.robot.control import RobotConfig, contact_force, impedance_torque
 from rail_mj.robot.scene import GRASP_QUAT, RobotScene, build_scene, graspable_scale, hand_z, home_grip, side_grasps
 from rail_mj.robot.video import VIDEO_FPS, video_camera, video_renderer, write_video
+from rail_mj.scoring import compile_scoring
 
 __all__ = [
     "ScoringFunction",
@@ -137,6 +138,7 @@ class _Sim:
         force = contact_force(self.model, self.data, mask)
         self.peak = max(self.peak, force)
         if self.renderer is not None and self.steps % self.frame_every == 0:
+            assert self.camera is not None  # the renderer exists only with a camera
             self.renderer.update_scene(self.data, camera=self.camera)
             self.frames.append(self.renderer.render().copy())
             self.frame_info.append((float(self.data.time), self.phase, force))
@@ -305,11 +307,6 @@ def _outcomes(sim: _Sim, obj_pos0: np.ndarray, obj_quat0: np.ndarray) -> Outcome
 def _resolve_scoring(scoring: ScoringFunction | str | None) -> ScoringFunction | None:
     if scoring is None or callable(scoring):
         return scoring
-    try:
-        from rail_mj.scoring import compile_scoring
-    except ImportError as exc:
-        raise RobotError("scoring source given but rail_mj.scoring.compile_scoring is not available; "
-                         "pass a callable(outcomes) -> (B,) scores instead") from exc
     return compile_scoring(scoring)
 
 
@@ -360,6 +357,7 @@ def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: 
             chosen = (scene, plan, path, targets, grasp)
         if not plan.message and not plan.blocked:
             break
+    assert chosen is not None  # the grasp list is never empty
     scene, plan, path, targets, grasp = chosen
     timings["ik_per_solve"] = timings["ik"] / max(1, solves)
 

@@ -218,6 +218,7 @@ def run_task(task: Task, *, scan: bool = True, config: RobotConfig | None = None
         res = execute(obj, pose, case.agent_fragment, via_poses, case.scoring, config=cfg, render=render,
                       affordance=row["affordance"])
         times["execute"] = time.perf_counter() - t0
+        assert plan_from.best_plan is not None  # case_from_result gave a case, so there is a best plan
         row.update(success=bool(res.success), score=float(res.score) if np.isfinite(res.score) else None,
                    peak_force=float(res.peak_force), force_limit=float(res.force_limit),
                    force_events=len(res.force_events), message=res.message, plan=plan_from.best_plan.name)
@@ -330,7 +331,8 @@ def run_experiment(*, tasks: tuple[Task, ...] = TASKS, scan: bool = True, json_p
         rows.append(row)
         if progress:
             scan_v = row["scan"]["functional"] if row.get("scan") else None
-            progress(f"{task.name:14s} {row['affordance']:10s} scan={scan_v!s:5s} true={row['true']['functional']!s:5s} "
+            progress(f"{task.name:14s} {row['affordance']:10s} scan={scan_v!s:5s} "
+                     f"true={row['true']['functional']!s:5s} "
                      f"success={row['success']!s:5s} peak={row['peak_force']:5.1f} N {row['message']}")
     summary = {**summarize(rows, scan=scan, scan_note=note), "rows": rows}
     atomic_write_text(json_path, json.dumps(summary, indent=2))

@@ -66,7 +66,7 @@ class IKSolution:
 class ArmIK:
     """mink IK for one compiled scene's control site (``ArmIndex.site``)."""
 
-    def __init__(self, model: mujoco.MjModel, arm: ArmIndex, *, obstacles: Sequence[int] | None = None,
+    def __init__(self, model: mujoco.MjModel, arm: ArmIndex, *, obstacles: Sequence[int] | np.ndarray | None = None,
                  min_distance: float = 0.002, detection_distance: float = 0.1, pos_tol: float = 1e-4,
                  rot_tol: float = 1e-3, max_iters: int = 300, max_step: float = 0.2) -> None:
         """``obstacles``: geom ids the hand must keep ``min_distance`` from; default: every geom on a static
@@ -124,7 +124,6 @@ class ArmIK:
             raise RobotError(f"IK target must be a finite position (3,) and wxyz quaternion (4,), got "
                              f"{pos.shape} and {quat.shape}")
         quat = quat / np.linalg.norm(quat)
-        arm = self.arm
         qpos = (self.model.qpos0 if world_qpos is None else np.asarray(world_qpos, float)).copy()
         self.frame.set_target(mink.SE3.from_rotation_and_translation(mink.SO3(quat), pos))
         limits = self.limits if collisions else self.kinematic_limits

@@ -160,10 +160,10 @@ def build_scene(cfg: RobotConfig, *, obj: RailObject | None = None, pose: Stable
     table = spec.worldbody.add_geom(name="table", type=mujoco.mjtGeom.mjGEOM_BOX, size=[sx, sy, th / 2],
                                     pos=[tx, ty, th / 2], rgba=[0.6, 0.6, 0.55, 1])
     for ground in (floor, table):
-        ground.solref, ground.friction = physics.solref, physics.friction3
+        ground.solref, ground.friction = physics.solref, physics.friction3  # pyright: ignore[reportAttributeAccessIssue]  # stub: any sequence works
     for i, (centre, half) in enumerate(boxes):
-        spec.worldbody.add_geom(name=f"box{i}", type=mujoco.mjtGeom.mjGEOM_BOX, size=half, pos=centre,
-                                rgba=[0.7, 0.2, 0.2, 1])
+        spec.worldbody.add_geom(name=f"box{i}", type=mujoco.mjtGeom.mjGEOM_BOX, size=half,
+                                pos=centre, rgba=[0.7, 0.2, 0.2, 1])  # pyright: ignore[reportArgumentType]  # stub: arrays work
     half_extents = np.zeros(3)
     shift = np.array([tx, ty, th])
     if obj is not None:

@@ -37,7 +37,7 @@ def video_renderer(model: mujoco.MjModel) -> mujoco.Renderer:
     model.vis.quality.offsamples = 0
     model.vis.global_.offwidth = max(model.vis.global_.offwidth, VIDEO_SIZE[0])
     model.vis.global_.offheight = max(model.vis.global_.offheight, VIDEO_SIZE[1])
-    return mujoco.Renderer(model, *VIDEO_SIZE[::-1])
+    return mujoco.Renderer(model, height=VIDEO_SIZE[1], width=VIDEO_SIZE[0])
 
 
 def video_camera(scene: RobotScene, sols: np.ndarray, targets: list[tuple[np.ndarray, np.ndarray]]

@@ -135,7 +135,7 @@ class _Worker:
                 self.shm.close()
             os.ftruncate(self.shm_fd, size)
             self.shm = mmap.mmap(self.shm_fd, size)
-        for (name, dtype, shape, off), arr in zip(layout, arrays.values()):
+        for (_name, _dtype, _shape, off), arr in zip(layout, arrays.values()):
             dst = np.frombuffer(self.shm, dtype=arr.dtype, count=arr.size, offset=off).reshape(arr.shape)
             np.copyto(dst, arr)
             del dst

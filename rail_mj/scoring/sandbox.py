@@ -3,8 +3,8 @@
 This file is executed as a script (``python -P -B sandbox.py ...``), in an
 empty temporary working directory, by :mod:`rail_mj.scoring.pool`, so it
 imports nothing but the standard library and numpy — never the ``rail_mj``
-package, whose ``__init__`` may pull in JAX or MuJoCo. The parent imports it too, for the allow-lists below (one source of
-truth for the AST check and the runtime namespace).
+package, whose ``__init__`` may pull in JAX or MuJoCo. The parent imports it too, for the allow-lists below (one
+source of truth for the AST check and the runtime namespace).
 
 Protocol (one request at a time):
 
@@ -326,6 +326,7 @@ class _Worker:
     def _run(self, req: dict) -> dict:
         """One call, then garbage collection; the result says how far above its resting size the worker ended."""
         result = self._call(req)
+        assert self.shm is not None  # _call mapped it
         collect_garbage()  # what the call left behind would otherwise eat into the next call's budget
         excess = _vm_bytes() - self.resting - len(self.shm)
         if excess > req["slack_mb"] * _MB:
@@ -336,6 +337,7 @@ class _Worker:
 
     def _call(self, req: dict) -> dict:
         view = self._map(req["shm_size"])
+        assert self.shm is not None  # _map mapped it
         arrays = {
             name: np.frombuffer(view, dtype=np.dtype(dtype), count=math.prod(shape), offset=offset).reshape(shape)
             for name, dtype, shape, offset in req["arrays"]

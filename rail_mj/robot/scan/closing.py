@@ -13,10 +13,11 @@ holes are fanned and manifold3d repairs it (``ScanConfig.closing``).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import cast
 
 import numpy as np
 import trimesh
-from scipy.spatial import cKDTree
+from scipy.spatial import cKDTree  # pyright: ignore[reportAttributeAccessIssue]  # compiled, no stub
 
 from rail_mj.robot.scan.config import ScanConfig, load_open3d
 from rail_mj.robot.scan.views import ScanView
@@ -115,7 +116,7 @@ def watertight(mesh: trimesh.Trimesh, config: ScanConfig) -> tuple[trimesh.Trime
     if result is None:
         return mesh, notes + ["holes left open"]
     # a fan across a large outline can make the wrong piece the kept one: the result must lie on the scan
-    samples, _ = trimesh.sample.sample_surface(closed, 4000, seed=config.seed)
+    samples = trimesh.sample.sample_surface(closed, 4000, seed=config.seed)[0]
     # unsigned: the sign (ray tests, ~70% of signed_distance's time) plays no part in the mean distance
     off = float(np.mean(trimesh.proximity.closest_point(result, samples)[1]))
     if off > config.voxel_size:
@@ -215,7 +216,7 @@ def solid_closing(fused: trimesh.Trimesh, depths: list[np.ndarray], views: list[
     index = index[np.all((index >= 0) & (index < shape), axis=1)]
     flat = np.ravel_multi_index(index.T, shape)
     solid.flat[flat] = np.maximum(solid.flat[flat], np.float32(_WALL_FILL * step))
-    pieces, n_pieces = label(solid > 0)
+    pieces, n_pieces = cast(tuple[np.ndarray, int], label(solid > 0))  # without output=: (labels, count)
     touched = np.bincount(pieces.flat[flat], minlength=n_pieces + 1) > 0
     sizes = np.bincount(pieces.ravel(), minlength=n_pieces + 1)
     touched[0] = False
@@ -272,7 +273,7 @@ def _separate_touching(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 def off_surface(meshes: Sequence[trimesh.Trimesh], fused: trimesh.Trimesh, config: ScanConfig) -> list[float]:
     """Mean distance from each mesh's surface to the fused surface, m: what a closing added away from the scan."""
-    target, _ = trimesh.sample.sample_surface(fused, 20000, seed=config.seed)
+    target = trimesh.sample.sample_surface(fused, 20000, seed=config.seed)[0]
     tree = cKDTree(np.asarray(target))
     return [float(tree.query(np.asarray(trimesh.sample.sample_surface(m, 4000, seed=config.seed + 1)[0]))[0].mean())
             for m in meshes]

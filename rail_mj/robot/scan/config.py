@@ -31,57 +31,60 @@ class ScanConfig(BaseModel):
 
     model_config = ConfigDict(frozen=True, extra="forbid")
 
-    n_views: int = Field(12, ge=1, le=64, description="planned camera poses")
-    min_views: int = Field(6, ge=1, description="fewest reachable views a scan needs")
-    width: int = Field(320, ge=16, le=2048, description="depth image width, px")
-    height: int = Field(240, ge=16, le=2048, description="depth image height, px")
-    fovy: float = Field(58.0, gt=5, lt=150, description="vertical field of view (a RealSense D435's depth: 58)")
-    distance: float = Field(0.33, gt=0.05, le=1.5, description="camera to look-at target, m")
-    elevations: tuple[float, ...] = Field((35.0, 60.0), min_length=1,
+    n_views: int = Field(default=12, ge=1, le=64, description="planned camera poses")
+    min_views: int = Field(default=6, ge=1, description="fewest reachable views a scan needs")
+    width: int = Field(default=320, ge=16, le=2048, description="depth image width, px")
+    height: int = Field(default=240, ge=16, le=2048, description="depth image height, px")
+    fovy: float = Field(default=58.0, gt=5, lt=150, description="vertical field of view (a RealSense D435's depth: 58)")
+    distance: float = Field(default=0.33, gt=0.05, le=1.5, description="camera to look-at target, m")
+    elevations: tuple[float, ...] = Field(default=(35.0, 60.0), min_length=1,
                                           description="view elevations above the table, cycled over the views")
-    top_view: bool = Field(True, description="after the planned views, one more straight down onto the top of "
+    top_view: bool = Field(default=True, description="after the planned views, one more straight down onto the top of "
                            "what they fused: the only view that sees the bottom of a deep, narrow cavity")
-    elevation_step: float = Field(10.0, ge=0, description="fallback: how much steeper to try an unreachable view")
-    fallback_distance: float = Field(0.8, gt=0.3, le=1.0,
+    elevation_step: float = Field(default=10.0, ge=0,
+                                  description="fallback: how much steeper to try an unreachable view")
+    fallback_distance: float = Field(default=0.8, gt=0.3, le=1.0,
                                      description="fallback: the closer distance tried last, × distance")
-    arm_clearance: float = Field(0.01, ge=0, description="closest the arm may come to the object at a view, m")
-    target_height: float = Field(0.07, ge=0, description="look-at target above the table top, m")
+    arm_clearance: float = Field(default=0.01, ge=0, description="closest the arm may come to the object at a view, m")
+    target_height: float = Field(default=0.07, ge=0, description="look-at target above the table top, m")
     workspace_half: tuple[float, float, float] = Field(
-        (0.2, 0.2, 0.35), description="the fused region: half x, half y and height above the table, m")
-    depth_min: float = Field(0.07, gt=0, description="the sensor's nearest valid depth, m")
-    depth_max: float = Field(1.2, gt=0, description="farthest depth fused, m")
-    voxel_size: float = Field(0.0025, ge=0.0005, le=0.02, description="TSDF voxel edge, m")
-    sdf_trunc: float = Field(4.0, ge=1.0, le=10.0, description="TSDF truncation, in voxels")
-    min_observations: int = Field(1, ge=1, description="fewest views that must have fused a voxel of the surface")
-    depth_noise: float = Field(0.0, ge=0, le=0.05,
+        default=(0.2, 0.2, 0.35), description="the fused region: half x, half y and height above the table, m")
+    depth_min: float = Field(default=0.07, gt=0, description="the sensor's nearest valid depth, m")
+    depth_max: float = Field(default=1.2, gt=0, description="farthest depth fused, m")
+    voxel_size: float = Field(default=0.0025, ge=0.0005, le=0.02, description="TSDF voxel edge, m")
+    sdf_trunc: float = Field(default=4.0, ge=1.0, le=10.0, description="TSDF truncation, in voxels")
+    min_observations: int = Field(default=1, ge=1,
+                                  description="fewest views that must have fused a voxel of the surface")
+    depth_noise: float = Field(default=0.0, ge=0, le=0.05,
                                description="Gaussian depth noise, standard deviation per metre of depth")
-    dropout: float = Field(0.0, ge=0, lt=1, description="fraction of valid pixels lost at random")
-    edge_dropout: float = Field(0.0, ge=0, le=1,
+    dropout: float = Field(default=0.0, ge=0, lt=1, description="fraction of valid pixels lost at random")
+    edge_dropout: float = Field(default=0.0, ge=0, le=1,
                                 description="chance a pixel next to a depth discontinuity is lost")
-    edge_jump: float = Field(0.01, gt=0, description="depth step between neighbours counted as an edge, m")
-    plane_distance: float = Field(0.004, gt=0, description="RANSAC inlier distance for the table plane, m")
-    cluster_eps: float = Field(0.01, gt=0, description="DBSCAN neighbourhood radius, m")
-    carve: bool = Field(True, description="remove surface a view saw through (the TSDF's fattened edges)")
-    close_bottom: bool = Field(True, description="cap the open outline where the object meets the table")
-    watertight: bool = Field(True, description="close every other hole and make the mesh a closed manifold "
+    edge_jump: float = Field(default=0.01, gt=0, description="depth step between neighbours counted as an edge, m")
+    plane_distance: float = Field(default=0.004, gt=0, description="RANSAC inlier distance for the table plane, m")
+    cluster_eps: float = Field(default=0.01, gt=0, description="DBSCAN neighbourhood radius, m")
+    carve: bool = Field(default=True, description="remove surface a view saw through (the TSDF's fattened edges)")
+    close_bottom: bool = Field(default=True, description="cap the open outline where the object meets the table")
+    watertight: bool = Field(default=True, description="close every other hole and make the mesh a closed manifold "
                              "(manifold3d), simplified within simplify_tolerance")
-    simplify_tolerance: float = Field(0.3, ge=0, le=2.0,
+    simplify_tolerance: float = Field(default=0.3, ge=0, le=2.0,
                                       description="surface the simplification may move, in voxels; it grows "
                                       "(up to 2 voxels) only while the mesh has over max_faces faces")
-    max_faces: int = Field(5_000, ge=500, le=20_000, description="most faces of the watertight mesh")
+    max_faces: int = Field(default=5_000, ge=500, le=20_000, description="most faces of the watertight mesh")
     closing: Literal["auto", "volume", "fans"] = Field(
-        "auto", description="how the watertight step closes the scan: 'fans' fans the fused mesh's holes and "
+        default="auto", description="how the watertight step closes the scan: 'fans' fans the fused mesh's holes and "
         "repairs it (may stay open); 'volume' meshes the space no view saw through (always closed, but unseen "
         "space - a deep cavity's bottom, under a table top - comes out solid); 'auto': fans, else volume")
-    solid_voxel: float = Field(1.0, ge=0.25, le=1.0, description="the volume closing's grid step, × voxel_size")
-    solid_max_points: int = Field(600_000, ge=10_000, description="the volume closing's grid has at most this "
+    solid_voxel: float = Field(default=1.0, ge=0.25, le=1.0, description="the volume closing's grid step, × voxel_size")
+    solid_max_points: int = Field(default=600_000, ge=10_000, description="the volume closing's grid has at most this "
                                   "many points: past it the step grows. Marching cubes' faces grow with the grid, "
                                   "and their quadric decimation (Open3D, which holds the GIL) took 5 of the 0.35 m "
                                   "trash bin's 10 s at 0.9M points")
-    solid_offset: float = Field(0.0, ge=0.0, le=1.0,
+    solid_offset: float = Field(default=0.0, ge=0.0, le=1.0,
                                 description="how far the volume closing's surface lies outside the free space, "
                                 "in grid steps")
-    chamfer_points: int = Field(20000, ge=100, description="points sampled on each mesh for the Chamfer distance")
+    chamfer_points: int = Field(default=20000, ge=100,
+                                description="points sampled on each mesh for the Chamfer distance")
     seed: int = 0
     robot: RobotConfig = Field(default_factory=RobotConfig, description="table and object placement")
 

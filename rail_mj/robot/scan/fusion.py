@@ -17,7 +17,7 @@ import numpy as np
 import trimesh
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
+from scipy.spatial import cKDTree  # pyright: ignore[reportAttributeAccessIssue]  # compiled, no stub
 
 from rail_mj.robot.scan.closing import cap_bottom, off_surface, solid_closing, watertight
 from rail_mj.robot.scan.config import ScanConfig, ScanError, load_open3d
@@ -260,7 +260,7 @@ def extract(volume, depths: list[np.ndarray], views: list[ScanView], config: Sca
         if mesh is not capped and config.closing == "auto":
             # a fan across a wide outline (a plate's rim, its well's surface lost) lies where views saw through;
             # then the closing that adds less surface away from what was fused wins
-            samples, _ = trimesh.sample.sample_surface(mesh, 4000, seed=config.seed)
+            samples = trimesh.sample.sample_surface(mesh, 4000, seed=config.seed)[0]
             through = float(np.mean(_seen_through(np.asarray(samples), depths, views, config, _FAN_MARGIN)))
             if through > _FAN_SEEN_THROUGH:
                 solid, also = solid_closing(fused, depths, views, config, lo, hi, table_z)

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import trimesh
-from scipy.spatial import cKDTree
+from scipy.spatial import cKDTree  # pyright: ignore[reportAttributeAccessIssue]  # compiled, no stub
 
 from rail_mj.core.errors import ConfigError
 from rail_mj.core.types import RailObject, StablePose
@@ -73,8 +73,8 @@ class ScanResult:
 
 def chamfer_distance(a: trimesh.Trimesh, b: trimesh.Trimesh, n: int = 20000, seed: int = 0) -> float:
     """Symmetric Chamfer distance: the mean of (a→b mean nearest distance) and (b→a), surface samples, m."""
-    pa, _ = trimesh.sample.sample_surface(a, n, seed=seed)
-    pb, _ = trimesh.sample.sample_surface(b, n, seed=seed + 1)
+    pa = trimesh.sample.sample_surface(a, n, seed=seed)[0]
+    pb = trimesh.sample.sample_surface(b, n, seed=seed + 1)[0]
     da, _ = cKDTree(pb).query(pa)
     db, _ = cKDTree(pa).query(pb)
     return float((da.mean() + db.mean()) / 2)
@@ -92,7 +92,7 @@ def scan_object(obj: RailObject, pose: StablePose, config: ScanConfig | None = N
     t0 = time.perf_counter()
     scene = build_scan_scene(obj, pose, config)
     world = true_mesh_world(obj, pose, config.robot)
-    surface, _ = trimesh.sample.sample_surface(world, 4000, seed=config.seed)
+    surface = trimesh.sample.sample_surface(world, 4000, seed=config.seed)[0]
     views, skipped, moved = reach_views(scene, plan_views(config, scene.workspace_centre), np.asarray(surface),
                                          config)
     seconds["plan"] = time.perf_counter() - t0

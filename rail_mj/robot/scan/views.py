@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 import trimesh
-from scipy.spatial import cKDTree
+from scipy.spatial import cKDTree  # pyright: ignore[reportAttributeAccessIssue]  # compiled, no stub
 
 from rail_mj.core.types import RailObject, StablePose
 from rail_mj.robot.arm import HOME_QPOS, ArmIndex
@@ -180,8 +180,9 @@ def plan_views(config: ScanConfig, workspace_centre: np.ndarray) -> list[Planned
     for k in range(config.n_views):
         azimuth = math.pi + 2 * math.pi * k / config.n_views  # pi: between the robot base and the object
         elevation = config.elevations[k % len(config.elevations)]
-        steps = [elevation + config.elevation_step * i
-                 for i in range(int((85.0 - elevation) // config.elevation_step) + 1)] if config.elevation_step else [elevation]
+        steps = ([elevation + config.elevation_step * i
+                  for i in range(int((85.0 - elevation) // config.elevation_step) + 1)]
+                 if config.elevation_step else [elevation])
         eyes = [_eye(target, d, azimuth, math.radians(e))
                 for d in (config.distance, config.fallback_distance * config.distance) for e in steps]
         views.append(PlannedView(index=k, target=target, eyes=tuple(eyes)))
@@ -330,7 +331,8 @@ def render_views(scene: ScanScene, views: list[ScanView], config: ScanConfig) ->
                     depths.append(image.astype(np.float32))
                     continue
                 geom, kind = image[..., 0], image[..., 1]
-                is_geom = kind == int(mujoco.mjtObj.mjOBJ_GEOM)  # an int: comparing to the enum goes element by element in Python
+                # an int: comparing to the enum goes element by element in Python
+                is_geom = kind == int(mujoco.mjtObj.mjOBJ_GEOM)
                 robot = np.zeros(geom.shape, dtype=bool)
                 robot[is_geom] = scene.robot_geoms[geom[is_geom]]
                 depth = depths[i]
