@@ -72,7 +72,7 @@ def test_a_closed_flat_box_is_not_a_plate_but_a_rimmed_plate_is() -> None:
     r = _verdict(box, "flat_box", "plate")
     assert not r.functional, r.analyzer_reasons
     assert any("not below a rim" in reason for reason in r.analyzer_reasons)
-    plate = shapes.plate(np.random.default_rng(3)).mesh
+    plate = shapes.GENERATORS["plate"](np.random.default_rng(3)).mesh
     r = _verdict(plate, "plate", "plate")
     assert r.functional, r.analyzer_reasons
 
@@ -91,7 +91,7 @@ def test_an_upturned_table_is_not_a_bathtub_but_a_bathtub_is() -> None:
     r = _verdict(shape_parts._union([top, *legs]), "upturned_table", "bathtub")
     assert not r.functional, r.analyzer_reasons
     assert any("no enclosing cavity" in reason for reason in r.analyzer_reasons)
-    r = _verdict(shapes.bathtub(np.random.default_rng(0)).mesh, "bathtub", "bathtub")
+    r = _verdict(shapes.GENERATORS["bathtub"](np.random.default_rng(0)).mesh, "bathtub", "bathtub")
     assert r.functional, r.analyzer_reasons
 
 
@@ -106,7 +106,7 @@ def test_the_enclosure_probe_counts_the_widest_free_sector_round_the_circle() ->
 
 def test_a_vessels_spill_level_is_its_rim_not_its_rising_handle() -> None:
     """A saucepan's handle rises 4 cm above its rim; water spills at the rim. A closed box has no basin."""
-    pan = object_from_mesh(shapes.saucepan(np.random.default_rng(1)).mesh, name="saucepan")
+    pan = object_from_mesh(shapes.GENERATORS["saucepan"](np.random.default_rng(1)).mesh, name="saucepan")
     pose = pose_from_up(pan, np.array([0.0, 0.0, 1.0]), 1.0)
     assert 2 * pose.half_extents[2] > 0.115 and pose.basin.rim == pytest.approx(0.088, abs=0.004)
     box = object_from_mesh(trimesh.creation.box(extents=(0.2, 0.15, 0.1)), name="box")
@@ -116,7 +116,7 @@ def test_a_vessels_spill_level_is_its_rim_not_its_rising_handle() -> None:
 def test_pours_aim_at_a_saucepans_pan_not_at_its_box_centre_over_the_handle():
     """The pan's box reaches along the handle, so its centre lies near the rim by the handle; the basin map finds
     the pan's middle, and the container's pours start over it, by the offset, in every plan."""
-    built = shapes.saucepan(np.random.default_rng(1))
+    built = shapes.GENERATORS["saucepan"](np.random.default_rng(1))
     pan = object_from_mesh(built.mesh, name="saucepan")
     pose = pose_from_up(pan, np.array([0.0, 0.0, 1.0]), 1.0)
     body = built.mesh.vertices[built.mesh.vertices[:, 2] < 0.02]  # the base: the pan's footprint, no handle
@@ -146,7 +146,7 @@ def test_a_bowls_proportions_are_its_rims_a_deep_pot_stays_no_bowl() -> None:
 
 def test_a_scoop_whose_handle_rises_above_its_rim_is_a_bowl() -> None:
     """Its handle makes the box 0.82 as high as wide; its rim is 0.47 of its width."""
-    r = _verdict(shapes.scoop(np.random.default_rng(1)).mesh, "scoop", "bowl")
+    r = _verdict(shapes.GENERATORS["scoop"](np.random.default_rng(1)).mesh, "scoop", "bowl")
     assert r.functional, r.analyzer_reasons
     assert r.functional_pose is not None and r.functional_pose.up_in_mesh_frame[2] > 0.95
 
@@ -210,9 +210,9 @@ def test_a_console_on_its_back_holds_water_in_compartments_too_short_for_a_bathe
     from rail_mj.core.profile import PoseCandidates
     from rail_mj.llm import FunctionalPoseRequest, analyze_functional_poses
 
-    console = object_from_mesh(shapes.console(np.random.default_rng([9, 0])).mesh, name="console")
+    console = object_from_mesh(shapes.GENERATORS["console"](np.random.default_rng([9, 0])).mesh, name="console")
     lying = pose_from_up(console, np.array([0.0, -1.0, 0.0]), 1.0)  # its open front up
-    tub = object_from_mesh(shapes.bathtub(np.random.default_rng(0)).mesh, name="bathtub")
+    tub = object_from_mesh(shapes.GENERATORS["bathtub"](np.random.default_rng(0)).mesh, name="bathtub")
     upright = pose_from_up(tub, np.array([0.0, 0.0, 1.0]), 1.0)
     assert lying.basin.length < 0.9 and upright.basin.length > 1.2
     poses = [PoseCandidates(pose_index=i, probability=0.5, half_extents=[float(v) for v in p.half_extents],

@@ -11,25 +11,9 @@ from rail_mj.llm.checks import InvalidAnswerError
 from rail_mj.llm.offline import known_affordances, normalize_affordance
 from rail_mj.llm.prompts import PROMPT_VERSION
 from rail_mj.llm.providers import OfflineProvider, Provider, ProviderConfig, get_provider
-from rail_mj.llm.schemas import (
-    AffordanceAnalysis,
-    AgentModel,
-    AgentModelRequest,
-    AnalyzerRequest,
-    FunctionalPoseRequest,
-    FunctionalPoseVerdict,
-    ImaginationProfile,
-    LayoutRequest,
-    MotionPlans,
-    PlannerRequest,
-    PoseVerdict,
-    Request,
-    RequestText,
-    ScoringRequest,
-    TaskDescription,
-    Trajectories,
-    TrajectoryRequest,
-)
+# the package's API includes every stage schema: the requests and answers a provider speaks
+from rail_mj.llm.schemas import *  # noqa: F403
+from rail_mj.llm.schemas import __all__ as _SCHEMAS
 from rail_mj.llm.stages import (
     analyze_affordance,
     analyze_functional_poses,
@@ -46,30 +30,14 @@ from rail_mj.llm.stages import (
 )
 
 __all__ = [
-    "AffordanceAnalysis",
-    "AgentModel",
-    "AgentModelRequest",
-    "AnalyzerRequest",
+    *_SCHEMAS,
     "AnthropicConfig",
     "AnthropicProvider",
-    "FunctionalPoseRequest",
-    "FunctionalPoseVerdict",
-    "ImaginationProfile",
     "InvalidAnswerError",
-    "LayoutRequest",
-    "MotionPlans",
     "OfflineProvider",
     "PROMPT_VERSION",
-    "PlannerRequest",
-    "PoseVerdict",
     "Provider",
-    "Request",
-    "RequestText",
     "ProviderConfig",
-    "ScoringRequest",
-    "TaskDescription",
-    "TrajectoryRequest",
-    "Trajectories",
     "analyze_affordance",
     "analyze_functional_poses",
     "functional_pose_request",

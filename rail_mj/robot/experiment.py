@@ -93,7 +93,7 @@ def task_object(task: Task) -> RailObject:
                           obb_dims=obj.obb_dims, com=obj.com, mass=obj.mass, density=obj.density)
     from rail_mj.dataset import shapes
 
-    mesh = getattr(shapes, kind)(np.random.default_rng(task.seed)).mesh.copy()
+    mesh = shapes.GENERATORS[kind](np.random.default_rng(task.seed)).mesh.copy()
     mesh.apply_scale(task.scale)
     mesh.apply_translation([0.0, 0.0, -float(mesh.bounds[0][2])])
     return object_from_mesh(mesh, name=task.name)

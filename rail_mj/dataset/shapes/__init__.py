@@ -6,7 +6,7 @@ natural pose: +z up, resting on z = 0, roughly centred on the z axis) plus a
 one-line description of the instance. Parts are joined with manifold3d
 booleans so each object is a single closed surface that CoACD can decompose.
 
-The package re-exports every builder by its name (``shapes.cup``, ``shapes.saucepan``):
+Every builder is found by its class name in :data:`GENERATORS` (``shapes.GENERATORS["saucepan"]``):
 
 * :mod:`~rail_mj.dataset.shapes.parts`: :class:`Built`, the basket constants and the shared primitives;
 * :mod:`~rail_mj.dataset.shapes.core`: the core family's builders;
@@ -19,31 +19,6 @@ The package re-exports every builder by its name (``shapes.cup``, ``shapes.sauce
 from __future__ import annotations
 
 from rail_mj.dataset.shapes.catalog import GENERATORS
-from rail_mj.dataset.shapes.core import (
-    basket,
-    bathtub,
-    bench,
-    bowl,
-    bowl_holed,
-    chair,
-    chair_high_seat,
-    cone,
-    cup,
-    cup_no_bottom,
-    plate,
-    pot,
-    rack,
-    solid_box,
-    solid_cylinder,
-    sphere,
-    table,
-    table_tilted,
-    torus,
-    trash_bin,
-    tray,
-    vase,
-    vase_closed,
-)
 from rail_mj.dataset.shapes.corruptions import (
     DENSE_FACES,
     GEOMETRIC_CORRUPTIONS,
@@ -54,29 +29,6 @@ from rail_mj.dataset.shapes.corruptions import (
     uneven_bottom,
 )
 from rail_mj.dataset.shapes.parts import BASKET_AGENT_MIN, BASKET_GAP, Built
-from rail_mj.dataset.shapes.world import (
-    armchair,
-    ashtray,
-    bar_chair,
-    bed,
-    bowl_real,
-    carton,
-    console,
-    cubby,
-    desk,
-    goblet,
-    handle_pot,
-    ladle,
-    ottoman,
-    plate_real,
-    riser,
-    saucepan,
-    scoop,
-    shell_chair,
-    sofa,
-    stool,
-    wall_shelf_box,
-)
 
 __all__ = [
     "Built",
@@ -90,48 +42,4 @@ __all__ = [
     "punch_holes",
     "open_seams",
     "uneven_bottom",
-    "cup",
-    "cup_no_bottom",
-    "bowl",
-    "bowl_holed",
-    "vase",
-    "vase_closed",
-    "basket",
-    "bathtub",
-    "plate",
-    "pot",
-    "trash_bin",
-    "tray",
-    "table",
-    "table_tilted",
-    "chair",
-    "chair_high_seat",
-    "bench",
-    "rack",
-    "solid_cylinder",
-    "solid_box",
-    "sphere",
-    "cone",
-    "torus",
-    "armchair",
-    "sofa",
-    "ottoman",
-    "bar_chair",
-    "shell_chair",
-    "stool",
-    "bowl_real",
-    "saucepan",
-    "handle_pot",
-    "scoop",
-    "ladle",
-    "ashtray",
-    "goblet",
-    "cubby",
-    "wall_shelf_box",
-    "riser",
-    "bed",
-    "desk",
-    "console",
-    "carton",
-    "plate_real",
 ]
