@@ -97,9 +97,10 @@ class ViaPose(ProfileModel):
     offset_m: Vec3 = Field(description="additional offset in metres (agent-size clearances)")
     quat: Quat
     anchor: Literal["box", "opening"] = Field(
-        "box", description="'box': x and y from the centre of the object's box; 'opening': from the middle of the "
-                           "pose's deepest basin seen from above (where a pour aims; a long handle moves the box "
-                           "centre off it), or the box centre in a pose without a basin")
+        default="box",
+        description="'box': x and y from the centre of the object's box; 'opening': from the middle of the "
+                    "pose's deepest basin seen from above (where a pour aims; a long handle moves the box "
+                    "centre off it), or the box centre in a pose without a basin")
 
 
 class PlanTrajectory(ProfileModel):
@@ -127,16 +128,17 @@ class ResultSummary(ProfileModel):
     agent_tilt_deg: float = Field(description="mean angle between agent +z and task +z")
     agent_speed: float = Field(description="mean agent speed at the end, m/s")
     frac_through_object: float = Field(
-        0.0, description="agents on the ground beneath the middle of the object (within half its footprint): "
-                         "they came through it"
+        default=0.0, description="agents on the ground beneath the middle of the object (within half its "
+                                 "footprint): they came through it"
     )
     frac_beneath_middle: float = Field(
-        0.0, description="agents whose centre lies beneath or over the middle of the object (within half its "
-                         "footprint), whatever they rest on"
+        default=0.0, description="agents whose centre lies beneath or over the middle of the object (within half "
+                                 "its footprint), whatever they rest on"
     )
     frac_open_side: float = Field(
-        0.0, description="agents inside the box that lie open to one side: horizontal rays from the agent leave "
-                         "without meeting the object over a sector of at least 67 deg (no enclosing wall there)"
+        default=0.0, description="agents inside the box that lie open to one side: horizontal rays from the agent "
+                                 "leave without meeting the object over a sector of at least 67 deg (no enclosing "
+                                 "wall there)"
     )
 
 
@@ -156,9 +158,10 @@ class PoseCandidates(ProfileModel):
     pose_index: int = Field(ge=0)
     probability: float = Field(ge=0, le=1)
     half_extents: Vec3
-    basin: BasinInfo | None = Field(None, description="where water poured into the object's deepest basin stands "
-                                                      "in this pose: its spill level (the rim's lowest point, below "
-                                                      "a rising handle), opening and length; null without a basin")
+    basin: BasinInfo | None = Field(default=None, description="where water poured into the object's deepest basin "
+                                                              "stands in this pose: its spill level (the rim's lowest "
+                                                              "point, below a rising handle), opening and length; "
+                                                              "null without a basin")
     candidates: list[CandidateInteraction]
     failed: list[CandidateInteraction] = Field(
         default_factory=list, description="the pose's plans that the scoring function called failures: evidence"

@@ -72,10 +72,10 @@ PLAN_FILE = "plan.json"
 class EvalConfig(RunOptions):
     """A run of the evaluation: the pipeline settings plus what to evaluate."""
 
-    n_drops: int = Field(64, ge=8, le=4096, description="drops for stable-pose imagination")
+    n_drops: int = Field(default=64, ge=8, le=4096, description="drops for stable-pose imagination")
     seed: int = 0
     dataset: str = "procedural"
-    per_class: int = Field(3, ge=1)
+    per_class: int = Field(default=3, ge=1)
     dataset_seed: int = 0
     family: Literal["core", "world", "all"] = "core"  # procedural class family (rail_mj.dataset.ground_truth.FAMILIES)
     affordances: list[str] | None = None

@@ -28,22 +28,26 @@ class ImaginationConfig(BaseModel):
 
     model_config = ConfigDict(frozen=True, extra="forbid")
 
-    timestep: float = Field(0.005, gt=0, le=0.02, description="simulation step, s")
+    timestep: float = Field(default=0.005, gt=0, le=0.02, description="simulation step, s")
     solref_factor: float = Field(
-        SOLREF_TIMECONST_FACTOR, ge=2.0, description="contact time constant as a multiple of the timestep"
+        default=SOLREF_TIMECONST_FACTOR, ge=2.0, description="contact time constant as a multiple of the timestep"
     )
-    friction: float = Field(FRICTION[0], gt=0, description="sliding friction of the ground and the object")
-    agent_speed: float = Field(0.5, gt=0, description="linear speed of the driven layout centre, m/s")
-    agent_angular_speed: float = Field(3.0, gt=0, description="angular speed of the driven layout centre, rad/s")
-    settle_time: float = Field(3.0, gt=0, description="longest simulated time after the drive, s")
-    settle_speed: float = Field(0.02, gt=0, description="a body is at rest when no point of it moves faster, m/s")
-    check_every: int = Field(20, ge=1, description="steps between settle checks")
-    iterations: int = Field(20, ge=1, description="constraint solver iterations")
-    ls_iterations: int = Field(10, ge=1, description="solver line-search iterations")
+    friction: float = Field(default=FRICTION[0], gt=0, description="sliding friction of the ground and the object")
+    agent_speed: float = Field(default=0.5, gt=0, description="linear speed of the driven layout centre, m/s")
+    agent_angular_speed: float = Field(default=3.0, gt=0,
+                                       description="angular speed of the driven layout centre, rad/s")
+    settle_time: float = Field(default=3.0, gt=0, description="longest simulated time after the drive, s")
+    settle_speed: float = Field(default=0.02, gt=0,
+                                description="a body is at rest when no point of it moves faster, m/s")
+    check_every: int = Field(default=20, ge=1, description="steps between settle checks")
+    iterations: int = Field(default=20, ge=1, description="constraint solver iterations")
+    ls_iterations: int = Field(default=10, ge=1, description="solver line-search iterations")
     nthread: int = Field(default_factory=_env_threads, ge=0, description="native threads; 0 = all CPUs")
-    max_hull_vertices: int = Field(32, ge=4, description="MuJoCo simplifies each hull to at most this many vertices")
+    max_hull_vertices: int = Field(default=32, ge=4,
+                                   description="MuJoCo simplifies each hull to at most this many vertices")
     speculative: bool = Field(
-        True, description="speculative contacts (native): fast small droplets do not tunnel through thin bottoms"
+        default=True,
+        description="speculative contacts (native): fast small droplets do not tunnel through thin bottoms"
     )
 
     @property

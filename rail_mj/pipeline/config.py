@@ -28,22 +28,22 @@ class RunOptions(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    provider: str = Field("auto", description="auto | offline | anthropic")
-    backend: str = Field("auto", description="auto | native | mjx")
-    model: str | None = Field(None, description="LLM model name (anthropic provider)")
-    max_retries: int = Field(2, ge=0, le=10, description="LLM repair rounds per stage")
-    cache: bool = Field(True, description="cache LLM answers on disk")
+    provider: str = Field(default="auto", description="auto | offline | anthropic")
+    backend: str = Field(default="auto", description="auto | native | mjx")
+    model: str | None = Field(default=None, description="LLM model name (anthropic provider)")
+    max_retries: int = Field(default=2, ge=0, le=10, description="LLM repair rounds per stage")
+    cache: bool = Field(default=True, description="cache LLM answers on disk")
     profile_bin: float = Field(
-        0.1, gt=0, le=1.0, description="relative size bin within which a profile is reused"
+        default=0.1, gt=0, le=1.0, description="relative size bin within which a profile is reused"
     )
     min_pose_probability: float = Field(
-        0.0, ge=0, lt=1, description="stable poses rarer than this are not imagined"
+        default=0.0, ge=0, lt=1, description="stable poses rarer than this are not imagined"
     )
-    pose: PoseMode = Field("stable", description="stable: search the stable poses; as_placed: the object's "
-                                                 "pose as it stands (mesh frame z up, on the ground)")
-    agent: str | None = Field(None, description="the request's agent (doll, apple, ...): a figure scales every "
-                                                "real-world size of the affordance (rail_mj.affordances."
-                                                "request_scale)")
+    pose: PoseMode = Field(default="stable", description="stable: search the stable poses; as_placed: the "
+                                                         "object's pose as it stands (mesh frame z up, on the ground)")
+    agent: str | None = Field(default=None, description="the request's agent (doll, apple, ...): a figure scales "
+                                                        "every real-world size of the affordance (rail_mj."
+                                                        "affordances.request_scale)")
 
 
 def _run_drops() -> StablePoseConfig:
@@ -55,8 +55,8 @@ class RunConfig(RunOptions):
     """Settings of a classification run: its options and the config of each stage."""
 
     decomposition: DecompositionConfig | None = Field(
-        None, description="CoACD settings; None: chosen per mesh (rail_mj.mesh.decomposition_for), with "
-                          "the hull quality guard"
+        default=None, description="CoACD settings; None: chosen per mesh (rail_mj.mesh.decomposition_for), with "
+                                  "the hull quality guard"
     )
     stable_poses: StablePoseConfig = Field(default_factory=_run_drops, description="the stable-pose search")
     imagination: ImaginationConfig = Field(default_factory=ImaginationConfig,
@@ -67,6 +67,6 @@ class ObjectInput(BaseModel):
     """A mesh file and how to read it."""
 
     path: Path
-    units: float = Field(1.0, gt=0, description="metres per mesh unit")
+    units: float = Field(default=1.0, gt=0, description="metres per mesh unit")
     up: Literal["z", "y"] = "z"
     name: str | None = None

@@ -32,8 +32,8 @@ class PoseExplanation(BaseModel):
     up_in_mesh_frame: list[float]
     box_size_m: list[float] = Field(description="full extents of the pose's box, x y z (z up), m")
     envelope: str = Field(description="'fits', or which pose-envelope size is outside its range")
-    basin: str = Field("", description="seen from above, where poured water stands: its spill level and length, "
-                                       "'none' without a basin")
+    basin: str = Field(default="", description="seen from above, where poured water stands: its spill level and "
+                                               "length, 'none' without a basin")
     scores: dict[str, float] = Field(description="plan -> score (> 0 succeeded; -1 also when not imagined)")
     analyzer: str = Field(description="the Functional Pose Analyzer's reasons for this pose, '' when none")
     functional: bool = Field(description="whether this is the functional pose")

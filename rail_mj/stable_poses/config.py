@@ -19,10 +19,11 @@ class StablePoseConfig(BaseModel):
 
     model_config = ConfigDict(frozen=True, extra="forbid")
 
-    n_drops: int = Field(128, ge=1, description="orientations dropped in one batch")
-    seed: int = Field(0, description="seed of the drop orientations (the verification tilts use seed + 1)")
-    settle_time: float = Field(3.0, gt=0, description="longest simulated time of a drop, s")
-    drop_height: float = Field(0.01, ge=0, description="height of the object's lowest point at release, m")
-    tolerance_deg: float = Field(10.0, gt=0, lt=90, description="resting ups closer than this are one pose, degrees")
-    min_probability: float = Field(0.0, description="poses rarer than this are dropped")
+    n_drops: int = Field(default=128, ge=1, description="orientations dropped in one batch")
+    seed: int = Field(default=0, description="seed of the drop orientations (the verification tilts use seed + 1)")
+    settle_time: float = Field(default=3.0, gt=0, description="longest simulated time of a drop, s")
+    drop_height: float = Field(default=0.01, ge=0, description="height of the object's lowest point at release, m")
+    tolerance_deg: float = Field(default=10.0, gt=0, lt=90,
+                                 description="resting ups closer than this are one pose, degrees")
+    min_probability: float = Field(default=0.0, description="poses rarer than this are dropped")
     physics: ImaginationConfig = Field(default_factory=drop_physics, description="the drops' physics")
