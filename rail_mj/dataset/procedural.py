@@ -46,6 +46,7 @@ from pathlib import Path
 
 import numpy as np
 import trimesh
+import trimesh.exchange.obj
 from scipy.spatial import ConvexHull
 
 from rail_mj.affordances import PAPER_AFFORDANCES
@@ -201,7 +202,8 @@ def upside_down_is_itself(mesh: trimesh.Trimesh) -> bool:
     same shape: then no pose of it can tell its top from its bottom, and both are its functional pose."""
     lo, hi = mesh.bounds
     centre = (lo + hi) / 2
-    points, _ = trimesh.sample.sample_surface(mesh, _SYMMETRY_POINTS, seed=0)
+    # trimesh types the result as a union over its sample_color flag; without it there are 2 items
+    points, _ = trimesh.sample.sample_surface(mesh, _SYMMETRY_POINTS, seed=0)  # pyright: ignore[reportAssignmentType]
     tol = _SYMMETRY_TOL * float(np.linalg.norm(hi - lo))
     for flip in ((1.0, -1.0, -1.0), (-1.0, 1.0, -1.0)):  # half turns about x and about y
         turned = (points - centre) * flip + centre
@@ -296,9 +298,10 @@ def generate(
                 write_synced(stage / rel, trimesh.exchange.obj.export_obj(mesh, include_normals=False, include_texture=False))
                 up_t = tuple(round(float(x), 9) + 0.0 for x in up)
                 truth = {a: a in CLASS_SPECS[name].affords and "scale10_unlabelled" not in applied for a in aff_names}
-                record = LabelRecord(
+                # populate_by_name: pyright sees only the field's alias "class" as the keyword
+                record = LabelRecord(  # pyright: ignore[reportCallIssue]
                     mesh=rel,
-                    class_name=name,
+                    class_name=name,  # pyright: ignore[reportCallIssue]
                     affordances=truth,
                     functional_up=up_t if any(truth.values()) else None,
                     equivalent_ups=([tuple(-v + 0.0 for v in up_t)]

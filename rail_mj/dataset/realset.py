@@ -44,10 +44,11 @@ import zipfile
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
+from typing import Literal, cast
 
 import numpy as np
 import trimesh
+import trimesh.exchange.obj
 
 from rail_mj.affordances import PAPER_AFFORDANCES, get
 from rail_mj.core.cli import EXIT_OK, object_bar, report_error
@@ -309,9 +310,10 @@ def label_record(entry: RealMesh) -> LabelRecord:
     truth = {a: get(a).key in entry.affords for a in PAPER_AFFORDANCES}
     up = _UP_VECTOR[entry.up]
     wheel = WHEELS[entry.wheel]
-    return LabelRecord(
+    # populate_by_name: pyright sees only the field's alias "class" as the keyword
+    return LabelRecord(  # pyright: ignore[reportCallIssue]
         mesh=entry.mesh_file,
-        class_name=entry.cls,
+        class_name=entry.cls,  # pyright: ignore[reportCallIssue]
         affordances={get(a).key: v for a, v in truth.items()},
         functional_up=up if any(truth.values()) else None,
         nominal_up=up,
@@ -451,7 +453,7 @@ def assemble_urdf(urdf: bytes, base: str, read: Callable[[str], bytes], *, label
     except ET.ParseError as exc:
         raise DatasetError(f"{label}: not valid XML ({exc})") from exc
     links = {link.get("name"): link for link in robot.findall("link")}
-    parent_of: dict[str, tuple[str, np.ndarray]] = {}
+    parent_of: dict[str | None, tuple[str | None, np.ndarray]] = {}
     for joint in robot.findall("joint"):
         name = joint.get("name")
         if joint.get("type") != "fixed":
@@ -461,7 +463,7 @@ def assemble_urdf(urdf: bytes, base: str, read: Callable[[str], bytes], *, label
             raise DatasetError(f"{label}: joint {name!r} needs a parent and a child link")
         parent_of[child.get("link")] = (parent.get("link"), _origin(joint, f"{label} joint {name!r}"))
 
-    def world(link: str, depth: int = 0) -> np.ndarray:
+    def world(link: str | None, depth: int = 0) -> np.ndarray:
         if link not in parent_of:
             return np.eye(4)
         if depth > len(links):
@@ -481,7 +483,7 @@ def assemble_urdf(urdf: bytes, base: str, read: Callable[[str], bytes], *, label
             pieces.append(piece)
     if not pieces:
         raise DatasetError(f"{label}: no <visual> geometry to assemble")
-    return trimesh.util.concatenate(pieces)
+    return cast(trimesh.Trimesh, trimesh.util.concatenate(pieces))
 
 
 def _mesh_bytes(entry: RealMesh, archive: zipfile.ZipFile) -> bytes:

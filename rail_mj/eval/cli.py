@@ -12,6 +12,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import cast
 
 from pydantic import ValidationError
 
@@ -27,7 +28,7 @@ __all__ = ["main"]
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m rail_mj.eval", description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(prog="python -m rail_mj.eval", description=cast(str, __doc__).split("\n\n")[0])
     p.add_argument("--dataset", default="procedural", help="'procedural' or a folder with labels.jsonl")
     p.add_argument("--per-class", type=int, default=3, help="objects per class (procedural)")
     p.add_argument("--seed", type=int, default=0, help="dataset seed (procedural)")

@@ -12,6 +12,7 @@ threaded batch) or ``mjx`` (JAX, vmapped, compiled once per shape bucket);
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import cast
 
 import numpy as np
 
@@ -63,4 +64,6 @@ def imagine(
         engine = backend
     else:
         engine = get_backend(backend, config)
-    return engine.run(prepare(obj, poses, agents, trajectories, engine.config), progress=progress)
+    # StablePoses reads as a sequence of StablePose (len, iteration, indexing)
+    return engine.run(prepare(obj, cast(Sequence[StablePose], poses), agents, trajectories, engine.config),
+                      progress=progress)

@@ -6,7 +6,7 @@ import json
 import os
 from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import pydantic
 
@@ -14,6 +14,9 @@ from rail_mj.core.errors import ConfigError, ProviderError, StageError
 from rail_mj.llm.cache import ResponseCache, cache_enabled, cache_key
 from rail_mj.llm.prompts import StageSpec, repair_prompt, system_prompt, user_prompt
 from rail_mj.llm.provider_base import REJECTIONS, Provider, ProviderConfig
+
+if TYPE_CHECKING:
+    from anthropic.types import MessageParam, OutputConfigParam
 
 __all__ = ["MODEL_ENV", "DEFAULT_MODEL", "DEFAULT_TEMPERATURE", "OPTIONS", "AnthropicConfig", "AnthropicProvider"]
 
@@ -167,8 +170,8 @@ class AnthropicProvider(Provider):
                 model=self.model,
                 max_tokens=self.config.max_tokens,
                 system=system,
-                messages=messages,
-                output_config=output,
+                messages=cast("list[MessageParam]", messages),  # dicts of the Messages API's shape
+                output_config=cast("OutputConfigParam", output),
                 extra_body=extra,
             ).http_response.text
         except anthropic.APITimeoutError as exc:
@@ -207,6 +210,7 @@ def _reply_text(body: str) -> tuple[str, str | None]:
     typed = isinstance(content, list) and all(isinstance(b, dict) and isinstance(b.get("type"), str) for b in content)
     if not typed:
         raise ProviderError(f"the API's HTTP 200 Message has no list of typed content blocks: {shown}")
+    assert isinstance(content, list)  # typed says so
     for block in content:
         if block["type"] == "text":
             if not isinstance(block.get("text"), str):

@@ -8,7 +8,9 @@ the Anthropic provider sends that message back for a repair round.
 from __future__ import annotations
 
 import itertools
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import cast
 
 import mujoco
 import numpy as np
@@ -176,8 +178,8 @@ def check_scoring(scoring: ScoringCode, request: ScoringRequest) -> None:
     from rail_mj.scoring import WorkerStartError, compile_scoring, probe_outcomes
 
     score = compile_scoring(scoring.source)
-    outcomes = probe_outcomes(request.layout.n_agents, len(request.plans.plans),
-                              candidate_half_extents(request.task.obb_dims))
+    outcomes = probe_outcomes(request.layout.n_agents, len(request.plans.plans),  # each row: 3 half extents
+                              cast(Sequence[Sequence[float]], candidate_half_extents(request.task.obb_dims)))
     try:
         score(outcomes)
     except WorkerStartError:

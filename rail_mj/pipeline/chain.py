@@ -103,7 +103,7 @@ class Pipeline:
         return find_stable_poses(obj, self.config.stable_poses)
 
     # ---- per-affordance work --------------------------------------------------------
-    def profile(self, affordance: str, obb_dims: Sequence[float]) -> ImaginationProfile:
+    def profile(self, affordance: str, obb_dims: Sequence[float] | np.ndarray) -> ImaginationProfile:
         """A profile for this affordance, reused for objects of similar size and for every spelling
         of the name that the provider resolves alike ("mug" and "cup" share one)."""
         task = llm.task_description(affordance, obb_dims, self.provider, scale=request_scale(self.config.agent))

@@ -42,11 +42,11 @@ import tempfile
 import threading
 import time
 from collections import deque
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Generator, Iterator, Sequence
 from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 from rail_mj.core.errors import ConfigError, WorkerError
 from rail_mj.imagination.config import THREADS_ENV
@@ -145,7 +145,7 @@ def check_executor(executor: str, ray_address: str | None = None, workers: int |
 def run_tasks(
     tasks: Sequence[ObjectTask], *, workers: int | None = None, executor: str = "local",
     ray_address: str | None = None,
-) -> Iterator[tuple[ObjectTask, list[AffordanceResult]]]:
+) -> Generator[tuple[ObjectTask, list[AffordanceResult]], None, None]:
     """Run every task and yield ``(task, its results)`` as each finishes.
 
     ``workers``: processes for ``executor="local"`` (None: every core; 1: this process), or the CPUs of a local
@@ -281,7 +281,9 @@ def _stop(workers: Sequence[_Worker]) -> None:
         w.log.close()
 
 
-def _local_tasks(tasks: Sequence[ObjectTask], n: int, threads: int) -> Iterator[tuple[ObjectTask, list]]:
+def _local_tasks(
+    tasks: Sequence[ObjectTask], n: int, threads: int
+) -> Generator[tuple[ObjectTask, list], None, None]:
     queue = deque(tasks)
     modules = sorted({t.run.__module__ for t in tasks})
     workers: list[_Worker] = []
@@ -292,7 +294,7 @@ def _local_tasks(tasks: Sequence[ObjectTask], n: int, threads: int) -> Iterator[
             live = [w for w in workers if w.task is not None or not w.ready]
             by_conn = {w.conn: w for w in live}
             try:
-                ready = wait(list(by_conn))
+                ready = cast(list[Connection], wait(list(by_conn)))  # wait returns some of those it is given
             except KeyboardInterrupt:
                 yield from _drain(live)
                 raise
@@ -319,6 +321,7 @@ def _local_tasks(tasks: Sequence[ObjectTask], n: int, threads: int) -> Iterator[
                     w.ready = reply == _READY
                 else:
                     task, w.task = w.task, None
+                    assert task is not None  # a ready worker replies only to a task
                     yield task, _decode(task, reply.decode())
                 if queue and w.ready and w.task is None:
                     w.task = queue.popleft()
@@ -351,8 +354,9 @@ def _ray_task(task: ObjectTask) -> str:
 
 def _ray_tasks(
     tasks: Sequence[ObjectTask], address: str | None, workers: int | None
-) -> Iterator[tuple[ObjectTask, list]]:
+) -> Generator[tuple[ObjectTask, list], None, None]:
     import ray
+    import ray.exceptions
 
     started = not ray.is_initialized()
     if started:
@@ -375,7 +379,7 @@ def _ray_tasks(
         for ref in refs:
             task = pending.pop(ref)
             try:
-                text = ray.get(ref)
+                text = cast(str, ray.get(ref))  # what _ray_task returns
             except ray.exceptions.RayError as exc:
                 first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
                 yield task, _failed(task, f"WorkerError: the Ray task for {task.label} failed ({type(exc).__name__}: "

@@ -112,6 +112,7 @@ def caption(result: AffordanceResult, obj: RailObject, *, draw_mesh: bool = Fals
     why = nothing_to_draw(result)
     if why is not None:
         raise RailError(why)
+    assert result.evidence_pose is not None  # nothing_to_draw says so
     pose = int(result.evidence_pose)
     kept = "functional pose" if result.functional else "best-scoring rollout (no functional pose)"
     return [_verdict(result), f"{kept}: {_pose_line(result, pose, _best_plan(result, pose))}", _drawn_as(obj, draw_mesh)]

@@ -41,7 +41,8 @@ def write_frames(frames: Sequence[np.ndarray], path: str | Path, *, fps: int = 2
         even = [np.ascontiguousarray(f[: h - h % 2, : w - w % 2]) for f in frames]
         with imageio.get_writer(path, fps=fps, codec="libx264", pixelformat="yuv420p", macro_block_size=1) as writer:
             for frame in even:
-                writer.append_data(frame)
+                # imageio types get_writer's result as the base class, without the writer's methods
+                writer.append_data(frame)  # pyright: ignore[reportAttributeAccessIssue]
         return path
     path.mkdir(parents=True, exist_ok=True)
     for i, frame in enumerate(frames):

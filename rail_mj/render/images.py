@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 from PIL import Image, ImageDraw
@@ -56,7 +57,7 @@ class ContactSheet:
     tile_size: tuple[int, int]  # (width, height) of a tile's picture, caption excluded
 
 
-def _load(obj: RailObject | str | Path, units: float, up: str) -> RailObject:
+def _load(obj: RailObject | str | Path, units: float, up: Literal["z", "y"]) -> RailObject:
     if isinstance(obj, RailObject):
         return obj
     return load_object(Path(obj), units=units, up=up)
@@ -68,7 +69,7 @@ def render_result(
     path: str | Path,
     *,
     units: float = 1.0,
-    up: str = "z",
+    up: Literal["z", "y"] = "z",
     draw_mesh: bool = False,
     width: int = 640,
     height: int = 480,
@@ -80,6 +81,7 @@ def render_result(
     why = nothing_to_draw(result)
     if why is not None:
         raise RailError(why)
+    assert result.evidence_pose is not None  # nothing_to_draw says so
     obj = _load(obj, units, up)
     text = caption(result, obj, draw_mesh=draw_mesh)
     state = _placement_state(result, int(result.evidence_pose), np.asarray(result.evidence_agent_pos), None)
@@ -101,7 +103,7 @@ def render_contact_sheet(
     path: str | Path,
     *,
     units: float = 1.0,
-    up: str = "z",
+    up: Literal["z", "y"] = "z",
     draw_mesh: bool = False,
     profile=None,
     tile: tuple[int, int] = (360, 270),

@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import cast
 
 import mujoco
 import numpy as np
@@ -100,12 +101,13 @@ def _scene(obj: RailObject, fragment: str, state: _State, *, draw_mesh: bool, wi
     agents = None
     if fragment and len(state.agent_pos):
         agents = AgentSetup(fragment=fragment, offsets=state.agent_pos, collide_agents=True)
-    spec = build_scene(obj, object_pos=state.object_pos, object_quat=state.object_quat, object_free=False,
-                       agents=agents)
+    spec = build_scene(obj, object_pos=cast(Sequence[float], state.object_pos),  # 1-d arrays
+                       object_quat=cast(Sequence[float], state.object_quat), object_free=False, agents=agents)
     spec.visual.global_.offwidth = max(width, 640)
     spec.visual.global_.offheight = max(height, 480)
-    spec.visual.headlight.ambient = [0.3, 0.3, 0.3]
-    spec.visual.headlight.diffuse = [0.35, 0.35, 0.35]
+    # the generated stubs type these as arrays; MuJoCo's setter takes any 3 numbers
+    spec.visual.headlight.ambient = [0.3, 0.3, 0.3]  # pyright: ignore[reportAttributeAccessIssue]
+    spec.visual.headlight.diffuse = [0.35, 0.35, 0.35]  # pyright: ignore[reportAttributeAccessIssue]
     spec.add_texture(name="rail_sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX, builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
                      rgb1=[0.93, 0.95, 0.98], rgb2=[0.70, 0.74, 0.80], width=64, height=384)
     spec.add_texture(name="rail_grid", type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
@@ -228,7 +230,7 @@ def _visible(model, data, samples: np.ndarray, agent_bodies: Sequence[int], obje
         for p in pts:
             vec = camera - p
             dist = float(np.linalg.norm(vec))
-            hit = mujoco.mj_ray(model, data, p, vec / dist, _VISIBLE_GROUPS, 1, bid, geomid)
+            hit = mujoco.mj_ray(model, data, p, vec / dist, _VISIBLE_GROUPS, True, bid, geomid)
             seen[i] += not (0 <= hit < dist and model.geom_bodyid[geomid[0]] == object_body)
     n = samples.shape[1]
     return float(np.mean(np.minimum(1.0, seen / (n / 2)))), int(np.sum(seen < n / 3))

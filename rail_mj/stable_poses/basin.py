@@ -21,7 +21,8 @@ _MIN_BASIN = 0.1
 
 
 def surface_samples(obj: RailObject) -> np.ndarray:
-    points, _ = trimesh.sample.sample_surface(obj.mesh, _SAMPLES, seed=0)
+    # trimesh types the result as a union over its sample_color flag; without it there are 2 items
+    points, _ = trimesh.sample.sample_surface(obj.mesh, _SAMPLES, seed=0)  # pyright: ignore[reportAssignmentType]
     return np.asarray(points, dtype=np.float64)
 
 
@@ -66,11 +67,12 @@ def spill_basin(points: np.ndarray) -> Basin | None:
         return None
     # where water stands at least half as deep as the deepest point: the opening a pour aims at (a saucepan's
     # pan, not its box's centre over the handle's root)
-    wet, _ = scipy.ndimage.label(depth >= 0.5 * depth[deepest])
+    # scipy's stub types label's result as an int or a tuple; without an output array it is (labels, count)
+    wet, _ = scipy.ndimage.label(depth >= 0.5 * depth[deepest])  # pyright: ignore[reportGeneralTypeIssues]
     cells = np.argwhere(wet == wet[deepest])
     centre = lo[:2] + (cells.mean(axis=0) - 0.5) * cell
     # the water surface at the spill level, where it stands over 5% of the deepest: a divider as high as the
     # walls (to a sample's noise) parts two basins
-    surface, _ = scipy.ndimage.label(depth > 0.05 * depth[deepest])
+    surface, _ = scipy.ndimage.label(depth > 0.05 * depth[deepest])  # pyright: ignore[reportGeneralTypeIssues]
     span = np.ptp(np.argwhere(surface == surface[deepest]), axis=0) + 1
     return Basin(rim=float(level[deepest]), opening=centre, length=float(span.max() * cell))

@@ -53,7 +53,7 @@ def drop(
     qpos0[:, o + 3 : o + 7] = quats
     batch = mujoco.batch.Batch(scene.model, n_drops, nthread=cfg.nthread)
     qpos, qvel = batch.bind("qpos"), batch.bind("qvel")
-    batch.reset(stage=mujoco.mjtStage.mjSTAGE_NONE)
+    batch.reset(stage=mujoco.mjtStage.mjSTAGE_NONE)  # pyright: ignore[reportArgumentType]  # it takes int(stage)
     qpos[:] = qpos0
     qvel[:] = 0.0
     batch.forward()

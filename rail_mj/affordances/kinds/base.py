@@ -18,7 +18,7 @@ import math
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import ClassVar, TypeVar
+from typing import ClassVar, Literal, TypeVar
 
 from rail_mj.affordances.row import KIND_PARAMS, Affordance, KindParams
 from rail_mj.core.errors import ConfigError
@@ -149,14 +149,15 @@ def kind_of(aff: Affordance) -> Kind:
     return KINDS[aff.kind]
 
 
-def box_agent(label: str, half: tuple[float, float, float]) -> AgentShape:
+def box_agent(label: str, half: Sequence[float]) -> AgentShape:
     """A box agent of the density of water."""
     mass = 1000.0 * 8.0 * half[0] * half[1] * half[2]
     size = " ".join(f"{v:.4f}" for v in half)
     return AgentShape(f'type="box" size="{size}"', math.sqrt(sum(v * v for v in half)), half[2], mass, label)
 
 
-def via(rel: tuple[float, float, float], off: tuple[float, float, float], anchor: str = "box") -> ViaPose:
+def via(rel: tuple[float, float, float], off: tuple[float, float, float],
+        anchor: Literal["box", "opening"] = "box") -> ViaPose:
     return ViaPose(rel=[float(v) for v in rel], offset_m=[round(float(v), 5) for v in off], quat=IDENTITY,
                    anchor=anchor)
 

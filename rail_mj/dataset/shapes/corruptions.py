@@ -7,7 +7,7 @@ the object affords: they model what a scanner or an exporter does to the file, n
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import Callable, cast
 
 import numpy as np
 import trimesh
@@ -37,7 +37,9 @@ def densify(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
         return mesh.copy()
     edge = float(np.sqrt(4 * mesh.area / (np.sqrt(3) * 1000)))
     for _ in range(12):
-        v, f = trimesh.remesh.subdivide_to_size(mesh.vertices, mesh.faces, max_edge=edge, max_iter=20)
+        # trimesh types the result as a union over its return_index flag; without it there are 2 items
+        v, f = trimesh.remesh.subdivide_to_size(  # pyright: ignore[reportAssignmentType]
+            mesh.vertices, mesh.faces, max_edge=edge, max_iter=20)
         if len(f) <= DENSE_FACES:
             return trimesh.Trimesh(vertices=v, faces=f, process=True)
         edge *= 1.05 * float(np.sqrt(len(f) / (0.9 * DENSE_FACES)))
@@ -92,7 +94,7 @@ def open_seams(mesh: trimesh.Trimesh, rng: np.random.Generator) -> tuple[trimesh
         widest = max(widest, size)
         shells.append(trimesh.Trimesh(vertices=mesh.vertices[used] + size * direction / np.linalg.norm(direction),
                                       faces=inv.reshape(-1, 3), process=False))
-    out = trimesh.util.concatenate(shells)
+    out = cast(trimesh.Trimesh, trimesh.util.concatenate(shells))
     return out, f"open shell: {len(shells)} unwelded shells, seams open by up to {1000 * 2 * widest:.1f} mm"
 
 
