@@ -62,26 +62,30 @@ AFFORDANCES: dict[str, str] = {get(name).key: text for name, text in {
     "bowl": "open-top vessel that holds liquid or food: rim Ø 12.5-35 cm, inner depth >= 4 cm, "
     "height <= 0.55 x rim Ø (wide and shallow).",
     "vase": "vessel that holds water and upright stems: opening 4-12 cm, 15-80 cm tall, height >= 1.5 x opening.",
-    "basket": f"open-top container that holds solid items (agents Ø >= {100 * BASKET_AGENT_MIN:.1f} cm) dropped in and is carried: "
-    "gaps narrower than the items are allowed, opening >= 12.5 cm, 4-35 cm deep, footprint <= 60 cm.",
+    "basket": f"open-top container that holds solid items (agents Ø >= {100 * BASKET_AGENT_MIN:.1f} cm) dropped in and "
+    "is carried: gaps narrower than the items are allowed, opening >= 12.5 cm, 4-35 cm deep, footprint <= 60 cm.",
     "bathtub": "water-tight open-top basin a lying person fits in: inner length >= 1.2 m, inner depth >= 0.25 m, "
     "0.35-0.8 m tall.",
-    "plate": "flat level food surface with a raised rim that keeps a food disc on it: largest side 15-32 cm, 1-4 cm tall.",
-    "table": "level rigid top on which a box placed from above stays: top 0.55-1.1 m above the ground, >= 0.5 m across, "
-    "free space above.",
+    "plate": "flat level food surface with a raised rim that keeps a food disc on it: largest side 15-32 cm, 1-4 cm "
+    "tall.",
+    "table": "level rigid top on which a box placed from above stays: top 0.55-1.1 m above the ground, >= 0.5 m "
+    "across, free space above.",
     "chair": "level seat for one person on which a sitting box stays, the feet supported: seat 0.38-0.55 m high, "
     "or up to 0.85 m with a footrest 0.4-0.55 m below it (a bar chair); 0.3-0.7 m across (between any arms), "
     ">= 0.8 m free above the seat; a backrest is optional.",
     "stool": "seat for one person usable without a backrest (sitting-box test): seat 0.38-0.85 m high (dining to bar), "
     "0.25-0.7 m across.",
-    "bench": "seat for two or more (sitting-box test at two places side by side): seat 0.38-0.55 m high, >= 0.9 m long.",
+    "bench": "seat for two or more (sitting-box test at two places side by side): seat 0.38-0.55 m high, >= 0.9 m "
+    "long.",
     "bed": "level surface a person lies on (a lying box stays on it): >= 1.8 m long and >= 0.8 m wide, 0.15-0.9 m "
     "above the ground, free space above.",
-    "shelf": "two or more level surfaces stacked >= 20 cm apart, each holding a box placed on it; top surface above 1.1 m "
-    "or below others so it is not a table.",
+    "shelf": "two or more level surfaces stacked >= 20 cm apart, each holding a box placed on it; top surface above "
+    "1.1 m or below others so it is not a table.",
     "cupboard": "enclosure that stores items on its own level floor or boards, reached through an opening at the front "
-    "and roofed over (a box pushed in from the front stays inside): inner height >= 15 cm, depth >= 12 cm; doors optional.",
-    "tray": "rimmed flat surface carried with items on it: largest side 15-60 cm, height <= 4.5 cm and <= 0.2 x largest side.",
+    "and roofed over (a box pushed in from the front stays inside): inner height >= 15 cm, depth >= 12 cm; doors "
+    "optional.",
+    "tray": "rimmed flat surface carried with items on it: largest side 15-60 cm, height <= 4.5 cm and <= 0.2 x "
+    "largest side.",
     "pot": "water-tight open-top cooking vessel: rim Ø 15-45 cm, 10-30 cm tall, height >= 0.55 x rim Ø.",
     "trash_bin": "open-top container for waste standing on the floor: opening >= 18 cm, 30-90 cm tall.",
     "pen_holder": "open-top container with a closed bottom that holds pens upright: opening 4-12.5 cm, 7-16 cm tall.",
@@ -104,7 +108,8 @@ class ClassSpec:
     family: Family = "core"
 
 
-def _spec(name: str, group: str, affords: Iterable[str], height: tuple[float, float], plan: tuple[float, float], mimics: str = "") -> ClassSpec:
+def _spec(name: str, group: str, affords: Iterable[str], height: tuple[float, float], plan: tuple[float, float],
+          mimics: str = "") -> ClassSpec:
     family = "core" if group in ("paper", "extra", "defect", "distractor") else "world"
     return ClassSpec(name, group, frozenset(affords), height, plan, mimics, family)  # type: ignore[arg-type]
 
@@ -178,8 +183,10 @@ WORLD_CORRUPTION_RATE = 0.6
 #: Classes whose 10x object affords none of the names (checked against every definition), by the reason:
 #: the only ones ``scale10_unlabelled`` may be applied to, so their label stays a class-level answer.
 SCALE10_UNLABELLED_CLASSES: dict[str, str] = {
-    "goblet": "1.2-1.45 m tall with a 0.6-0.9 m rim on a stem: taller than any vessel but a vase, whose opening is <= 12 cm",
-    "ladle": "a 0.7-1 m cup on a 2-3 m pole: no level surface, too tall for a trash bin, too small inside for a bathtub",
+    "goblet": "1.2-1.45 m tall with a 0.6-0.9 m rim on a stem: taller than any vessel but a vase, whose opening is <= "
+    "12 cm",
+    "ladle": "a 0.7-1 m cup on a 2-3 m pole: no level surface, too tall for a trash bin, too small inside for a "
+    "bathtub",
     "vase": "1.8-4.5 m tall with a 0.4-0.9 m opening: beyond every vessel's height range",
     "vase_closed": "a closed 1.8-4.5 m column",
     "cup_no_bottom": "a 0.8-1.4 m tube open at both ends holds nothing",
@@ -194,8 +201,8 @@ DISTRACTORS: tuple[str, ...] = tuple(n for n, s in CLASS_SPECS.items() if s.grou
 #: Why the non-obvious cells of the matrix are what they are, by (class, affordance).
 CROSS_REASONS: dict[tuple[str, str], str] = {
     ("cup", "bowl"): "false: rim Ø <= 12 cm is below the bowl envelope and a cup is deeper than 0.55 x its rim.",
-    ("bowl", "cup"): "false: it holds liquid, but a rim of 13-25 cm is too wide to hold in one hand and it is too shallow "
-    "to carry full (height <= 0.5 x Ø).",
+    ("bowl", "cup"): "false: it holds liquid, but a rim of 13-25 cm is too wide to hold in one hand and it is too "
+    "shallow to carry full (height <= 0.5 x Ø).",
     ("cup", "pen_holder"): "true: an open 6-12 cm vessel 8-14 cm tall with a bottom holds pens upright.",
     ("cup", "basket"): "false: the opening (<= 12 cm) is too small for a basket's load.",
     ("vase", "cup"): "false: 18-45 cm tall, beyond a cup's 16 cm; the narrow neck is not drunk from.",
@@ -234,7 +241,8 @@ CROSS_REASONS: dict[tuple[str, str], str] = {
     ("bowl_holed", "basket"): f"false: the base hole is larger than {100 * BASKET_AGENT_MIN:.1f} cm items.",
     ("chair_high_seat", "chair"): "false: the seat is 1.15-1.25 m high, no one sits there.",
     ("chair_high_seat", "stool"): "false: 1.15-1.25 m is above even a bar stool (<= 0.85 m).",
-    ("table_tilted", "table"): "false: the top is 30° off level whenever the four feet stand; no stable pose has it level.",
+    ("table_tilted", "table"): "false: the top is 30° off level whenever the four feet stand; no stable pose has it "
+    "level.",
     ("vase_closed", "vase"): "false: sealed at the top, nothing can be put in.",
     ("solid_box", "table"): "false: 5-25 cm sides, far below table height and size.",
     ("solid_box", "stool"): "false: at most 25 cm high, below a seat's 38 cm.",
@@ -248,12 +256,14 @@ CROSS_REASONS: dict[tuple[str, str], str] = {
     ("armchair", "chair"): "true: an upholstered seat 0.41-0.46 m high and 0.48-0.58 m between the arms; the "
     "0.72-0.94 m overall width is arms, not seat.",
     ("armchair", "stool"): "true: the sitting box stays on the seat; a stool needs no backrest (as chair -> stool).",
-    ("armchair", "table"): "false: the rolled arms (0.57-0.66 m) are 14-21 cm wide and round, no level top 0.5 m across.",
+    ("armchair", "table"): "false: the rolled arms (0.57-0.66 m) are 14-21 cm wide and round, no level top 0.5 m "
+    "across.",
     ("armchair", "bench"): "false: one seat, 0.48-0.58 m wide, shorter than a bench's 0.9 m.",
     ("bar_chair", "chair"): "true: a seat 0.64-0.78 m high with footrest rungs 0.43-0.5 m below it (a bar chair).",
     ("bar_chair", "stool"): "true: a seat 0.64-0.78 m high, inside a stool's dining-to-bar 0.38-0.85 m.",
     ("bar_chair", "table"): "false: the seat is at table height but 0.4-0.46 m across, under a table's 0.5 m.",
-    ("shell_chair", "chair"): "true: a level cushion Ø 0.5-0.6 m at 0.39-0.45 m inside the shell, open above its front.",
+    ("shell_chair", "chair"): "true: a level cushion Ø 0.5-0.6 m at 0.39-0.45 m inside the shell, open above its "
+    "front.",
     ("shell_chair", "stool"): "true: the sitting box stays on the cushion; a stool needs no backrest.",
     ("shell_chair", "trash_bin"): "false: the shell is cut below the cushion at the front: items and droplets run off "
     "the front, there is no basin.",
@@ -276,8 +286,8 @@ CROSS_REASONS: dict[tuple[str, str], str] = {
     ("bowl_real", "cup"): "false: a rim of 13-28 cm is wider than a cup's 12.5 cm, and the height is <= 0.53 x rim.",
     ("bowl_real", "pot"): "false: height <= 0.53 x rim, shallower than a pot's 0.55.",
     ("bowl_real", "plate"): "false: 5.6-14.7 cm tall, over a plate's 4 cm.",
-    ("saucepan", "bowl"): "true: a 15-22 cm open vessel, 5.8-10 cm deep inside, height <= 0.48 x rim: it holds food and "
-    "liquid as a bowl does; the long handle is not part of the rim.",
+    ("saucepan", "bowl"): "true: a 15-22 cm open vessel, 5.8-10 cm deep inside, height <= 0.48 x rim: it holds food "
+    "and liquid as a bowl does; the long handle is not part of the rim.",
     ("saucepan", "basket"): "true: it keeps dropped items inside and is carried by its handle, 31-44 cm long in all, "
     "inside a basket's 60 cm (as bowl -> basket; a real-set label that says otherwise disagrees with the definition).",
     ("saucepan", "pot"): "false: height <= 0.48 x rim, shallower than a pot's 0.55 (a deep one is a handle_pot).",
@@ -286,8 +296,8 @@ CROSS_REASONS: dict[tuple[str, str], str] = {
     ("handle_pot", "basket"): "true: as pot -> basket: it keeps dropped items inside and is carried by its handle.",
     ("handle_pot", "bowl"): "false: height >= 0.62 x rim, deeper than a bowl's 0.55.",
     ("handle_pot", "vase"): "false: a 16-21 cm opening, wider than a vase's 12 cm.",
-    ("scoop", "bowl"): "true: a flat-bottomed round dipper Ø 13-17 cm, 4.9-7.1 cm deep inside, height <= 0.48 x rim, on a short "
-    "handle: it holds liquid as a bowl does.",
+    ("scoop", "bowl"): "true: a flat-bottomed round dipper Ø 13-17 cm, 4.9-7.1 cm deep inside, height <= 0.48 x rim, "
+    "on a short handle: it holds liquid as a bowl does.",
     ("scoop", "basket"): "true: as a bowl: it keeps dropped items inside and is carried.",
     ("scoop", "cup"): "false: a 13-17 cm rim, wider than a cup's 12.5 cm.",
     ("goblet", "cup"): "true: a 5.6-9.4 cm rim, 12-14.5 cm tall, taller than 0.6 x its rim; droplets stay in its bowl "
@@ -300,11 +310,12 @@ CROSS_REASONS: dict[tuple[str, str], str] = {
     ("plate_real", "bowl"): "false: under 3 cm deep inside, a bowl needs 4 cm.",
     ("cubby", "cupboard"): "true: an enclosure with its own floor, roofed, open at the front; 22-32 cm high "
     "inside. On a side wall it is one too; its label names the as-built pose.",
-    ("cubby", "basket"): "false: as built its opening faces sideways. On its back it would hold dropped items, but that "
-    "is another pose, which the ground truth does not count (as a bathtub on its side is no table).",
+    ("cubby", "basket"): "false: as built its opening faces sideways. On its back it would hold dropped items, but "
+    "that is another pose, which the ground truth does not count (as a bathtub on its side is no table).",
     ("cubby", "shelf"): "false: its top (0.26-0.34 m) is neither above 1.1 m nor below other boards.",
     ("cubby", "stool"): "false: 0.26-0.34 m high, below a seat's 0.38 m.",
-    ("wall_shelf_box", "cupboard"): "true: an enclosure with its own floor, roofed, open at the front, 16-24 cm high inside.",
+    ("wall_shelf_box", "cupboard"): "true: an enclosure with its own floor, roofed, open at the front, 16-24 cm high "
+    "inside.",
     ("wall_shelf_box", "basket"): "false: as built its opening faces sideways (see cubby -> basket).",
     ("wall_shelf_box", "shelf"): "false: its top (0.2-0.26 m) is neither above 1.1 m nor below other boards.",
     ("bed", "bed"): "true: a mattress 1.86-2.09 m long and 0.91-1.61 m wide, its top 0.42-0.52 m high.",
@@ -327,7 +338,8 @@ CROSS_REASONS: dict[tuple[str, str], str] = {
     ("ashtray", "basket"): "false: 1.5-2.4 cm deep inside, a basket needs 4 cm.",
     ("ashtray", "plate"): "false: 10-12 cm across, below a plate's 15 cm.",
     ("ashtray", "cup"): "false: 2.5-3.6 cm tall, below a cup's 6 cm.",
-    ("riser", "basket"): "false: open at the bottom (a hollow box) or at front, back and bottom (a U): items fall through.",
+    ("riser", "basket"): "false: open at the bottom (a hollow box) or at front, back and bottom (a U): items fall "
+    "through.",
     ("riser", "table"): "false: 0.08-0.22 m high, far below a table top.",
     ("riser", "tray"): "false: its top has no rim.",
     ("carton", "bowl"): "false: closed on every side: nothing can be put in.",
@@ -424,7 +436,8 @@ def ground_truth_markdown() -> str:
         "## Corruption",
         "",
         "Applied to objects of either family, each with a random stream of its own (the object underneath is the",
-        "clean one). The world family corrupts " + f"{100 * WORLD_CORRUPTION_RATE:.0f} % of its objects with one or two of "
+        "clean one). The world family corrupts "
+        + f"{100 * WORLD_CORRUPTION_RATE:.0f} % of its objects with one or two of "
         + ", ".join(MIXED_CORRUPTIONS) + " (a fixed draw per object); `--corrupt a,b` applies exactly those to every",
         "object instead, `--corrupt none` nothing. A label lists what was applied in `corruptions`.",
         "",

@@ -89,7 +89,9 @@ def plan_diameter(vertices: np.ndarray) -> float:
     return float(np.max(np.linalg.norm(hull[:, None] - hull[None], axis=-1)))
 
 
-def _resolve_names(requested: str | Sequence[str] | None, valid: Sequence[str], what: str, norm: Callable[[str], str]) -> list[str]:
+def _resolve_names(
+    requested: str | Sequence[str] | None, valid: Sequence[str], what: str, norm: Callable[[str], str]
+) -> list[str]:
     if requested is None:
         return list(valid)
     if isinstance(requested, str):  # "cup,bowl" as the CLI takes it
@@ -239,14 +241,16 @@ def generate(
     ``corrupt`` is None for each family's default (the world family corrupts
     :data:`~rail_mj.dataset.ground_truth.WORLD_CORRUPTION_RATE` of its objects, the core family none),
     ``"none"``, or names of :data:`~rail_mj.dataset.ground_truth.CORRUPTIONS` applied to every object; a
-    corruption draws from a stream of its own, so the object underneath is the clean one. ``affordances`` defaults to the paper's eight;
+    corruption draws from a stream of its own, so the object underneath is the clean one. ``affordances``
+    defaults to the paper's eight;
     ``progress(done, total, record)`` is called after each object. The files are built in a hidden
     staging folder inside ``out_dir`` and moved into place when all are written, ``labels.jsonl``
     last: a run killed part way leaves no ``labels.jsonl`` (the old one is removed first), never one
     listing part of the objects.
     """
     class_names = _resolve_classes(classes, family)
-    aff_names = _resolve_names(affordances if affordances is not None else PAPER_AFFORDANCES, list(AFFORDANCES), "affordances", normalize_affordance)
+    aff_names = _resolve_names(affordances if affordances is not None else PAPER_AFFORDANCES, list(AFFORDANCES),
+                               "affordances", normalize_affordance)
     forced = _resolve_corrupt(corrupt)
     _check_unlabelled_scale(class_names, forced)
     if isinstance(per_class, bool) or not isinstance(per_class, int) or per_class < 1:
@@ -295,7 +299,8 @@ def generate(
                         notes.append("file numbers are 10x the metres and the label says metres: the object is "
                                      "10x too large, and labelled as such (affords nothing)")
                 rel = f"meshes/{name}_{i:03d}.obj"
-                write_synced(stage / rel, trimesh.exchange.obj.export_obj(mesh, include_normals=False, include_texture=False))
+                write_synced(stage / rel,
+                             trimesh.exchange.obj.export_obj(mesh, include_normals=False, include_texture=False))
                 up_t = tuple(round(float(x), 9) + 0.0 for x in up)
                 truth = {a: a in CLASS_SPECS[name].affords and "scale10_unlabelled" not in applied for a in aff_names}
                 # populate_by_name: pyright sees only the field's alias "class" as the keyword
@@ -329,7 +334,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     0 written, 1 generation failed, 2 bad command line and nothing written, 130 interrupted; errors as
     ``error:`` on stderr)."""
     argv = list(sys.argv[1:] if argv is None else argv)
-    parser = argparse.ArgumentParser(prog="python -m rail_mj.dataset", description="Generate the labelled procedural dataset.")
+    parser = argparse.ArgumentParser(prog="python -m rail_mj.dataset",
+                                     description="Generate the labelled procedural dataset.")
     parser.add_argument("--out", type=Path, help="output folder (meshes/ and labels.jsonl)")
     parser.add_argument("--family", default="core", choices=tuple(FAMILIES),
                         help="class family (default core, the published set; world: shapes of real meshes; all: both)")
@@ -339,7 +345,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                         f"the world family mixes them in): {','.join(CORRUPTIONS)}")
     parser.add_argument("--per-class", type=int, default=10, help="objects per class (default 10)")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    parser.add_argument("--affordances", help=f"comma-separated names (default the paper's eight); valid: {','.join(AFFORDANCES)}")
+    parser.add_argument("--affordances",
+                        help=f"comma-separated names (default the paper's eight); valid: {','.join(AFFORDANCES)}")
     parser.add_argument("--matrix", action="store_true", help="print the ground-truth matrix as Markdown and exit")
     args = parser.parse_args(argv)
     if args.matrix:

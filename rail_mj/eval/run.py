@@ -219,8 +219,9 @@ def run_eval(
 ) -> dict:
     """Run (or resume) an evaluation into ``out``; returns the summary.
 
-    ``workers``, ``executor`` and ``ray_address`` say where the objects run (:func:`rail_mj.pipeline.parallel.run_tasks`;
-    ``workers=None``: every core). ``shard=(i, n)`` takes every n-th labelled object from the i-th (1-based).
+    ``workers``, ``executor`` and ``ray_address`` say where the objects run
+    (:func:`rail_mj.pipeline.parallel.run_tasks`; ``workers=None``: every core). ``shard=(i, n)`` takes every
+    n-th labelled object from the i-th (1-based).
     Raises :class:`~rail_mj.core.errors.FolderInUseError` when another live run holds ``out``.
     """
     check_executor(executor, ray_address, workers)  # before any work
@@ -244,7 +245,8 @@ def _run_locked(
     root, records = _dataset(cfg, out, requested)
     repeated = sorted(m for m, n in Counter(r.mesh for r in records).items() if n > 1)
     if repeated:  # one key per case: a mesh listed twice would be evaluated twice and never "complete"
-        raise DatasetError(f"{root / 'labels.jsonl'} lists {', '.join(repeated)} more than once; give each mesh one line")
+        raise DatasetError(f"{root / 'labels.jsonl'} lists {', '.join(repeated)} more than once; "
+                           "give each mesh one line")
     affordances = requested or sorted({a for r in records for a in r.affordances})
     for r in records:
         missing = [a for a in affordances if a not in r.affordances]

@@ -137,7 +137,9 @@ def check_trajectories(
     plan_names = [p.name for p in plans.plans]
     traj_names = [t.plan for t in trajectories.trajectories]
     if traj_names != plan_names:
-        raise InvalidAnswerError(f"give one trajectory per plan in the same order: expected {plan_names}, got {traj_names}")
+        raise InvalidAnswerError(
+            f"give one trajectory per plan in the same order: expected {plan_names}, got {traj_names}"
+        )
     spread = np.max(np.abs(offsets), axis=0) + radius  # half size of the whole grid
     for traj in trajectories.trajectories:
         quats = np.array([v.quat for v in traj.via_poses], dtype=float)

@@ -159,7 +159,8 @@ def offline_functional_poses(request: FunctionalPoseRequest) -> FunctionalPoseVe
         reasons: list[str] = []
         h = list(pose.half_extents)
         for c in pose.candidates:
-            ok, why = (kind.judge(aff, c, h, None if pose.basin is None else pose.basin.rim) if kind is not None and aff is not None
+            ok, why = (kind.judge(aff, c, h, None if pose.basin is None else pose.basin.rim)
+                       if kind is not None and aff is not None
                        else kinds.judge_unregistered(c))
             reasons.append(f"{c.plan}: {why}")
             if ok:

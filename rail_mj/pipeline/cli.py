@@ -38,7 +38,8 @@ def _describe(r) -> str:
             f"quat {[round(v, 3) for v in p.quat]}, mesh up {[round(v, 2) for v in p.up_in_mesh_frame]}"
         )
     if r.best_plan is not None:
-        lines.append(f"  best interaction: {r.best_plan.name} (score {r.best_plan.score:.2f}): {r.best_plan.description}")
+        lines.append(f"  best interaction: {r.best_plan.name} (score {r.best_plan.score:.2f}): "
+                     f"{r.best_plan.description}")
     for reason in r.analyzer_reasons if r.dims_fit else []:
         lines.append(f"  analyser: {reason}")
     lines.append("  timings: " + ", ".join(f"{k} {v:.2f}s" for k, v in r.timings.items()))

@@ -96,7 +96,8 @@ def _pose_line(result: AffordanceResult, pose: int, plan: int) -> str:
     p = result.stable_poses[pose]
     score = result.scores[pose][plan] if result.scores else float("nan")
     name = result.plans[plan] if plan < len(result.plans) else "?"
-    return f"pose #{p.index} (p = {p.probability:.2f}, of {len(result.stable_poses)}) - plan {name!r} - score {score:.2f}"
+    return (f"pose #{p.index} (p = {p.probability:.2f}, of {len(result.stable_poses)}) - plan {name!r} - "
+            f"score {score:.2f}")
 
 
 def _notes(view: _View, n_agents: int) -> str:
@@ -115,4 +116,5 @@ def caption(result: AffordanceResult, obj: RailObject, *, draw_mesh: bool = Fals
     assert result.evidence_pose is not None  # nothing_to_draw says so
     pose = int(result.evidence_pose)
     kept = "functional pose" if result.functional else "best-scoring rollout (no functional pose)"
-    return [_verdict(result), f"{kept}: {_pose_line(result, pose, _best_plan(result, pose))}", _drawn_as(obj, draw_mesh)]
+    return [_verdict(result), f"{kept}: {_pose_line(result, pose, _best_plan(result, pose))}",
+            _drawn_as(obj, draw_mesh)]

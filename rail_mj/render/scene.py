@@ -108,7 +108,8 @@ def _scene(obj: RailObject, fragment: str, state: _State, *, draw_mesh: bool, wi
     # the generated stubs type these as arrays; MuJoCo's setter takes any 3 numbers
     spec.visual.headlight.ambient = [0.3, 0.3, 0.3]  # pyright: ignore[reportAttributeAccessIssue]
     spec.visual.headlight.diffuse = [0.35, 0.35, 0.35]  # pyright: ignore[reportAttributeAccessIssue]
-    spec.add_texture(name="rail_sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX, builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
+    spec.add_texture(name="rail_sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+                     builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
                      rgb1=[0.93, 0.95, 0.98], rgb2=[0.70, 0.74, 0.80], width=64, height=384)
     spec.add_texture(name="rail_grid", type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
                      rgb1=[0.80, 0.80, 0.78], rgb2=[0.62, 0.62, 0.60], width=64, height=64)
@@ -170,7 +171,8 @@ def _world_box(model, data, geoms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(low, high) corners of the world-aligned box around these geoms."""
     signs = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
     corners = np.concatenate([
-        data.geom_xpos[g] + (model.geom_aabb[g, :3] + signs * model.geom_aabb[g, 3:]) @ data.geom_xmat[g].reshape(3, 3).T
+        data.geom_xpos[g]
+        + (model.geom_aabb[g, :3] + signs * model.geom_aabb[g, 3:]) @ data.geom_xmat[g].reshape(3, 3).T
         for g in geoms
     ])
     return corners.min(axis=0), corners.max(axis=0)
@@ -253,7 +255,9 @@ def _choose_view(model, data, object_body: int, agent_bodies: Sequence[int], asp
     return views[k][1]
 
 
-def _draw(model, data, object_body: int, agent_bodies: Sequence[int], width: int, height: int) -> tuple[np.ndarray, _View]:
+def _draw(
+    model, data, object_body: int, agent_bodies: Sequence[int], width: int, height: int
+) -> tuple[np.ndarray, _View]:
     view = _choose_view(model, data, object_body, agent_bodies, width / height)
     if view.translucent:
         mine = model.geom_bodyid == object_body

@@ -123,8 +123,8 @@ def _basin_fault(aff: Affordance, pose: PoseCandidates) -> str:
                 f"{aff.name} holds liquid")
     height = 2.0 * pose.half_extents[2]
     if pose.basin.rim < _FILL * height:
-        return (f"water poured into it stands {pose.basin.rim:.3f} m deep at most, under {_FILL:.2f} of its {height:.2f} m "
-                f"height: a puddle in a wall (a vessel on its side), not a {aff.name} filled from above")
+        return (f"water poured into it stands {pose.basin.rim:.3f} m deep at most, under {_FILL:.2f} of its "
+                f"{height:.2f} m height: a puddle in a wall (a vessel on its side), not a {aff.name} filled from above")
     basin_length = cast(ContainerParams, aff.params).basin_length
     if pose.basin.length < basin_length:
         return (f"its basin holds water {pose.basin.length:.2f} m long; a {aff.name}'s is at least "

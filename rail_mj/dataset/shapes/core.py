@@ -74,7 +74,8 @@ def _cup_body(rng: np.random.Generator, *, bottom: bool) -> tuple[trimesh.Trimes
         mr = _u(rng, 0.005, 0.007)
         zc = h * _u(rng, 0.45, 0.55)
         r_wall = rb + (rt - rb) * zc / h
-        tf = trimesh.transformations.translation_matrix((r_wall + 0.5 * hr, 0.0, zc)) @ trimesh.transformations.rotation_matrix(np.pi / 2, (1, 0, 0))
+        tf = (trimesh.transformations.translation_matrix((r_wall + 0.5 * hr, 0.0, zc))
+              @ trimesh.transformations.rotation_matrix(np.pi / 2, (1, 0, 0)))
         ring = trimesh.creation.torus(hr, mr, major_sections=32, minor_sections=12, transform=tf)
         # cut 1.5 mm inside the outer surface so the stub overlaps the wall instead of touching it
         outer = _revolve([(0.0, 0.0), (rb - 0.0015, 0.0), (rt - 0.0015, h), (0.0, h)])
@@ -164,7 +165,8 @@ def basket(rng: np.random.Generator) -> Built:
         R = _u(rng, 0.10, 0.18)
         # floor and rim are 2 mm off the slat faces: flush faces make pinched, non-manifold edges
         parts.append(_cylinder(R - 0.002, 0.0, floor, sections=48))
-        parts.append(_revolve([(R - slat_t - 0.002, h - rim_h), (R + 0.002, h - rim_h), (R + 0.002, h), (R - slat_t - 0.002, h)]))
+        parts.append(_revolve([(R - slat_t - 0.002, h - rim_h), (R + 0.002, h - rim_h), (R + 0.002, h),
+                               (R - slat_t - 0.002, h)]))
         n = int(np.ceil(2 * np.pi * R / (_u(rng, 0.015, 0.03) + BASKET_GAP)))
         slat_w = 2 * np.pi * R / n - BASKET_GAP  # slots exactly BASKET_GAP wide at the outer face
         for k in range(n):
@@ -191,10 +193,12 @@ def basket(rng: np.random.Generator) -> Built:
                 for sign in (-1.0, 1.0):
                     if along_x:  # long sides, outer face at |y| = W/2
                         y_in, y_out = sign * (W / 2 - slat_t), sign * W / 2
-                        parts.append(_box((c - slat_w / 2, min(y_in, y_out), z0), (c + slat_w / 2, max(y_in, y_out), z1)))
+                        parts.append(_box((c - slat_w / 2, min(y_in, y_out), z0),
+                                          (c + slat_w / 2, max(y_in, y_out), z1)))
                     else:  # short sides, 1 mm proud of the long sides' ends
                         x_in, x_out = sign * (L / 2 - slat_t + 0.001), sign * (L / 2 + 0.001)
-                        parts.append(_box((min(x_in, x_out), c - slat_w / 2, z0), (max(x_in, x_out), c + slat_w / 2, z1)))
+                        parts.append(_box((min(x_in, x_out), c - slat_w / 2, z0),
+                                          (max(x_in, x_out), c + slat_w / 2, z1)))
         desc = f"rectangular slatted basket, {_cm(L)} x {_cm(W)}, {_cm(h)} tall"
     desc += f", {_cm(BASKET_GAP)} slots (holds agents Ø >= {_cm(BASKET_AGENT_MIN)})"
     return Built(_union(parts), desc)
@@ -215,7 +219,8 @@ def bathtub(rng: np.random.Generator) -> Built:
     mesh = _difference(outer, cavity)
     if feet:
         fx, fy = L / 2 - 0.15, W / 2 - 0.1
-        mesh = _union([mesh] + [_cylinder(0.04, 0.0, z0 + 0.01, sx * fx, sy * fy, 16) for sx in (-1, 1) for sy in (-1, 1)])
+        mesh = _union([mesh] + [_cylinder(0.04, 0.0, z0 + 0.01, sx * fx, sy * fy, 16)
+                                for sx in (-1, 1) for sy in (-1, 1)])
     desc = f"bathtub, {_cm(L)} x {_cm(W)}, {_cm(H)} tall, rim {_cm(t)}" + (", on four feet" if feet else "")
     return Built(mesh, desc)
 
@@ -254,7 +259,8 @@ def trash_bin(rng: np.random.Generator) -> Built:
         mesh = _revolve([(0.0, 0.0), (rb, 0.0), (rt, h), (rt - t, h), (rb - t, b), (0.0, b)])
         return Built(mesh, f"round trash bin, top Ø {_cm(2 * rt)}, {_cm(h)} tall")
     L, W = _u(rng, 0.25, 0.35), _u(rng, 0.2, 0.3)
-    mesh = _difference(_box((-L / 2, -W / 2, 0.0), (L / 2, W / 2, h)), _box((-L / 2 + t, -W / 2 + t, b), (L / 2 - t, W / 2 - t, h + 0.01)))
+    mesh = _difference(_box((-L / 2, -W / 2, 0.0), (L / 2, W / 2, h)),
+                       _box((-L / 2 + t, -W / 2 + t, b), (L / 2 - t, W / 2 - t, h + 0.01)))
     return Built(mesh, f"square trash bin, {_cm(L)} x {_cm(W)}, {_cm(h)} tall")
 
 
@@ -262,7 +268,8 @@ def tray(rng: np.random.Generator) -> Built:
     L, W, h = _u(rng, 0.36, 0.5), _u(rng, 0.26, 0.36), _u(rng, 0.02, 0.04)
     t = _u(rng, 0.005, 0.008)
     floor = 0.005
-    mesh = _difference(_box((-L / 2, -W / 2, 0.0), (L / 2, W / 2, h)), _box((-L / 2 + t, -W / 2 + t, floor), (L / 2 - t, W / 2 - t, h + 0.01)))
+    mesh = _difference(_box((-L / 2, -W / 2, 0.0), (L / 2, W / 2, h)),
+                       _box((-L / 2 + t, -W / 2 + t, floor), (L / 2 - t, W / 2 - t, h + 0.01)))
     return Built(mesh, f"tray, {_cm(L)} x {_cm(W)}, rim {_cm(h)} tall")
 
 
@@ -270,7 +277,8 @@ def tray(rng: np.random.Generator) -> Built:
 
 
 def _four_legs(x: float, y: float, top: float, side: float) -> list[trimesh.Trimesh]:
-    return [_box((sx * x - side / 2, sy * y - side / 2, 0.0), (sx * x + side / 2, sy * y + side / 2, top)) for sx in (-1, 1) for sy in (-1, 1)]
+    return [_box((sx * x - side / 2, sy * y - side / 2, 0.0), (sx * x + side / 2, sy * y + side / 2, top))
+            for sx in (-1, 1) for sy in (-1, 1)]
 
 
 def table(rng: np.random.Generator) -> Built:
@@ -307,7 +315,8 @@ def table_tilted(rng: np.random.Generator) -> Built:
     xl = half_x - 0.06
     zc = 0.3 + tt / (2 * np.cos(tilt)) + yl * np.tan(tilt) + _u(rng, 0.0, 0.08)
     top = _box((-half_x, -half_y, -tt / 2), (half_x, half_y, tt / 2))
-    top.apply_transform(trimesh.transformations.translation_matrix((0, 0, zc)) @ trimesh.transformations.rotation_matrix(tilt, (1, 0, 0)))
+    top.apply_transform(trimesh.transformations.translation_matrix((0, 0, zc))
+                        @ trimesh.transformations.rotation_matrix(tilt, (1, 0, 0)))
     legs = []
     for sx in (-1, 1):
         for sy in (-1, 1):
@@ -365,7 +374,8 @@ def bench(rng: np.random.Generator) -> Built:
     parts = [_box((-L / 2, -D / 2, s - ts), (L / 2, D / 2, s))]
     if rng.random() < 0.5:
         x = L / 2 - _u(rng, 0.08, 0.15)
-        parts += [_box((sx * x - 0.02, -D / 2 + 0.02, 0.0), (sx * x + 0.02, D / 2 - 0.02, s - ts + 0.005)) for sx in (-1, 1)]
+        parts += [_box((sx * x - 0.02, -D / 2 + 0.02, 0.0), (sx * x + 0.02, D / 2 - 0.02, s - ts + 0.005))
+                  for sx in (-1, 1)]
         desc = "panel-legged bench"
     else:
         parts += _four_legs(L / 2 - 0.06, D / 2 - 0.04, s - ts + 0.005, 0.045)
@@ -387,7 +397,8 @@ def rack(rng: np.random.Generator) -> Built:
     parts = _four_legs(W / 2 - post / 2, D / 2 - post / 2, H, post)
     # shelves 1 mm inside the posts' outer faces: flush faces make pinched, non-manifold edges
     parts += [_box((-W / 2 + 0.001, -D / 2 + 0.001, z - st), (W / 2 - 0.001, D / 2 - 0.001, z)) for z in tops]
-    return Built(_union(parts), f"open shelf rack, {_cm(W)} x {_cm(D)}, {_cm(H)} tall, {n} shelves {_cm(tops[1] - tops[0])} apart")
+    return Built(_union(parts),
+                 f"open shelf rack, {_cm(W)} x {_cm(D)}, {_cm(H)} tall, {n} shelves {_cm(tops[1] - tops[0])} apart")
 
 
 # ---------------------------------------------------------------- distractors
@@ -412,7 +423,8 @@ def sphere(rng: np.random.Generator) -> Built:
 
 def cone(rng: np.random.Generator) -> Built:
     r, h = _u(rng, 0.025, 0.1), _u(rng, 0.05, 0.25)
-    return Built(trimesh.creation.cone(radius=r, height=h, sections=48), f"solid cone, base Ø {_cm(2 * r)}, {_cm(h)} tall")
+    return Built(trimesh.creation.cone(radius=r, height=h, sections=48),
+                 f"solid cone, base Ø {_cm(2 * r)}, {_cm(h)} tall")
 
 
 def torus(rng: np.random.Generator) -> Built:

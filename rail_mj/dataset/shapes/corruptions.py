@@ -73,7 +73,8 @@ def punch_holes(mesh: trimesh.Trimesh, rng: np.random.Generator) -> tuple[trimes
         drop[s] = True
     out = trimesh.Trimesh(vertices=mesh.vertices, faces=mesh.faces[~drop], process=False)
     out.remove_unreferenced_vertices()
-    return out, f"holes: {n} missing surface patches of Ø {_cm(2 * radius)} ({int(drop.sum())} faces), none through a wall"
+    return out, (f"holes: {n} missing surface patches of Ø {_cm(2 * radius)} ({int(drop.sum())} faces), "
+                 "none through a wall")
 
 
 def open_seams(mesh: trimesh.Trimesh, rng: np.random.Generator) -> tuple[trimesh.Trimesh, str]:
@@ -113,7 +114,8 @@ def uneven_bottom(mesh: trimesh.Trimesh, rng: np.random.Generator) -> tuple[trim
     phi = _u(rng, 0.0, 2 * np.pi)
     tilt = _u(rng, -1.0, 1.0)
     dome = (1.0 - abs(tilt)) * (1.0 if rng.random() < 0.5 else -1.0)
-    f = tilt * (rel @ np.array([np.cos(phi), np.sin(phi)])) / reach + dome * (1.0 - 2.0 * np.sum(rel**2, axis=1) / reach**2)
+    f = (tilt * (rel @ np.array([np.cos(phi), np.sin(phi)])) / reach
+         + dome * (1.0 - 2.0 * np.sum(rel**2, axis=1) / reach**2))
     fade = np.clip(1.0 - (v[:, 2] - z0) / band, 0.0, 1.0)
     v[:, 2] += a * np.clip(f, -1.0, 1.0) * fade
     out = trimesh.Trimesh(vertices=v, faces=mesh.faces, process=False)

@@ -60,10 +60,13 @@ def _revolve(profile: list[tuple[float, float]], sections: int = _SECTIONS) -> t
 
 def _box(lo: tuple[float, float, float], hi: tuple[float, float, float]) -> trimesh.Trimesh:
     lo_a, hi_a = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
-    return trimesh.creation.box(extents=hi_a - lo_a, transform=trimesh.transformations.translation_matrix((lo_a + hi_a) / 2))
+    return trimesh.creation.box(extents=hi_a - lo_a,
+                                transform=trimesh.transformations.translation_matrix((lo_a + hi_a) / 2))
 
 
-def _cylinder(radius: float, z0: float, z1: float, x: float = 0.0, y: float = 0.0, sections: int = 32) -> trimesh.Trimesh:
+def _cylinder(
+    radius: float, z0: float, z1: float, x: float = 0.0, y: float = 0.0, sections: int = 32
+) -> trimesh.Trimesh:
     tf = trimesh.transformations.translation_matrix((x, y, (z0 + z1) / 2))
     return trimesh.creation.cylinder(radius=radius, height=z1 - z0, sections=sections, transform=tf)
 
@@ -84,7 +87,9 @@ def _cm(x: float) -> str:
     return f"{100 * x:.1f} cm"
 
 
-def _rod(p0: tuple[float, float, float], p1: tuple[float, float, float], radius: float, sections: int = 16) -> trimesh.Trimesh:
+def _rod(
+    p0: tuple[float, float, float], p1: tuple[float, float, float], radius: float, sections: int = 16
+) -> trimesh.Trimesh:
     return trimesh.creation.cylinder(radius=radius, segment=np.array([p0, p1], dtype=np.float64), sections=sections)
 
 

@@ -86,7 +86,8 @@ def _upholstered(rng: np.random.Generator, seats: int) -> tuple[list[trimesh.Tri
     if legs:
         parts += _feet(W / 2 - 0.06, D / 2 - 0.06, f + 0.01, 0.025)
     desc = (f"{W:.2f} x {D:.2f} m overall, {seats} seat cushion{'s' if seats > 1 else ''} {_cm(cushion_w)} wide, "
-            f"seat {_cm(s)} high, rolled arms {_cm(ha)}, back {_cm(hb)}" + (f", on {_cm(f)} feet" if legs else ", on a plinth"))
+            f"seat {_cm(s)} high, rolled arms {_cm(ha)}, back {_cm(hb)}"
+            + (f", on {_cm(f)} feet" if legs else ", on a plinth"))
     return parts, desc, s, sw
 
 
@@ -138,8 +139,8 @@ def bar_chair(rng: np.random.Generator) -> Built:
         x = sx * (w / 2 - 0.02)
         parts.append(_box((x - 0.015, -d / 2 + 0.03, s - 0.01), (x + 0.015, -d / 2 + 0.06, s + ha)))
         parts.append(_box((x - 0.022, -d / 2 + 0.02, s + ha - 0.025), (x + 0.022, d / 2 - 0.01, s + ha)))
-    desc = (f"bar chair, seat {_cm(w)} x {_cm(d)} at {_cm(s)}, footrest rungs at {_cm(fr)} ({_cm(s - fr)} below the seat), "
-            f"splayed legs, backrest {_cm(hb)}, armrests")
+    desc = (f"bar chair, seat {_cm(w)} x {_cm(d)} at {_cm(s)}, footrest rungs at {_cm(fr)} "
+            f"({_cm(s - fr)} below the seat), splayed legs, backrest {_cm(hb)}, armrests")
     return Built(_on_floor(_union(parts)), desc)
 
 
@@ -174,7 +175,8 @@ def shell_chair(rng: np.random.Generator) -> Built:
             parts.append(arm)
         parts.append(_cylinder(col_r + 0.01, 0.0, 0.045))
         base = f"{n_arms}-arm star base, {_cm(2 * base_r)} across"
-    desc = f"shell lounge chair on a pedestal, shell Ø {_cm(2 * R)}, seat cushion Ø {_cm(2 * r_seat)} at {_cm(s)}, {base}"
+    desc = (f"shell lounge chair on a pedestal, shell Ø {_cm(2 * R)}, seat cushion Ø {_cm(2 * r_seat)} at {_cm(s)}, "
+            f"{base}")
     return Built(_union(parts), desc)
 
 
@@ -205,7 +207,8 @@ def stool(rng: np.random.Generator) -> Built:
         k = rung / top[2]
         at_rung.append(tuple(b + k * (q - b) for b, q in zip(bottom, top)))
     parts += feet + [_rod(at_rung[j], at_rung[(j + 1) % n_legs], 0.01) for j in range(n_legs)]
-    return Built(_on_floor(_union(parts)), f"backless stool, {seat} at {_cm(s)}, {n_legs} splayed legs, rungs at {_cm(rung)}")
+    return Built(_on_floor(_union(parts)),
+                 f"backless stool, {seat} at {_cm(s)}, {n_legs} splayed legs, rungs at {_cm(rung)}")
 
 
 def bowl_real(rng: np.random.Generator) -> Built:
@@ -279,7 +282,8 @@ def scoop(rng: np.random.Generator) -> Built:
     ang = np.deg2rad(_u(rng, 20.0, 35.0))
     mesh = _handled_vessel(rng, d, h, t=_u(rng, 0.0025, 0.0035), flare=_u(rng, 0.005, 0.015), handle_len=L,
                            handle_angle=ang, handle_w=_u(rng, 0.02, 0.026), handle_t=_u(rng, 0.008, 0.012))
-    return Built(mesh, f"flat-bottomed round scoop (dipper), Ø {_cm(d)} x {_cm(h)}, handle {_cm(L)} at {np.rad2deg(ang):.0f}°")
+    return Built(mesh, f"flat-bottomed round scoop (dipper), Ø {_cm(d)} x {_cm(h)}, handle {_cm(L)} at "
+                       f"{np.rad2deg(ang):.0f}°")
 
 
 def ladle(rng: np.random.Generator) -> Built:
@@ -300,7 +304,8 @@ def ladle(rng: np.random.Generator) -> Built:
     rod = _difference(_rod(p0, p1, r_rod), _ball(R - t, (0.0, 0.0, R), subdivisions=3))
     hook = _rod(p1, (p1[0] + 0.03 * np.cos(ang + 2.2), 0.0, p1[2] + 0.03 * np.sin(ang + 2.2)), r_rod)
     return Built(_union([cup_, rod, hook, _ball(r_rod, p1, subdivisions=2)]),
-                 f"ladle, hemispherical cup Ø {_cm(2 * r_rim)} x {_cm(dd)} deep on a {_cm(L)} handle at {np.rad2deg(ang):.0f}°")
+                 f"ladle, hemispherical cup Ø {_cm(2 * r_rim)} x {_cm(dd)} deep on a {_cm(L)} handle at "
+                 f"{np.rad2deg(ang):.0f}°")
 
 
 def ashtray(rng: np.random.Generator) -> Built:
@@ -310,14 +315,16 @@ def ashtray(rng: np.random.Generator) -> Built:
     dd = _u(rng, 0.015, min(0.024, h - 0.008))
     ri = R - tw
     floor = h - dd
-    profile = [(0.0, 0.0), (R - 0.003, 0.0), (R, 0.003), (R, h), (ri + 0.004, h), (ri, h - 0.004), (ri - 0.006, floor), (0.0, floor)]
+    profile = [(0.0, 0.0), (R - 0.003, 0.0), (R, 0.003), (R, h), (ri + 0.004, h), (ri, h - 0.004), (ri - 0.006, floor),
+               (0.0, floor)]
     mesh = _revolve(profile)
     n = int(rng.integers(3, 5))
     rn = _u(rng, 0.005, 0.006)
     for j in range(n):
         ang = 2 * np.pi * j / n
         c, sn = np.cos(ang), np.sin(ang)
-        mesh = _difference(mesh, _rod(((ri - 0.008) * c, (ri - 0.008) * sn, h), ((R + 0.01) * c, (R + 0.01) * sn, h), rn))
+        mesh = _difference(mesh, _rod(((ri - 0.008) * c, (ri - 0.008) * sn, h), ((R + 0.01) * c, (R + 0.01) * sn, h),
+                                      rn))
     return Built(mesh, f"round ashtray, Ø {_cm(2 * R)} x {_cm(h)}, {_cm(dd)} deep inside, {n} cigarette rests")
 
 
@@ -358,7 +365,8 @@ def cubby(rng: np.random.Generator) -> Built:
     W, D, H = _u(rng, 0.26, 0.36), _u(rng, 0.26, 0.36), _u(rng, 0.26, 0.34)
     t = _u(rng, 0.012, 0.018)
     tb = _u(rng, 0.005, t)
-    return Built(_open_front_box(W, D, H, t, tb), f"open-front cubby, {_cm(W)} x {_cm(D)} x {_cm(H)}, walls {1000 * t:.0f} mm")
+    return Built(_open_front_box(W, D, H, t, tb),
+                 f"open-front cubby, {_cm(W)} x {_cm(D)} x {_cm(H)}, walls {1000 * t:.0f} mm")
 
 
 def wall_shelf_box(rng: np.random.Generator) -> Built:
@@ -366,7 +374,8 @@ def wall_shelf_box(rng: np.random.Generator) -> Built:
     t = _u(rng, 0.012, 0.018)
     dividers = int(rng.integers(0, 2))
     mesh = _open_front_box(W, D, H, t, _u(rng, 0.005, 0.01), dividers)
-    return Built(mesh, f"open-front wall shelf box, {_cm(W)} x {_cm(D)} x {_cm(H)}" + (", one divider" if dividers else ""))
+    return Built(mesh,
+                 f"open-front wall shelf box, {_cm(W)} x {_cm(D)} x {_cm(H)}" + (", one divider" if dividers else ""))
 
 
 def riser(rng: np.random.Generator) -> Built:
@@ -401,7 +410,8 @@ def bed(rng: np.random.Generator) -> Built:
     pw = (W - 0.1) / n_p - 0.05
     for k in range(n_p):
         y0 = -W / 2 + 0.05 + k * (pw + 0.05)
-        parts.append(_box((L / 2 - hbt - 0.45, y0, top - 0.01), (L / 2 - hbt - 0.06, y0 + pw, top + _u(rng, 0.09, 0.13))))
+        parts.append(_box((L / 2 - hbt - 0.45, y0, top - 0.01),
+                          (L / 2 - hbt - 0.06, y0 + pw, top + _u(rng, 0.09, 0.13))))
     if legs:
         parts += [_box((x - 0.03, y - 0.03, 0.0), (x + 0.03, y + 0.03, f + 0.01))
                   for x in (-L / 2 + 0.08, L / 2 - 0.08) for y in (-W / 2 + 0.08, W / 2 - 0.08)]
@@ -416,7 +426,8 @@ def _pedestal(x0: float, x1: float, D: float, top: float, rng: np.random.Generat
     h = (top - 0.06) / n
     for k in range(n):
         zc = 0.06 + (k + 0.5) * h
-        parts.append(_box(((x0 + x1) / 2 - 0.05, -D / 2 + 0.005, zc - 0.008), ((x0 + x1) / 2 + 0.05, -D / 2 + 0.025, zc + 0.008)))
+        parts.append(_box(((x0 + x1) / 2 - 0.05, -D / 2 + 0.005, zc - 0.008),
+                          ((x0 + x1) / 2 + 0.05, -D / 2 + 0.025, zc + 0.008)))
     return parts
 
 
@@ -428,7 +439,8 @@ def desk(rng: np.random.Generator) -> Built:
     kind = int(rng.integers(0, 3))
     pw = _u(rng, 0.38, 0.45)
     if kind == 0:
-        parts += _pedestal(-L / 2 + 0.01, -L / 2 + 0.01 + pw, D, under, rng) + _pedestal(L / 2 - 0.01 - pw, L / 2 - 0.01, D, under, rng)
+        parts += (_pedestal(-L / 2 + 0.01, -L / 2 + 0.01 + pw, D, under, rng)
+                  + _pedestal(L / 2 - 0.01 - pw, L / 2 - 0.01, D, under, rng))
         desc = "two drawer pedestals"
         x_in = L / 2 - 0.01 - pw
     else:
@@ -442,7 +454,8 @@ def desk(rng: np.random.Generator) -> Built:
         parts.append(_box((-L / 2 + 0.01, -D / 2 + 0.03, 0.0), (-L / 2 + 0.01 + pt, D / 2 - 0.03, under)))
         x_in = L / 2 - 0.03
     if rng.random() < 0.6:
-        parts.append(_box((-x_in - 0.01, D / 2 - 0.06, H - tt - _u(rng, 0.3, 0.4)), (x_in + 0.01, D / 2 - 0.035, under)))
+        parts.append(_box((-x_in - 0.01, D / 2 - 0.06, H - tt - _u(rng, 0.3, 0.4)),
+                          (x_in + 0.01, D / 2 - 0.035, under)))
         desc += ", modesty panel"
     return Built(_union(parts), f"desk, top {_cm(L)} x {_cm(D)} at {_cm(H)}, {desc}")
 
@@ -490,7 +503,9 @@ def plate_real(rng: np.random.Generator) -> Built:
     z_a, z_b = fh + tb, h - 0.004
     us = np.linspace(0.0, 1.0, 10)
     top = [(rf + (r_m - rf) * u, z_a + (z_b - z_a) * (1 - (1 - u) ** 2)) for u in us]
-    profile = ([(0.0, fh), (rf - fw, fh), (rf - fw, 0.0), (rf, 0.0), (rf + 0.002, fh), (r_m, z_b - t), (R, h - t), (R, h)]
+    profile = ([(0.0, fh), (rf - fw, fh), (rf - fw, 0.0), (rf, 0.0), (rf + 0.002, fh), (r_m, z_b - t), (R, h - t),
+                (R, h)]
                + top[::-1] + [(0.0, z_a)])
-    return Built(_revolve(profile, sections=64), f"plate with a foot ring, Ø {_cm(2 * R)} x {_cm(h)}, rim {_cm(R - r_m)} wide")
+    return Built(_revolve(profile, sections=64),
+                 f"plate with a foot ring, Ø {_cm(2 * R)} x {_cm(h)}, rim {_cm(R - r_m)} wide")
 
