@@ -34,7 +34,6 @@ from pathlib import Path
 
 import numpy as np
 import trimesh
-
 from cpu_time import cpu_seconds  # benchmarks/cpu_time.py, beside this script
 
 
@@ -243,7 +242,8 @@ def main(argv: list[str] | None = None) -> int:
                 continue
             print(
                 f"{r['name'][:22]:22s} {r['faces_in']:8d} {r['faces']:6d} {r['coacd_faces']:7d} "
-                f"{'yes' if r['closed'] else 'no':>6s} {r['extent']:6.3f} {r['load_s']:7.1f} {r['cpu_s']:7.1f} {r['coacd_s']:7.1f} "
+                f"{'yes' if r['closed'] else 'no':>6s} {r['extent']:6.3f} {r['load_s']:7.1f} {r['cpu_s']:7.1f} "
+                f"{r['coacd_s']:7.1f} "
                 f"{r['quality_s']:6.2f} {r['hulls']:5d} {_fmt(r['volume_ratio'], '5.2f')} {r['excess']:6.3f} "
                 f"{r['missing']:7.3f} {_fmt(r['covered'], '6.3f')}",
                 flush=True,

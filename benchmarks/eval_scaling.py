@@ -28,11 +28,12 @@ import time
 from pathlib import Path
 
 from cpu_time import cpu_seconds  # benchmarks/cpu_time.py, beside this script
-from rail_mj.eval import run as rail_eval
-from rail_mj.dataset.ground_truth import CLASSES
-from rail_mj.dataset.procedural import generate
+
 from rail_mj.affordances import PAPER_AFFORDANCES
 from rail_mj.core.paths import CACHE_ENV
+from rail_mj.dataset.ground_truth import CLASSES
+from rail_mj.dataset.procedural import generate
+from rail_mj.eval import run as rail_eval
 
 VERDICT = ("predicted", "correct", "pose_correct", "pose_correct_without_analyzer", "error")
 
@@ -99,7 +100,7 @@ def main() -> int:
 
     n_cases = n_objects * len(affordances)
     ref = modes["workers=1"]["wall_s"]
-    print(f"\n| mode | wall s | cases/s | x workers=1 | cores busy | load avg before |\n|---|---|---|---|---|---|")
+    print("\n| mode | wall s | cases/s | x workers=1 | cores busy | load avg before |\n|---|---|---|---|---|---|")
     for mode, m in modes.items():
         m["cases_per_s"] = n_cases / m["wall_s"]
         m["ratio"] = ref / m["wall_s"]

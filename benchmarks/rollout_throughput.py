@@ -26,19 +26,21 @@ import mujoco.batch
 import numpy as np
 import trimesh
 
+from rail_mj.core.types import AgentSetup, RailObject
 from rail_mj.imagination import ImaginationConfig, get_backend, imagine, prepare
 from rail_mj.imagination.mjx import hull_bucket
 from rail_mj.stable_poses import find_stable_poses, pose_from_up
-from rail_mj.core.types import AgentSetup, RailObject
 
 jax.config.update("jax_cpu_enable_async_dispatch", False)
 
-DROPLET = '<mujoco><worldbody><body name="drop"><geom type="sphere" size="0.006" mass="0.001"/></body></worldbody></mujoco>'
+DROPLET = ('<mujoco><worldbody><body name="drop"><geom type="sphere" size="0.006" mass="0.001"/></body></worldbody>'
+           '</mujoco>')
 
 
 def cup_object(radius: float = 0.04, height: float = 0.08, wall: float = 0.004, name: str = "cup") -> RailObject:
     """A revolved ≈ 8 cm cup, convex-decomposed by CoACD."""
-    profile = np.array([[0, 0], [radius, 0], [radius, height], [radius - wall, height], [radius - wall, wall], [0, wall]])
+    profile = np.array([[0, 0], [radius, 0], [radius, height], [radius - wall, height], [radius - wall, wall],
+                        [0, wall]])
     mesh = trimesh.creation.revolve(profile, sections=32)
     coacd.set_log_level("error")
     parts = coacd.run_coacd(coacd.Mesh(mesh.vertices, mesh.faces), threshold=0.05, max_convex_hull=16, seed=0)
@@ -189,17 +191,20 @@ def main() -> None:
     results, agreement = [], {}
     for b in batches:
         scene, qpos0, pose = _scene_state(obj, agents, b, cfg)
-        runs = {"native-serial": run_serial(scene, qpos0, pose, nsteps), "native": run_native(scene, qpos0, pose, nsteps, 0)}
+        runs = {"native-serial": run_serial(scene, qpos0, pose, nsteps),
+                "native": run_native(scene, qpos0, pose, nsteps, 0)}
         try:
             runs["pybullet"] = run_pybullet(obj, agents, pose, b, nsteps, cfg.timestep)
         except ImportError:
             print("pybullet not importable: skipped")
         for name, (wall, inside) in runs.items():
-            results.append({"backend": name, "batch": b, "steps_per_s": b * nsteps / wall, "wall_s": wall, "compile_s": 0.0})
+            results.append({"backend": name, "batch": b, "steps_per_s": b * nsteps / wall, "wall_s": wall,
+                            "compile_s": 0.0})
             agreement[name] = inside
         if not args.no_mjx and b <= args.mjx_max_batch:
             compile_s, wall, inside = run_mjx(obj, agents, b, nsteps, cfg)
-            results.append({"backend": "mjx", "batch": b, "steps_per_s": b * nsteps / wall, "wall_s": wall, "compile_s": compile_s})
+            results.append({"backend": "mjx", "batch": b, "steps_per_s": b * nsteps / wall, "wall_s": wall,
+                            "compile_s": compile_s})
             agreement["mjx"] = inside
     print(f"\n{'backend':14s} {'batch':>6s} {'steps/s':>10s} {'wall s':>8s} {'compile s':>9s}")
     for r in results:
@@ -231,12 +236,14 @@ def main() -> None:
         print(f"mjx second object (hulls {len(obj.hulls)} vs {len(other.hulls)}): {bucket}")
 
     imagination = {}
-    for name, backend, c in (("native", "native", cfg), ("native-serial", "native", cfg.model_copy(update={"nthread": 1})),
+    for name, backend, c in (("native", "native", cfg),
+                             ("native-serial", "native", cfg.model_copy(update={"nthread": 1})),
                              *((("mjx", "mjx", cfg),) if not args.no_mjx else ())):
         wall, n_poses = imagination_wall(obj, agents, backend, c)
         imagination[name] = {"wall_s": wall, "poses": n_poses, "per_pose_s": wall / n_poses}
     print("imagination of one object (all stable poses x 5 plans, 27 droplets): "
-          + ", ".join(f"{k} {v['wall_s']:.2f} s ({v['poses']} poses, {v['per_pose_s']:.2f} s/pose)" for k, v in imagination.items()))
+          + ", ".join(f"{k} {v['wall_s']:.2f} s ({v['poses']} poses, {v['per_pose_s']:.2f} s/pose)"
+                      for k, v in imagination.items()))
     if args.json:
         with open(args.json, "w") as f:
             json.dump({"device": device, "steps": nsteps, "results": results, "ratios": ratios, "agreement": agreement,

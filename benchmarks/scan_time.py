@@ -26,11 +26,11 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 import numpy as np  # noqa: E402
 
+from rail_mj.core.types import RailObject  # noqa: E402
+from rail_mj.dataset.shapes import GENERATORS  # noqa: E402
 from rail_mj.mesh import mesh_hash  # noqa: E402
 from rail_mj.robot.demo import make_object, upright_pose  # noqa: E402
 from rail_mj.robot.scan import ScanConfig, ScanError, scan_object, true_mesh_world  # noqa: E402
-from rail_mj.dataset.shapes import GENERATORS  # noqa: E402
-from rail_mj.core.types import RailObject  # noqa: E402
 
 DEMO = ("cup", "bowl", "vase", "pen_holder", "pot", "basket", "tray", "plate", "stool", "chair", "table")
 SHAPES = ("cup", "bowl", "vase", "plate", "pot", "tray", "goblet", "saucepan", "bowl_real", "ashtray")

@@ -22,8 +22,8 @@ import time
 
 import numpy as np
 
-from rail_mj.scoring import close_workers, compile_scoring, sandbox, warm_up
 from rail_mj.core.types import SCORING_ARGS
+from rail_mj.scoring import close_workers, compile_scoring, sandbox, warm_up
 
 CONTAINMENT = f"def score({', '.join(SCORING_ARGS)}):\n" + """
     h = object_half_extents[:, None, :]

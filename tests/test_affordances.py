@@ -9,8 +9,6 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
-from rail_mj.dataset import ground_truth as dataset
-from rail_mj.dataset.labels import LabelRecord
 from rail_mj.affordances import (
     PAPER_AFFORDANCES,
     REGISTRY,
@@ -23,6 +21,8 @@ from rail_mj.affordances import (
 )
 from rail_mj.affordances.kinds import KINDS, kind_of
 from rail_mj.core.errors import UnknownAffordanceError
+from rail_mj.dataset import ground_truth as dataset
+from rail_mj.dataset.labels import LabelRecord
 from rail_mj.llm.checks import check_agent
 from rail_mj.llm.offline import offline_agent
 from rail_mj.llm.schemas import TaskDescription

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from rail_mj.core.errors import ConfigError
+from rail_mj.core.types import RailObject
 from rail_mj.mesh import mesh_hash
 from rail_mj.pipeline.chain import classify
 from rail_mj.robot.demo import make_object
-from rail_mj.core.types import RailObject
 
 
 def _upside_down(obj: RailObject) -> RailObject:

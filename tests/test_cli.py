@@ -12,9 +12,9 @@ import trimesh
 import rail_mj.mesh.repair as mesh_repair
 import rail_mj.pipeline.chain as pipeline
 from rail_mj import llm
-from rail_mj.dataset import procedural as dataset
 from rail_mj.__main__ import main as rail_main
 from rail_mj.core.errors import ConfigError, DatasetError, RobotError
+from rail_mj.dataset import procedural as dataset
 from rail_mj.pipeline.chain import classify
 from rail_mj.pipeline.config import RunConfig
 from rail_mj.robot import __main__ as robot_cli

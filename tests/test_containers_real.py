@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 import trimesh
 
-from rail_mj.dataset import shapes
-from rail_mj.dataset.shapes import parts as shape_parts
 from rail_mj.affordances import get
 from rail_mj.affordances.kinds import kind_of
 from rail_mj.affordances.kinds.container import MIN_DEPTH
 from rail_mj.core.profile import CandidateInteraction, ResultSummary
 from rail_mj.core.results import BasinInfo
+from rail_mj.dataset import shapes
+from rail_mj.dataset.shapes import parts as shape_parts
 from rail_mj.imagination.inputs import trajectory_array
 from rail_mj.llm import generate_profile
 from rail_mj.mesh import object_from_mesh

@@ -12,10 +12,9 @@ import numpy as np
 import pytest
 import trimesh
 
+from rail_mj.core.errors import DatasetError
+from rail_mj.core.results import PoseInfo
 from rail_mj.dataset import procedural as dataset
-from rail_mj.eval import cli as eval_cli
-from rail_mj.eval import run as rail_eval
-from rail_mj.eval import summary as eval_summary
 from rail_mj.dataset.ground_truth import (
     AFFORDANCES,
     ALL_CLASSES,
@@ -35,9 +34,10 @@ from rail_mj.dataset.ground_truth import (
 )
 from rail_mj.dataset.labels import LabelRecord, read_labels
 from rail_mj.dataset.procedural import generate, plan_diameter
-from rail_mj.core.errors import DatasetError
-from rail_mj.core.results import PoseInfo
 from rail_mj.dataset.shapes import GENERATORS, densify, uneven_bottom
+from rail_mj.eval import cli as eval_cli
+from rail_mj.eval import run as rail_eval
+from rail_mj.eval import summary as eval_summary
 
 REPO = Path(__file__).resolve().parents[1]
 ALL_AFFORDANCES = list(AFFORDANCES)
@@ -95,7 +95,8 @@ def test_every_class_is_checked_by_the_pose_test():
 def test_generators_and_matrix_are_complete():
     assert set(GENERATORS) == set(CLASS_SPECS) == set(ALL_CLASSES) == set(CLASSES) | set(WORLD_CLASSES)
     assert not set(CLASSES) & set(WORLD_CLASSES)
-    assert all(CLASS_SPECS[c].family == "core" for c in CLASSES) and all(CLASS_SPECS[c].family == "world" for c in WORLD_CLASSES)
+    assert (all(CLASS_SPECS[c].family == "core" for c in CLASSES)
+            and all(CLASS_SPECS[c].family == "world" for c in WORLD_CLASSES))
     assert set(PAPER_AFFORDANCES) <= set(AFFORDANCES)
     for extra in ("shelf", "stool", "tray", "pot", "trash_bin", "pen_holder", "bench"):
         assert extra in AFFORDANCES
@@ -237,7 +238,8 @@ def test_only_the_sound_table_has_a_level_stable_pose(full):
 
 def test_cli_end_to_end(tmp_path, capsys):
     out = tmp_path / "cli"
-    assert dataset.main(["--out", str(out), "--per-class", "1", "--seed", "1", "--affordances", "cup,chair,trash bin"]) == 0
+    assert dataset.main(["--out", str(out), "--per-class", "1", "--seed", "1",
+                         "--affordances", "cup,chair,trash bin"]) == 0
     records = read_labels(out)
     assert len(records) == len(CLASSES)
     assert all(list(r.affordances) == ["cup", "chair", "trash_bin"] for r in records)
@@ -247,7 +249,8 @@ def test_cli_end_to_end(tmp_path, capsys):
 
 
 def test_cli_module_entry_prints_the_matrix():
-    done = subprocess.run([sys.executable, "-m", "rail_mj.dataset", "--matrix"], capture_output=True, text=True, check=True)
+    done = subprocess.run([sys.executable, "-m", "rail_mj.dataset", "--matrix"], capture_output=True, text=True,
+                          check=True)
     assert done.stdout == ground_truth_markdown()
 
 
@@ -420,7 +423,8 @@ def test_world_ground_truth_follows_the_definitions():
     assert ground_truth("goblet", "cup") and not ground_truth("goblet", "vase")
     assert ground_truth("bowl_real", "bowl") and not ground_truth("bowl_real", "cup")
     assert CLASS_SPECS["bowl_real"].plan[0] <= 0.13 and CLASS_SPECS["bowl_real"].height[0] <= 0.064
-    assert ground_truth("saucepan", "bowl") and not ground_truth("saucepan", "pot") and ground_truth("handle_pot", "pot")
+    assert (ground_truth("saucepan", "bowl") and not ground_truth("saucepan", "pot")
+            and ground_truth("handle_pot", "pot"))
     assert ground_truth("bed", "bed") and not ground_truth("bed", "bathtub") and not ground_truth("desk", "bathtub")
     assert ground_truth("desk", "table") and ground_truth("console", "table")
     assert not ground_truth("cubby", "basket") and ground_truth("cubby", "cupboard")
@@ -435,7 +439,8 @@ def test_world_ground_truth_follows_the_definitions():
 
 def test_world_determinism_and_subset_independence(tmp_path, world):
     a, b = tmp_path / "a", tmp_path / "b"
-    generate(a, family="world", classes=["goblet", "bed"], per_class=1, seed=7, affordances=ALL_AFFORDANCES, corrupt="none")
+    generate(a, family="world", classes=["goblet", "bed"], per_class=1, seed=7, affordances=ALL_AFFORDANCES,
+             corrupt="none")
     generate(b, family="all", classes=["bed", "cup"], per_class=1, seed=7, affordances=ALL_AFFORDANCES, corrupt="none")
     root, _ = world
     for f in ("goblet_000.obj", "bed_000.obj"):
@@ -479,7 +484,8 @@ def test_corruptions_change_the_mesh_as_labelled(corrupted):
             loaded, reference = _loaded(root, r), _loaded(clean_root, base)
             # the loader, honouring the label, sees the clean object's size (geometric ones: to scan error)
             tol = 1e-5 if c in ("scale10", "y_up") else 0.01
-            assert np.allclose(loaded.extents, reference.extents, atol=tol), (c, name, loaded.extents, reference.extents)
+            assert np.allclose(loaded.extents, reference.extents, atol=tol), (c, name, loaded.extents,
+                                                                              reference.extents)
             up = eval_summary._mesh_ups(r)
             assert np.allclose(up, eval_summary._mesh_ups(base), atol=1e-6), (c, name)
             if c in ("holes", "open_shell"):
@@ -536,8 +542,10 @@ def test_the_world_family_mixes_corruption_in_at_its_rate(tmp_path):
     assert 0.35 <= share <= 0.85, share  # WORLD_CORRUPTION_RATE 0.6 over 42 draws
     assert all(1 <= len(a) <= 2 and set(a) <= set(MIXED_CORRUPTIONS) for a in applied if a)
     for r in records:
-        assert (r.up == "y") == ("y_up" in (r.corruptions or [])) and (r.units == 0.1) == ("scale10" in (r.corruptions or []))
-    assert generate(tmp_path / "clean", family="world", classes=["desk"], per_class=3, seed=11, corrupt="none")[0].corruptions is None
+        assert ((r.up == "y") == ("y_up" in (r.corruptions or []))
+                and (r.units == 0.1) == ("scale10" in (r.corruptions or [])))
+    assert generate(tmp_path / "clean", family="world", classes=["desk"], per_class=3, seed=11,
+                    corrupt="none")[0].corruptions is None
 
 
 def test_family_and_corruption_errors_name_the_valid_choices(tmp_path, capsys):

@@ -9,14 +9,14 @@ from pathlib import Path
 
 import pytest
 
-from rail_mj.eval import cli as eval_cli
-from rail_mj.eval import run as rail_eval
+from rail_mj.core.errors import UnknownAffordanceError
+from rail_mj.core.runfiles import folder_lock
 from rail_mj.dataset.labels import read_labels
 from rail_mj.dataset.procedural import generate
-from rail_mj.core.errors import UnknownAffordanceError
+from rail_mj.eval import cli as eval_cli
+from rail_mj.eval import run as rail_eval
 from rail_mj.pipeline.chain import classify
 from rail_mj.pipeline.config import ObjectInput
-from rail_mj.core.runfiles import folder_lock
 
 SUMMARY_KEYS = {"classification", "functional_pose", "baseline_dims", "timing", "config"}
 
@@ -80,7 +80,8 @@ def test_resume_skips_finished_lines(eval_run, tiny_dataset, tmp_path):
     with pytest.raises(rail_eval.ConfigError, match="--resume"):
         rail_eval.run_eval(cfg, out, progress=False)
     summary = rail_eval.run_eval(cfg, out, resume=True, progress=False)
-    kept = [json.loads(s) for s in (out / "results.jsonl").read_text().splitlines() if s.startswith("{") and s.endswith("}")]
+    kept = [json.loads(s) for s in (out / "results.jsonl").read_text().splitlines()
+            if s.startswith("{") and s.endswith("}")]
     assert sorted(ln["key"] for ln in kept) == sorted(json.loads(s)["key"] for s in lines)
     assert summary["n_cases"] == 2 and summary["complete"]
 
@@ -185,7 +186,8 @@ def test_one_object_cli_json_and_render(tiny_dataset, tmp_path, capsys):
 
     cup = next(r for r in read_labels(tiny_dataset) if r.class_name == "cup")
     png = tmp_path / "cup.png"
-    assert cli([str(tiny_dataset / cup.mesh), "-a", "cup", "--provider", "offline", "--json", "--render", str(png)]) == 0
+    assert cli([str(tiny_dataset / cup.mesh), "-a", "cup", "--provider", "offline", "--json",
+                "--render", str(png)]) == 0
     result = json.loads(capsys.readouterr().out.strip().splitlines()[0])
     assert result["functional"] and result["functional_pose"]["index"] >= 0
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 2000

@@ -18,11 +18,11 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-
 from eval_procs import GUARD_S, output, start_eval, wait_until
-from rail_mj.eval import run as rail_eval
+
 from rail_mj.core.paths import CACHE_ENV
 from rail_mj.core.runfiles import HOLDER_FILE, STAGING_PREFIX, staging_dir
+from rail_mj.eval import run as rail_eval
 
 CLASSES, PER_CLASS, AFFORDANCE = ["solid_box", "cone", "solid_cylinder"], 8, "bathtub"
 N_CASES = len(CLASSES) * PER_CLASS
@@ -88,7 +88,8 @@ def test_kill_while_the_dataset_is_written(cache, tmp_path):
     for attempt in range(3):  # the generator is fast: retry when the kill came after the last mesh
         out = tmp_path / f"run{attempt}"
         proc = _start(out, resume=False)
-        _kill_when(proc, lambda: any((out / "dataset").rglob("*.obj")), "a mesh was written")
+        # the lambda is called within this iteration, so it sees this out
+        _kill_when(proc, lambda: any((out / "dataset").rglob("*.obj")), "a mesh was written")  # noqa: B023
         if not labels(out).exists() or len(labels(out).read_text().splitlines()) < N_CASES:
             break
     else:
@@ -135,7 +136,8 @@ def test_kill_during_the_resume_rewrite_keeps_every_finished_line(finished_run, 
     # lines of cases this command does not ask for (an earlier, larger run) make the rewrite long
     # enough to kill it part way; a repeated and a torn line make it necessary
     line = json.loads(lines[0])
-    padding = [json.dumps({**line, "mesh": f"meshes/padding_{i:05d}.obj", "key": f"meshes/padding_{i:05d}.obj::{AFFORDANCE}"})
+    padding = [json.dumps({**line, "mesh": f"meshes/padding_{i:05d}.obj",
+                           "key": f"meshes/padding_{i:05d}.obj::{AFFORDANCE}"})
                for i in range(40 * 2**20 // len(lines[0]))]
     results.write_text("\n".join(lines + padding + [lines[0]]) + "\n" + lines[1][: len(lines[1]) // 2])
     finished = set(_keys(out))

@@ -33,7 +33,8 @@ from rail_mj.llm.checks import check_agent
 from rail_mj.llm.offline import offline_agent, offline_analysis
 
 CUP = TaskDescription(affordance="cup", obb_dims=[0.12, 0.09, 0.09])
-BROKEN_MJCF = '<mujoco><worldbody><body name="drop"><geom type="spheroid" size="0.01" mass="0.001"/></body></worldbody></mujoco>'
+BROKEN_MJCF = ('<mujoco><worldbody><body name="drop"><geom type="spheroid" size="0.01" mass="0.001"/></body>'
+               '</worldbody></mujoco>')
 
 
 @pytest.fixture
@@ -67,7 +68,8 @@ def test_full_profile_through_all_stages(provider_for):
         profile = generate_profile("cup", CUP.obb_dims, provider_for(server))
     offline_profile = generate_profile("cup", CUP.obb_dims, "offline")
     assert profile.provider == "anthropic" and profile.model == "test-model"
-    assert profile.model_dump(exclude={"provider", "model"}) == offline_profile.model_dump(exclude={"provider", "model"})
+    assert (profile.model_dump(exclude={"provider", "model"})
+            == offline_profile.model_dump(exclude={"provider", "model"}))
     titles = [schema_title(b) for b in server.requests]
     assert titles == ["AffordanceAnalysis", "AgentModel", "AgentLayout", "MotionPlans", "Trajectories", "ScoringCode"]
     first = server.requests[0]
@@ -171,7 +173,8 @@ def test_functional_pose_analyzer_through_the_client(provider_for):
     summary = ResultSummary(frac_inside_bbox=0.9, frac_on_ground=0.0, frac_touching_object=0.8, mean_height=-0.4,
                             object_tilt_deg=1.0, agent_tilt_deg=5.0, agent_speed=0.0)
     request = FunctionalPoseRequest(affordance="cup", expected_outcome="filled", poses=[PoseCandidates(
-        pose_index=3, probability=0.7, half_extents=[0.04, 0.04, 0.05], basin=BasinInfo(rim=0.095, opening=[0.0, 0.0], length=0.07),
+        pose_index=3, probability=0.7, half_extents=[0.04, 0.04, 0.05],
+        basin=BasinInfo(rim=0.095, opening=[0.0, 0.0], length=0.07),
         candidates=[CandidateInteraction(plan="above", description="drop from above",
                                          via_poses=[[0.0, 0.0, 0.1], [0.0, 0.0, 0.06]], score=0.4, summary=summary)],
     )])

@@ -202,7 +202,8 @@ def _candidate(plan, start, score=0.4, **summary) -> CandidateInteraction:
 
 def test_functional_pose_rules_for_a_cup():
     h = [0.04, 0.04, 0.05]
-    upright = PoseCandidates(pose_index=0, probability=0.4, half_extents=h, basin=BasinInfo(rim=0.095, opening=[0.0, 0.0], length=0.07),
+    upright = PoseCandidates(pose_index=0, probability=0.4, half_extents=h,
+                             basin=BasinInfo(rim=0.095, opening=[0.0, 0.0], length=0.07),
                              candidates=[_candidate("above", [0.0, 0.0, 0.1])])
     tipped = PoseCandidates(pose_index=1, probability=0.5, half_extents=h,
                             candidates=[_candidate("above", [0.0, 0.0, 0.1], score=0.5, object_tilt_deg=80.0)])
@@ -258,7 +259,8 @@ def test_table_needs_a_wide_top_and_plate_a_solid_centre():
     verdict = analyze_functional_poses(FunctionalPoseRequest(affordance="table", expected_outcome="held",
                                                              poses=[foot, top]))
     assert [v.accept for v in verdict.poses] == [False, True] and verdict.best_pose == 0
-    ring = [_candidate(p, [0.0, 0.0, 0.1], frac_touching_object=1.0, mean_height=0.5) for p in ("above_front", "above_left")]
+    ring = [_candidate(p, [0.0, 0.0, 0.1], frac_touching_object=1.0, mean_height=0.5)
+            for p in ("above_front", "above_left")]
     dish = analyze_functional_poses(FunctionalPoseRequest(affordance="plate", expected_outcome="held", poses=[
         PoseCandidates(pose_index=0, probability=1.0, half_extents=[0.1, 0.1, 0.01], candidates=ring)]))
     assert dish.best_pose is None and "centre" in dish.poses[0].reason
@@ -291,7 +293,8 @@ def test_a_container_that_leaks_under_the_centre_pour_is_rejected():
     spilt = _candidate("above_front", [0.024, 0.0, 0.1], score=-1.0, frac_through_object=0.1,
                        frac_touching_object=0.0, frac_on_ground=0.3)
     cup = analyze_functional_poses(FunctionalPoseRequest(affordance="cup", expected_outcome="held", poses=[
-        PoseCandidates(pose_index=0, probability=1.0, half_extents=[0.06, 0.042, 0.05], basin=BasinInfo(rim=0.095, opening=[0.0, 0.0], length=0.075),
+        PoseCandidates(pose_index=0, probability=1.0, half_extents=[0.06, 0.042, 0.05],
+                       basin=BasinInfo(rim=0.095, opening=[0.0, 0.0], length=0.075),
                        candidates=[held], failed=[spilt])]))
     assert cup.best_pose == 0
 

@@ -19,19 +19,20 @@ import numpy as np
 import pytest
 import trimesh
 from eval_procs import CRASHER, GUARD_S, REPO, start_eval, wait_until
-from rail_mj.eval import cli as eval_cli
-from rail_mj.eval import run as rail_eval
-from rail_mj.eval.run import cases_without_timings as _cases
+
 from rail_mj import llm
 from rail_mj.core.errors import ConfigError
 from rail_mj.core.paths import CACHE_ENV
+from rail_mj.eval import cli as eval_cli
+from rail_mj.eval import run as rail_eval
+from rail_mj.eval.run import cases_without_timings as _cases
 from rail_mj.imagination import ImaginationConfig, get_backend, imagine
 from rail_mj.imagination.config import THREADS_ENV
 from rail_mj.imagination.inputs import agent_setup, trajectory_array
 from rail_mj.mesh import load_object
-from rail_mj.pipeline.parallel import largest_first, plan_workers, run_tasks
 from rail_mj.pipeline.chain import classify, object_task
 from rail_mj.pipeline.config import ObjectInput, RunConfig
+from rail_mj.pipeline.parallel import largest_first, plan_workers, run_tasks
 from rail_mj.stable_poses import StablePoseConfig, find_stable_poses
 
 CLASSES, PER_CLASS, AFFORDANCE = ["solid_box", "cone", "solid_cylinder"], 4, "bathtub"

@@ -12,11 +12,11 @@ from pathlib import Path
 
 import pytest
 import trimesh
-
 from eval_procs import CRASHER
+
+from rail_mj.core.paths import CACHE_ENV
 from rail_mj.eval import run as rail_eval
 from rail_mj.eval.run import cases_without_timings as _cases
-from rail_mj.core.paths import CACHE_ENV
 from rail_mj.pipeline.chain import classify
 from rail_mj.pipeline.config import RunConfig
 from rail_mj.stable_poses import StablePoseConfig

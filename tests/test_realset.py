@@ -13,12 +13,13 @@ import numpy as np
 import pytest
 import trimesh
 
-from rail_mj.dataset import cli as dataset, realset
 from rail_mj.affordances import PAPER_AFFORDANCES, get
-from rail_mj.dataset.labels import LabelRecord, read_labels
 from rail_mj.core.errors import DatasetError
-from rail_mj.mesh import load_mesh
+from rail_mj.dataset import cli as dataset
+from rail_mj.dataset import realset
+from rail_mj.dataset.labels import LabelRecord, read_labels
 from rail_mj.dataset.realset import MANIFEST, WHEELS, RealMesh, Wheel
+from rail_mj.mesh import load_mesh
 
 HEX64 = re.compile(r"[0-9a-f]{64}")
 PAPER_KEYS = [get(a).key for a in PAPER_AFFORDANCES]

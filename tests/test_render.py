@@ -10,15 +10,15 @@ import trimesh
 from PIL import Image
 
 from rail_mj import llm
-from rail_mj.dataset.labels import LabelRecord
 from rail_mj.core.errors import RailError
+from rail_mj.core.results import AffordanceResult, PlanInfo, PoseInfo
+from rail_mj.core.types import RailObject
+from rail_mj.dataset.labels import LabelRecord
+from rail_mj.dataset.shapes.parts import _revolve
 from rail_mj.render.captions import caption, nothing_to_draw
 from rail_mj.render.files import write_frames, write_image
 from rail_mj.render.images import render_contact_sheet, render_result
 from rail_mj.render.scene import AGENT_RGBA
-from rail_mj.core.results import AffordanceResult, PlanInfo, PoseInfo
-from rail_mj.dataset.shapes.parts import _revolve
-from rail_mj.core.types import RailObject
 
 R_TOP, HEIGHT, WALL, BASE = 0.04, 0.07, 0.004, 0.006
 DROPLET_R = 0.005

@@ -5,8 +5,8 @@ import pytest
 import trimesh
 
 from rail_mj.core.errors import ConfigError
-from rail_mj.stable_poses import find_stable_poses, pose_from_up
 from rail_mj.core.types import RailObject
+from rail_mj.stable_poses import find_stable_poses, pose_from_up
 
 
 def _object(name: str, hulls: list[np.ndarray], density: float = 500.0) -> RailObject:
