@@ -6,14 +6,15 @@ The profile's neutral types (plans, via-poses, layout, scoring source, rollout s
 
 from __future__ import annotations
 
+from rail_mj.llm import schemas
 from rail_mj.llm.anthropic_provider import AnthropicConfig, AnthropicProvider
 from rail_mj.llm.checks import InvalidAnswerError
 from rail_mj.llm.offline import known_affordances, normalize_affordance
 from rail_mj.llm.prompts import PROMPT_VERSION
 from rail_mj.llm.providers import OfflineProvider, Provider, ProviderConfig, get_provider
+
 # the package's API includes every stage schema: the requests and answers a provider speaks
 from rail_mj.llm.schemas import *  # noqa: F403
-from rail_mj.llm.schemas import __all__ as _SCHEMAS
 from rail_mj.llm.stages import (
     analyze_affordance,
     analyze_functional_poses,
@@ -30,7 +31,6 @@ from rail_mj.llm.stages import (
 )
 
 __all__ = [
-    *_SCHEMAS,
     "AnthropicConfig",
     "AnthropicProvider",
     "InvalidAnswerError",
@@ -54,3 +54,4 @@ __all__ = [
     "task_description",
     "task_profile",
 ]
+__all__ += schemas.__all__
