@@ -8,25 +8,19 @@ Library API::
 Heavy modules (MuJoCo, JAX) load on first use of the names below.
 """
 
+# the lazy names of __all__ come from the module __getattr__ below, which pyright does not follow
+# pyright: reportUnsupportedDunderAll=false
+
 from __future__ import annotations
 
 import importlib
 import os
-from typing import TYPE_CHECKING
 
 # MuJoCo picks its GL backend when first imported; default to headless EGL (reports render offscreen)
 # unless the user chose one.
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from rail_mj.core.errors import RailError
-
-if TYPE_CHECKING:  # the lazy names below, for type checkers
-    from rail_mj.core.results import AffordanceResult
-    from rail_mj.imagination import imagine
-    from rail_mj.mesh import load_object
-    from rail_mj.pipeline.chain import classify
-    from rail_mj.pipeline.config import ObjectInput, RunConfig
-    from rail_mj.stable_poses import find_stable_poses
 
 __all__ = [
     "RailError",
