@@ -46,15 +46,13 @@ from collections.abc import Callable, Generator, Iterator, Sequence
 from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, cast
+from typing import Any, cast
 
 from rail_mj.core.errors import ConfigError, WorkerError
+from rail_mj.core.results import AffordanceResult
+from rail_mj.core.types import RailObject
 from rail_mj.imagination.config import THREADS_ENV
-from rail_mj.pipeline.config import ObjectInput
-
-if TYPE_CHECKING:
-    from rail_mj.core.results import AffordanceResult
-    from rail_mj.pipeline.config import RunConfig
+from rail_mj.pipeline.config import ObjectInput, RunConfig
 
 __all__ = [
     "EXECUTORS", "ObjectTask", "cpu_count", "plan_workers", "check_executor", "largest_first", "run_tasks", "serve",
@@ -109,8 +107,6 @@ def plan_workers(workers: int | None, n_tasks: int) -> tuple[int, int]:
 
 def _failed(task: ObjectTask, message: str) -> list[AffordanceResult]:
     """Error results for every case of ``task`` (no check ran: ``dims_fit`` stays None)."""
-    from rail_mj.core.results import AffordanceResult
-
     return [
         AffordanceResult(object=task.label, affordance=a, requested=a, dims_fit=None, error=message,
                          provider=task.config.provider, backend=task.config.backend)
@@ -119,8 +115,6 @@ def _failed(task: ObjectTask, message: str) -> list[AffordanceResult]:
 
 
 def _decode(task: ObjectTask, text: str) -> list[AffordanceResult]:
-    from rail_mj.core.results import AffordanceResult
-
     reply = json.loads(text)
     if "error" in reply:
         return _failed(task, reply["error"])
@@ -178,8 +172,6 @@ def _check_importable(run: Callable) -> None:
 def _size(item: Any) -> int:
     """A task's expected cost: the mesh's bytes on disk (CoACD and the stable poses grow with the mesh), or its
     array bytes for an in-memory object; 0 when unknown."""
-    from rail_mj.core.types import RailObject
-
     if isinstance(item, RailObject):
         return int(item.mesh.vertices.nbytes + item.mesh.faces.nbytes)
     path = item.path if isinstance(item, ObjectInput) else item
