@@ -8,7 +8,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 from rail_mj.core.errors import ConfigError, ProviderError
 from rail_mj.llm.prompts import StageSpec
@@ -21,6 +21,9 @@ from rail_mj.llm.provider_base import (
     json_kind,
     shown_body,
 )
+
+if TYPE_CHECKING:  # the SDK is imported when a provider is made, not with rail_mj
+    from anthropic.types import MessageParam, OutputConfigParam
 
 __all__ = ["DEFAULT_MODEL", "OPTIONS", "AnthropicConfig", "AnthropicProvider"]
 
@@ -93,14 +96,16 @@ class AnthropicProvider(LLMProvider):
 
         temperature = self.config.temperature
         extra = {"temperature": temperature} if temperature is not None else None
-        output = {"format": {"type": "json_schema", "schema": anthropic.transform_schema(stage.output_type)}}
+        output: OutputConfigParam = {
+            "format": {"type": "json_schema", "schema": anthropic.transform_schema(stage.output_type)}
+        }
         try:
             # the raw body, so that a reply of any shape is read here (the SDK's parser crashed on non-Messages)
             return self._client.messages.with_raw_response.create(
                 model=self.model,
                 max_tokens=self.config.max_tokens,
                 system=system,
-                messages=messages,
+                messages=cast("list[MessageParam]", messages),
                 output_config=output,
                 extra_body=extra,
             ).http_response.text
@@ -135,8 +140,8 @@ def _reply_text(body: str) -> tuple[str, str | None]:
         what = f"type {message.get('type')!r}" if isinstance(message, dict) else json_kind(message)
         raise ProviderError(f"the API's HTTP 200 reply is not a Message ({what}): {shown}")
     content, stop_reason = message.get("content"), message.get("stop_reason")
-    typed = isinstance(content, list) and all(isinstance(b, dict) and isinstance(b.get("type"), str) for b in content)
-    if not typed:
+    if not isinstance(content, list) or not all(isinstance(b, dict) and isinstance(b.get("type"), str)
+                                                for b in content):
         raise ProviderError(f"the API's HTTP 200 Message has no list of typed content blocks: {shown}")
     for block in content:
         if block["type"] == "text":

@@ -112,7 +112,7 @@ class Provider(ABC):
             raise
 
     @abstractmethod
-    def answer(self, stage: StageSpec, request: BaseModel, check: Callable[[Any], None]) -> Any:
+    def answer(self, stage: StageSpec, request: BaseModel, check: Callable[[Any], object]) -> Any:
         """A validated answer of type ``stage.output_type``; StageError when none is found."""
 
 
