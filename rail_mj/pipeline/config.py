@@ -28,9 +28,9 @@ class RunOptions(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    provider: str = Field("auto", description="auto | offline | anthropic")
+    provider: str = Field("auto", description="auto | offline | anthropic | openai")
     backend: str = Field("auto", description="auto | native | mjx")
-    model: str | None = Field(None, description="LLM model name (anthropic provider)")
+    model: str | None = Field(None, description="LLM model name (anthropic, openai provider)")
     max_retries: int = Field(2, ge=0, le=10, description="LLM repair rounds per stage")
     cache: bool = Field(True, description="cache LLM answers on disk")
     profile_bin: float = Field(
