@@ -4,6 +4,9 @@ Each POST /v1/messages is recorded (headers and JSON body) and answered by
 the ``responder``: a callable taking the request body and returning a
 :class:`Reply`. The default responder answers every stage with the offline
 library, so the real SDK client runs end to end with no key and no internet.
+The server listens on 127.0.0.1 only, takes a bounded number of bounded
+requests, and stops itself after ``lifetime_s`` should a test never close it.
+(:mod:`chat_server` serves OpenAI's chat completions on the same server.)
 """
 
 from __future__ import annotations
@@ -90,9 +93,15 @@ def offline_answer(body: dict[str, Any]) -> Reply:
 
 
 class MessagesServer:
-    """ThreadingHTTPServer on 127.0.0.1 with an ephemeral port; use as a context manager."""
+    """ThreadingHTTPServer on 127.0.0.1 with an ephemeral port; use as a context manager.
 
-    def __init__(self, responder: Callable[[dict[str, Any]], Reply] = offline_answer) -> None:
+    POSTs to ``path`` go to the responder; other paths get 404, bodies over ``max_body`` bytes 413, and
+    requests after the first ``max_requests`` 503.
+    """
+
+    def __init__(self, responder: Callable[[dict[str, Any]], Reply] = offline_answer, *,
+                 path: str = "/v1/messages", max_requests: int = 200, max_body: int = 8 << 20,
+                 lifetime_s: float = 120.0) -> None:
         self.responder = responder
         self.requests: list[dict[str, Any]] = []
         self.headers: list[dict[str, str]] = []
@@ -101,14 +110,25 @@ class MessagesServer:
 
         class Handler(BaseHTTPRequestHandler):
             def do_POST(self) -> None:  # noqa: N802 (http.server's naming)
-                body = json.loads(self.rfile.read(int(self.headers.get("content-length", 0))) or b"{}")
+                size = int(self.headers.get("content-length", 0))
+                if size > max_body:
+                    self.close_connection = True
+                    self._send(Reply(413, {"error": {"type": "too_large", "message": f"{size} bytes"}}))
+                    return
+                body = json.loads(self.rfile.read(size) or b"{}")
                 with server._lock:
                     server.requests.append(body)
                     server.headers.append(dict(self.headers))
-                if self.path.split("?")[0] != "/v1/messages":
+                    served = len(server.requests)
+                if served > max_requests:
+                    reply = Reply(503, {"error": {"type": "test_server_limit", "message": f"over {max_requests}"}})
+                elif self.path.split("?")[0] != path:
                     reply = Reply(404, {"type": "error", "error": {"type": "not_found_error", "message": self.path}})
                 else:
                     reply = server.responder(body)
+                self._send(reply)
+
+            def _send(self, reply: Reply) -> None:
                 time.sleep(reply.delay_s)
                 data = (json.dumps(reply.body) if reply.raw is None else reply.raw).encode()
                 try:
@@ -128,6 +148,8 @@ class MessagesServer:
         self._httpd = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
         self._httpd.daemon_threads = True
         self._thread = threading.Thread(target=self._httpd.serve_forever, daemon=True)
+        self._timer = threading.Timer(lifetime_s, self._httpd.shutdown)
+        self._timer.daemon = True
 
     @property
     def base_url(self) -> str:
@@ -136,8 +158,10 @@ class MessagesServer:
 
     def __enter__(self) -> "MessagesServer":
         self._thread.start()
+        self._timer.start()
         return self
 
     def __exit__(self, *exc: Any) -> None:
+        self._timer.cancel()
         self._httpd.shutdown()
         self._httpd.server_close()

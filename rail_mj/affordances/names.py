@@ -60,7 +60,8 @@ def get(name: str) -> Affordance:
     if found is None:
         raise UnknownAffordanceError(
             f"no offline imagination profile for affordance {name!r}; known: {', '.join(known_affordances())}. "
-            "An LLM provider imagines novel affordances: use --provider anthropic with ANTHROPIC_API_KEY set."
+            "An LLM provider imagines novel affordances: use --provider anthropic with ANTHROPIC_API_KEY set, or "
+            "--provider openai with OPENAI_BASE_URL (and RAIL_MJ_MODEL) or OPENAI_API_KEY set."
         )
     return found
 

@@ -22,6 +22,7 @@ from rail_mj.dataset.ground_truth import FAMILIES
 from rail_mj.eval.merge import merge_runs
 from rail_mj.eval.run import EvalConfig, parse_shard, run_eval
 from rail_mj.eval.summary import _tables, _timing_table
+from rail_mj.llm.providers import PROVIDERS
 from rail_mj.pipeline.parallel import cpu_count
 
 __all__ = ["main"]
@@ -39,7 +40,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--affordances", help="comma-separated requested affordances, default all labelled")
     p.add_argument("--out", type=Path, required=True, help="output folder (one run at a time)")
     p.add_argument("--resume", action="store_true", help="continue an interrupted run in --out")
-    p.add_argument("--provider", default="auto", choices=("auto", "offline", "anthropic"))
+    p.add_argument("--provider", default="auto", choices=PROVIDERS)
     p.add_argument("--backend", default="auto", choices=("auto", "native", "mjx"))
     p.add_argument("--drops", type=int, default=64, help="drops for stable-pose imagination")
     p.add_argument("--no-render", action="store_true", help="skip the pictures in report.md")

@@ -1,4 +1,4 @@
-"""The LLM stages: typed stage schemas, prompts, providers (offline library, Anthropic), response cache.
+"""The LLM stages: typed stage schemas, prompts, providers (offline, Anthropic, OpenAI-compatible), cache.
 
 The profile's neutral types (plans, via-poses, layout, scoring source, rollout summaries) are
 :mod:`rail_mj.core.profile`'s; what the simulator takes from a profile is :mod:`rail_mj.imagination.inputs`.
@@ -10,6 +10,7 @@ from rail_mj.llm import schemas
 from rail_mj.llm.anthropic_provider import AnthropicConfig, AnthropicProvider
 from rail_mj.llm.checks import InvalidAnswerError
 from rail_mj.llm.offline import known_affordances, normalize_affordance
+from rail_mj.llm.openai_provider import OpenAIConfig, OpenAIProvider
 from rail_mj.llm.prompts import PROMPT_VERSION
 from rail_mj.llm.providers import OfflineProvider, Provider, ProviderConfig, get_provider
 
@@ -35,6 +36,8 @@ __all__ = [
     "AnthropicProvider",
     "InvalidAnswerError",
     "OfflineProvider",
+    "OpenAIConfig",
+    "OpenAIProvider",
     "PROMPT_VERSION",
     "Provider",
     "ProviderConfig",

@@ -1,32 +1,64 @@
-"""The provider interface every provider implements, apart from the providers themselves.
+"""The provider interface every provider implements, and what every LLM provider shares.
 
 :mod:`rail_mj.llm.providers` (offline library, :func:`get_provider`) imports the
-Anthropic provider only when it is asked for, and the Anthropic provider imports
-this module, so neither imports the other at load time and the SDK stays unloaded.
+Anthropic provider only when it is asked for, and the LLM providers import this
+module, so none imports another at load time and the SDK stays unloaded.
 
 A provider is configured once, at construction, with a frozen config (like
 mujoco_playground's ``MjxEnv`` locking its config); the stage functions then
 take only a request and the provider.
+
+:class:`LLMProvider` is the provider-neutral half of an LLM provider (Anthropic's
+Messages API, OpenAI-compatible chat completions): the response cache, the
+validation of an answer against the stage's schema and check, the repair rounds
+and the reading of an untrusted HTTP 200 body. A subclass sends one request and
+reads the text out of its reply.
 """
 
 from __future__ import annotations
 
+import json
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, ClassVar
 
+import pydantic
 from pydantic import BaseModel
 
 from rail_mj.affordances import normalize
-from rail_mj.core.errors import ConfigError, FragmentError, UnknownAffordanceError, UnsafeCodeError
+from rail_mj.core.errors import (
+    ConfigError,
+    FragmentError,
+    ProviderError,
+    StageError,
+    UnknownAffordanceError,
+    UnsafeCodeError,
+)
+from rail_mj.llm.cache import ResponseCache, cache_enabled, cache_key
 from rail_mj.llm.checks import InvalidAnswerError
-from rail_mj.llm.prompts import StageSpec
+from rail_mj.llm.prompts import StageSpec, repair_prompt, system_prompt, user_prompt
 
-__all__ = ["Provider", "ProviderConfig", "REJECTIONS"]
+__all__ = [
+    "DEFAULT_TEMPERATURE",
+    "MODEL_ENV",
+    "LLMConfig",
+    "LLMProvider",
+    "Provider",
+    "ProviderConfig",
+    "REJECTIONS",
+    "json_body",
+    "json_kind",
+    "shown_body",
+]
 
 #: Errors a check raises for an answer that parsed but is wrong (repairable by an LLM).
 REJECTIONS: tuple[type[Exception], ...] = (InvalidAnswerError, FragmentError, UnsafeCodeError)
+#: Environment variable naming the LLM's model (every LLM provider reads it).
+MODEL_ENV = "RAIL_MJ_MODEL"
+#: The paper's sampling temperature.
+DEFAULT_TEMPERATURE = 0.1
 
 
 @dataclass(frozen=True)
@@ -82,3 +114,129 @@ class Provider(ABC):
     @abstractmethod
     def answer(self, stage: StageSpec, request: BaseModel, check: Callable[[Any], object]) -> Any:
         """A validated answer of type ``stage.output_type``; StageError when none is found."""
+
+
+@dataclass(frozen=True)
+class LLMConfig(ProviderConfig):
+    """The settings every LLM provider takes, fixed at construction (an API key stays with the provider only)."""
+
+    model: str = ""
+    base_url: str | None = None
+    timeout: float = 120.0  # s per request
+    http_retries: int = 2  # retries of HTTP 429/5xx
+    temperature: float | None = DEFAULT_TEMPERATURE
+    max_tokens: int = 8192
+    cache_root: Path | None = None  # default: cache_dir("llm")
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.timeout <= 0 or self.http_retries < 0 or self.max_tokens < 1:
+            raise ConfigError(
+                f"timeout must be > 0 s, http_retries >= 0, max_tokens >= 1; got {self.timeout}, "
+                f"{self.http_retries}, {self.max_tokens}"
+            )
+
+
+class LLMProvider(Provider):
+    """Stage answers from a model behind an HTTP API, validated, repaired and cached.
+
+    An answer that fails its schema or check, or an HTTP 200 reply that :meth:`_read_reply` cannot use
+    (it raises ProviderError), is a failed attempt: it is sent back with the error text for up to
+    ``max_retries`` repair rounds, then StageError. Validated answers are cached (see
+    :mod:`rail_mj.llm.cache`) unless ``cache`` is False. A ProviderError from :meth:`_call` (HTTP and
+    network failures) ends the stage at once. Affordances outside the registry are imagined too.
+    """
+
+    novel_affordances = True
+
+    def __init__(self, config: LLMConfig) -> None:
+        super().__init__(config)
+        self._responses = ResponseCache(config.cache_root)
+
+    @property
+    def config(self) -> LLMConfig:
+        return self._config  # type: ignore[return-value]  # always an LLMConfig: set in __init__
+
+    @property
+    def model(self) -> str:
+        return self.config.model
+
+    @abstractmethod
+    def _call(self, stage: StageSpec, system: str, messages: list[dict[str, Any]]) -> str:
+        """One request (the system prompt, then ``messages``); the raw HTTP 200 body, ProviderError on failure."""
+
+    @abstractmethod
+    def _read_reply(self, body: str) -> tuple[str, str | None]:
+        """The answer text of an HTTP 200 body, and the API's reason when it was cut off at ``max_tokens``
+        (e.g. ``"stop_reason 'max_tokens'"``), else None; ProviderError for a body of any other shape."""
+
+    def answer(self, stage, request, check):
+        max_retries = self.config.max_retries
+        request_json = request.model_dump(mode="json")
+        key = cache_key(self.name, self.model, stage.version, stage.name, request_json)
+        use_cache = cache_enabled(self.config.cache)
+        if use_cache:
+            cached = self._responses.get(key)
+            if cached is not None:
+                try:
+                    result = stage.output_type.model_validate_json(cached)
+                    check(result)
+                    return result
+                except (pydantic.ValidationError, *REJECTIONS):
+                    pass  # stale under today's checks: ask again
+        messages: list[dict[str, Any]] = [{"role": "user", "content": user_prompt(request)}]
+        system = system_prompt(stage)
+        problem = ""
+        for _ in range(max_retries + 1):
+            body = self._call(stage, system, messages)
+            try:
+                text, cut_reason = self._read_reply(body)
+            except ProviderError as exc:  # an HTTP 200 that is no usable reply: a failed attempt
+                problem = str(exc)
+                messages.append({"role": "user", "content": repair_prompt(problem)})
+                continue
+            turn = [{"role": "assistant", "content": text}] if text.strip() else []
+            try:
+                result = stage.output_type.model_validate_json(text)
+            except pydantic.ValidationError as exc:
+                cut = (f"the answer was cut off at max_tokens={self.config.max_tokens} ({cut_reason}); "
+                       "give a complete, shorter answer; " if cut_reason else "")
+                problem = f"{cut}the answer does not match the schema: {exc}"
+                messages += [*turn, {"role": "user", "content": repair_prompt(problem)}]
+                continue
+            try:
+                check(result)
+            except REJECTIONS as exc:
+                problem = str(exc)
+                messages += [*turn, {"role": "user", "content": repair_prompt(problem)}]
+                continue
+            if use_cache:
+                meta = {"provider": self.name, "model": self.model, "prompt_version": stage.version,
+                        "stage": stage.name, "request": request_json}
+                self._responses.put(key, result.model_dump_json(), meta)
+            return result
+        raise StageError(
+            f"stage {stage.name!r} gave no valid answer in {max_retries + 1} attempts "
+            f"(model {self.model}); last problem: {problem}"
+        )
+
+
+_JSON_TYPES = {list: "array", str: "string", int: "number", float: "number", bool: "boolean", type(None): "null"}
+
+
+def shown_body(body: str) -> str:
+    """The start of an untrusted reply body, quoted, for an error message."""
+    return repr(body[:300]) + (f" (+{len(body) - 300} characters)" if len(body) > 300 else "")
+
+
+def json_body(body: str) -> Any:
+    """An HTTP 200 body as JSON; ProviderError naming its start when it is not JSON."""
+    try:
+        return json.loads(body)
+    except ValueError:
+        raise ProviderError(f"the API's HTTP 200 reply is not JSON: {shown_body(body)}") from None
+
+
+def json_kind(value: Any) -> str:
+    """``a JSON array`` / ``a JSON null`` ...: what a JSON value that is no object is."""
+    return f"a JSON {_JSON_TYPES[type(value)]}"

@@ -7,13 +7,14 @@ from dataclasses import fields
 from typing import Any
 
 import rail_mj.llm.offline as offline
+import rail_mj.llm.openai_provider as openai_provider
 from rail_mj.core.errors import ConfigError, StageError
 from rail_mj.llm.provider_base import REJECTIONS, Provider, ProviderConfig
 
 __all__ = ["Provider", "ProviderConfig", "OfflineProvider", "PROVIDERS", "get_provider", "REJECTIONS"]
 
 #: Provider names accepted by :func:`get_provider`.
-PROVIDERS = ("auto", "offline", "anthropic")
+PROVIDERS = ("auto", "offline", "anthropic", "openai")
 #: Options every provider takes.
 _COMMON = tuple(f.name for f in fields(ProviderConfig))
 
@@ -46,12 +47,14 @@ class OfflineProvider(Provider):
 
 
 def get_provider(name: str = "auto", **options: Any) -> Provider:
-    """``offline``, ``anthropic``, or ``auto`` (anthropic when ANTHROPIC_API_KEY is set, else offline),
-    configured once with ``options``.
+    """``offline``, ``anthropic``, ``openai`` (any OpenAI-compatible chat-completions server), or ``auto``
+    (anthropic when ANTHROPIC_API_KEY is set, else offline), configured once with ``options``.
 
     Every provider takes ``max_retries`` and ``cache`` (:class:`ProviderConfig`); the Anthropic one also
     the options of :class:`rail_mj.llm.anthropic_provider.AnthropicProvider` (model, api_key, base_url,
-    timeout, temperature, ...). Options a provider does not take are a ConfigError naming the valid ones.
+    timeout, temperature, ...), the OpenAI-compatible one those of
+    :class:`rail_mj.llm.openai_provider.OpenAIProvider` (the same and ``strict``). Options a provider does
+    not take are a ConfigError naming the valid ones.
     """
     key = name.strip().lower()
     if key == "auto":
@@ -69,4 +72,10 @@ def get_provider(name: str = "auto", **options: Any) -> Provider:
         if unknown:
             raise ConfigError(f"the anthropic provider takes no option {unknown}; valid: {', '.join(OPTIONS)}")
         return AnthropicProvider(**options)
+    if key == "openai":
+        unknown = sorted(set(options) - set(openai_provider.OPTIONS))
+        if unknown:
+            raise ConfigError(f"the openai provider takes no option {unknown}; "
+                              f"valid: {', '.join(openai_provider.OPTIONS)}")
+        return openai_provider.OpenAIProvider(**options)
     raise ConfigError(f"unknown LLM provider {name!r}; valid: {', '.join(PROVIDERS)}")

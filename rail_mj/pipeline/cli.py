@@ -94,7 +94,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--affordance", "-a", action="append", required=True, help="requested use; repeat for several")
     p.add_argument("--units", type=_metres_per_unit, default=1.0, help="metres per mesh unit (0.001 for millimetres)")
     p.add_argument("--up", choices=("z", "y"), default="z", help="the mesh's up axis")
-    p.add_argument("--provider", default="auto", help="auto | offline | anthropic")
+    p.add_argument("--provider", default="auto",
+                   help="auto | offline | anthropic | openai (OPENAI_BASE_URL, OPENAI_API_KEY, RAIL_MJ_MODEL)")
     p.add_argument("--backend", default="auto", help="auto | native | mjx")
     p.add_argument("--json", action="store_true", help="print the results as JSON lines")
     p.add_argument("--explain", action="store_true",

@@ -28,9 +28,9 @@ class RunOptions(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    provider: str = Field(default="auto", description="auto | offline | anthropic")
+    provider: str = Field(default="auto", description="auto | offline | anthropic | openai")
     backend: str = Field(default="auto", description="auto | native | mjx")
-    model: str | None = Field(default=None, description="LLM model name (anthropic provider)")
+    model: str | None = Field(default=None, description="LLM model name (anthropic, openai provider)")
     max_retries: int = Field(default=2, ge=0, le=10, description="LLM repair rounds per stage")
     cache: bool = Field(default=True, description="cache LLM answers on disk")
     profile_bin: float = Field(

@@ -19,7 +19,7 @@ __all__ = ["parse_request"]
 def parse_request(text: str, provider: str = "offline") -> Request:
     """The agent, affordance (registry name) and preposition of a request, as the request-parser stage
     answers it with ``provider`` (``offline``: :func:`rail_mj.affordances.names.parse_words`; ``anthropic`` /
-    ``auto``: an LLM, checked)."""
+    ``openai`` / ``auto``: an LLM, checked)."""
     if not isinstance(text, str) or not text.strip():
         raise ConfigError(f"a request must be a sentence of the form {REQUEST_FORM}; got {text!r}")
     return parse_request_text(RequestText(text=text), provider)
