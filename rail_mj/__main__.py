@@ -20,7 +20,7 @@ __all__ = ["COMMANDS", "main"]
 #: command -> ("module:function" taking the command's arguments and returning the exit status, what it does)
 COMMANDS: dict[str, tuple[str, str]] = {
     "classify": ("rail_mj.pipeline.cli:main", "one mesh, one verdict: classify MESH -a NAME [--json] [--explain] "
-                                              "[--render PNG]"),
+                                              "[--render PNG] [--save-scene DIR]"),
     "eval": ("rail_mj.eval.cli:main", "the paper's Tables 1 and 2 on a labelled dataset; `eval merge` joins shards"),
     "dataset": ("rail_mj.dataset.cli:main", "generate the labelled procedural dataset; `dataset real` fetches "
                                                    "the real-mesh set"),

@@ -3,9 +3,10 @@
 Exit status and error output follow rail_mj.core.cli: 0 every case succeeded, 1 some case failed (its
 ``error:`` line on stderr; with ``--json`` also its result line, carrying ``error``), 2 the command
 line was wrong (an empty or unknown affordance, a bad option value) and nothing ran, 130 interrupted.
-A picture asked for (``--render``, ``--contact-sheet``) of a result that has nothing to draw (its
-dimension check failed, so nothing was imagined) is not written; a line on stderr says why, and that
-alone is not a failure.
+A picture asked for (``--render``, ``--contact-sheet``) or a scene (``--save-scene DIR``) of a result
+that has nothing to draw (its dimension check failed, so nothing was imagined) is not written; a line on
+stderr says why, and that alone is not a failure. ``--save-scene`` refuses a non-empty DIR that holds no
+previous scene.xml before any work (exit 2).
 """
 
 from __future__ import annotations
@@ -60,21 +61,27 @@ def _picture_path(text: str) -> Path:
     return path
 
 
-def _pictures(args: argparse.Namespace, results) -> None:
-    """Write the requested pictures of the first functional result, else the first one with a rollout to
-    draw; when no result has one, say why (that is an answer, not an error)."""
+def _outputs(args: argparse.Namespace, results) -> None:
+    """Write the requested pictures and scene of the first functional result, else the first one with a
+    rollout to draw; when no result has one, say why (that is an answer, not an error)."""
     from rail_mj.render.captions import nothing_to_draw
     from rail_mj.render.images import render_contact_sheet, render_result
+    from rail_mj.render.mjcf_export import save_scene
 
-    targets = [p for p in (args.render, args.contact_sheet) if p is not None]
+    pictures = [p for p in (args.render, args.contact_sheet) if p is not None]
+    nothing = [(f"no picture written to {', '.join(map(str, pictures))}", "no picture written")] if pictures else []
+    if args.save_scene is not None:
+        nothing.append((f"no scene written to {args.save_scene}", "no scene written"))
     done = [r for r in results if not r.error]
     if not done:
-        print(f"no picture written to {', '.join(map(str, targets))}: every case failed", file=sys.stderr)
+        for to, _ in nothing:
+            print(f"{to}: every case failed", file=sys.stderr)
         return
     shown = next((r for r in done if r.functional), next((r for r in done if nothing_to_draw(r) is None), None))
     if shown is None:
-        for r in done:
-            print(f"no picture written: {nothing_to_draw(r)}", file=sys.stderr)
+        for _, plain in nothing:
+            for r in done:
+                print(f"{plain}: {nothing_to_draw(r)}", file=sys.stderr)
         return
     from rail_mj.mesh import load_object
 
@@ -85,6 +92,12 @@ def _pictures(args: argparse.Namespace, results) -> None:
     if args.contact_sheet:
         sheet = render_contact_sheet(obj, shown, args.contact_sheet, draw_mesh=args.draw_mesh)
         print(f"wrote {args.contact_sheet} ({len(sheet.tiles)} stable poses)", file=sys.stderr)
+    if args.save_scene is not None:
+        saved = save_scene(obj, shown, args.save_scene)
+        again = " (overwrote the previous scene there)" if saved.overwrote else ""
+        print(f"wrote {saved.path}{again}: pose #{saved.pose}, plan {saved.plan_name!r}, {saved.n_agents} agents, "
+              f"{len(saved.via_sites)} via-poses; open it with: python -m mujoco.viewer --mjcf {saved.path}",
+              file=sys.stderr)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -105,6 +118,10 @@ def main(argv: Sequence[str] | None = None) -> int:
                    help="write a captioned picture of the functional pose (else the best-scoring one) with the agents")
     p.add_argument("--contact-sheet", type=_picture_path, metavar="PNG",
                    help="write one grid picture of every stable pose with its best-scoring plan (re-imagines them)")
+    p.add_argument("--save-scene", type=Path, metavar="DIR",
+                   help="write the imagined scene (functional pose, else the best-scoring one; agents at the start "
+                        "of its plan; the via-poses as sites and keyframes) as DIR/scene.xml with DIR/meshes/ and "
+                        "DIR/README.txt, to open with python -m mujoco.viewer --mjcf DIR/scene.xml")
     p.add_argument("--draw-mesh", action="store_true",
                    help="draw the original mesh in the pictures instead of its CoACD hulls")
     args = p.parse_args(argv)
@@ -114,6 +131,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     from rail_mj.render.explain import explain, format_explanation
 
     try:
+        if args.save_scene is not None:
+            from rail_mj.render.mjcf_export import check_scene_dir
+
+            check_scene_dir(args.save_scene)  # before any work
         results = classify(
             [ObjectInput(path=args.mesh, units=args.units, up=args.up)],
             args.affordance,
@@ -131,8 +152,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                 print(format_explanation(explain(r)))
             elif not r.error:
                 print(_describe(r))
-        if args.render or args.contact_sheet:
-            _pictures(args, results)
+        if args.render or args.contact_sheet or args.save_scene is not None:
+            _outputs(args, results)
     except (RailError, KeyboardInterrupt) as exc:
         return report_error(exc, json_out=args.json)
     return EXIT_OK if all(r.error is None for r in results) else EXIT_FAILED

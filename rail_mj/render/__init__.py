@@ -1,1 +1,1 @@
-"""Pictures and explanations of results: captioned renders, contact sheets, ``--explain``."""
+"""Pictures, explanations and MuJoCo scenes of results: captioned renders, contact sheets, --explain, --save-scene."""

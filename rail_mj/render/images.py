@@ -44,7 +44,7 @@ from rail_mj.render.captions import (
 from rail_mj.render.files import write_image
 from rail_mj.render.scene import GROUND_SQUARE_M, _draw, _placement_state, _scene
 
-__all__ = ["ContactSheet", "render_result", "render_contact_sheet"]
+__all__ = ["ContactSheet", "result_profile", "render_result", "render_contact_sheet"]
 
 
 @dataclass(frozen=True)
@@ -61,6 +61,20 @@ def _load(obj: RailObject | str | Path, units: float, up: Literal["z", "y"]) -> 
     if isinstance(obj, RailObject):
         return obj
     return load_object(Path(obj), units=units, up=up)
+
+
+def result_profile(obj: RailObject, result: AffordanceResult, profile=None):
+    """The :class:`~rail_mj.llm.ImaginationProfile` ``result`` was imagined with: ``profile`` when given, else
+    asked again of the result's provider (the offline library, or the LLM answer cache). A profile whose agent or
+    plans differ from the result's is refused (RailError)."""
+    if profile is None:
+        profile = llm.generate_profile(result.requested, [float(d) for d in obj.obb_dims], result.provider or "offline")
+    if profile.agent.mjcf != result.agent_fragment or [p.name for p in profile.plans.plans] != result.plans:
+        raise RailError(
+            f"{result.object} / {result.requested}: the profile's agent or plans are not the ones the result was "
+            "imagined with (another provider, model or cache); pass the profile the result came from"
+        )
+    return profile
 
 
 def render_result(
@@ -119,13 +133,7 @@ def render_contact_sheet(
     if why is not None:
         raise RailError(why)
     obj = _load(obj, units, up)
-    if profile is None:
-        profile = llm.generate_profile(result.requested, [float(d) for d in obj.obb_dims], result.provider or "offline")
-    if profile.agent.mjcf != result.agent_fragment or [p.name for p in profile.plans.plans] != result.plans:
-        raise RailError(
-            f"{result.object} / {result.requested}: the profile's agent or plans are not the ones the result was "
-            "imagined with (another provider, model or cache); pass the profile the result came from"
-        )
+    profile = result_profile(obj, result, profile)
     n = len(result.stable_poses)
     plans = [_best_plan(result, i) for i in range(n)]
     poses = [p.to_pose() for p in result.stable_poses]

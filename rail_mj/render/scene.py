@@ -95,14 +95,17 @@ def _placement_state(result: AffordanceResult, pose: int, agent_pos: np.ndarray,
     )
 
 
-def _scene(obj: RailObject, fragment: str, state: _State, *, draw_mesh: bool, width: int, height: int):
-    """(model, data, object body id, agent body ids) of a drawing scene: the object fixed in ``state``,
-    the agents at their positions, a checker ground, a light; colours set for reading."""
+def _drawing_spec(obj: RailObject, fragment: str, state: _State, *, draw_mesh: bool, width: int, height: int,
+                  object_free: bool = False) -> tuple[mujoco.MjSpec, list[str], int]:
+    """(spec, the object's hull geom names, number of agents) of a drawing scene before its colours: the
+    object in ``state`` (fixed, or with its free joint when ``object_free``), the agents at their positions,
+    a checker ground, a sky, a light; with ``draw_mesh`` the original mesh as a massless, non-colliding geom
+    ``rail_render_mesh`` (its mesh asset of the same name)."""
     agents = None
     if fragment and len(state.agent_pos):
         agents = AgentSetup(fragment=fragment, offsets=state.agent_pos, collide_agents=True)
     spec = build_scene(obj, object_pos=cast(Sequence[float], state.object_pos),  # 1-d arrays
-                       object_quat=cast(Sequence[float], state.object_quat), object_free=False, agents=agents)
+                       object_quat=cast(Sequence[float], state.object_quat), object_free=object_free, agents=agents)
     spec.visual.global_.offwidth = max(width, 640)
     spec.visual.global_.offheight = max(height, 480)
     # the generated stubs type these as arrays; MuJoCo's setter takes any 3 numbers
@@ -130,6 +133,13 @@ def _scene(obj: RailObject, fragment: str, state: _State, *, draw_mesh: bool, wi
         g = body.add_geom(name="rail_render_mesh", type=mujoco.mjtGeom.mjGEOM_MESH, meshname="rail_render_mesh",
                           contype=0, conaffinity=0, rgba=[*_MESH_RGB, 1.0])
         g.mass = 0.0
+    return spec, hull_geoms, len(state.agent_pos) if agents is not None else 0
+
+
+def _scene(obj: RailObject, fragment: str, state: _State, *, draw_mesh: bool, width: int, height: int):
+    """(model, data, object body id, agent body ids) of a drawing scene: the object fixed in ``state``,
+    the agents at their positions, a checker ground, a light; colours set for reading."""
+    spec, hull_geoms, n = _drawing_spec(obj, fragment, state, draw_mesh=draw_mesh, width=width, height=height)
     try:
         model = spec.compile()
     except ValueError as exc:
@@ -141,7 +151,6 @@ def _scene(obj: RailObject, fragment: str, state: _State, *, draw_mesh: bool, wi
             model.geom_group[gid] = _HIDDEN_GROUP
     agent_bodies = []
     data = mujoco.MjData(model)
-    n = len(state.agent_pos) if agents is not None else 0
     for i in range(n):
         bid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, agent_body_name(fragment, i))
         agent_bodies.append(bid)
