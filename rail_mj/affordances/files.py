@@ -145,12 +145,12 @@ def _model(model: type, value: Any, where: _Where, field: str) -> Any:
 def _row(table: Any, where: _Where) -> FileRow:
     if not isinstance(table, dict):
         raise where.fail(None, f"must be a table; got {table!r}")
+    if "name" in table:
+        where.name = _name(table["name"], where, "name")
     unknown = sorted(set(table) - set(FIELDS))
     if unknown:
         raise where.fail(None, f"unknown key {', '.join(map(repr, unknown))}; valid: {', '.join(FIELDS)}")
     missing = [k for k in _REQUIRED if k not in table]
-    if "name" not in missing:
-        where.name = _name(table["name"], where, "name")
     if missing:
         raise where.fail(None, f"missing {', '.join(missing)} (required: {', '.join(_REQUIRED)})")
     kind = table["kind"]
