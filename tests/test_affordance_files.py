@@ -239,3 +239,10 @@ def test_a_broken_entry_point_is_an_error_naming_its_distribution(monkeypatch: p
     monkeypatch.setattr(importlib.metadata, "entry_points", _entry_points(wrong))
     with pytest.raises(AffordanceFileError, match="'mat-pkg'.*: gave a int; an entry point gives affordance file"):
         known_affordances()
+
+
+def test_the_docs_file_example_takes_over_a_built_in_alias(tmp_path: Path) -> None:
+    doc = (EXAMPLES.parent / "docs" / "new_affordance.md").read_text()
+    toml = doc.split("```toml\n", 1)[1].split("```", 1)[0]
+    (row,) = load(_file(tmp_path, toml))
+    assert get("pail") is row and get("bucket").aliases == () and row.params == get("cup").params

@@ -66,7 +66,8 @@ class _Where:
     """Where a problem is: the file, the row (its number, and its name once read)."""
 
     def __init__(self, source: str, index: int):
-        self.source, self.index, self.name = source, index, None
+        self.source, self.index = source, index
+        self.name: str | None = None
 
     def fail(self, field: str | None, message: str) -> AffordanceFileError:
         row = f"[[affordance]] #{self.index}" + (f" ({self.name!r})" if self.name else "")
@@ -170,7 +171,7 @@ def _row(table: Any, where: _Where) -> FileRow:
         raise where.fail("override", f"must be true or false; got {override!r}")
     params = _model(KINDS[kind].params_model, table.get("params", {}), where, "params")
     return FileRow(Affordance(
-        where.name, kind, table["ibd"].strip(), _size_range(table["largest"], where, "largest"),
+        table["name"], kind, table["ibd"].strip(), _size_range(table["largest"], where, "largest"),
         _size_range(table["smallest"], where, "smallest"), envelope=_envelope(table.get("envelope", {}), where),
         aliases=tuple(aliases), params=params,
     ), override)

@@ -280,7 +280,7 @@ def classify(
     result is the same however the objects were spread.
     """
     _check_names(affordances)
-    update = {"provider": provider, "backend": backend}
+    update: dict[str, Any] = {"provider": provider, "backend": backend}
     if pose is not None:
         if pose not in ("stable", "as_placed"):
             raise ConfigError(f"unknown pose mode {pose!r}; valid: stable, as_placed")
