@@ -17,9 +17,11 @@ from rail_mj.affordances import REGISTRY, get, known_affordances, load, load_fil
 from rail_mj.affordances.files import ENTRY_POINT_GROUP, read
 from rail_mj.affordances.names import parse_words
 from rail_mj.core.errors import AffordanceFileError, ConfigError, UnknownAffordanceError
+from rail_mj.eval import cli as eval_cli
 from rail_mj.llm import generate_profile
 from rail_mj.pipeline.chain import classify
 from rail_mj.pipeline.config import RunConfig
+from rail_mj.robot import __main__ as robot_cli
 from rail_mj.stable_poses import StablePoseConfig
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
@@ -246,3 +248,17 @@ def test_the_docs_file_example_takes_over_a_built_in_alias(tmp_path: Path) -> No
     toml = doc.split("```toml\n", 1)[1].split("```", 1)[0]
     (row,) = load(_file(tmp_path, toml))
     assert get("pail") is row and get("bucket").aliases == () and row.params == get("cup").params
+
+
+def test_the_eval_and_robot_clis_load_the_files_first(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    bad = _file(tmp_path, ROW.format(name="mat", extra="").replace('"lie"', '"bathe"'))
+    assert eval_cli.main(["--out", str(tmp_path / "out"), "--provider", "offline", "--affordances-file",
+                          str(bad)]) == 2
+    assert f"error: {bad}: [[affordance]] #1 ('mat'): kind: unknown kind 'bathe'" in capsys.readouterr().err
+    monkeypatch.setattr(robot_cli, "run_demo", lambda *a, **k: pytest.fail("nothing may run"))
+    assert robot_cli.main(["--demo", "--affordances-file", str(bad)]) == 2
+    assert "unknown kind 'bathe'" in capsys.readouterr().err
+    seen = []
+    monkeypatch.setattr(robot_cli, "fetch_panda", lambda: seen.append(get("dog bed").name) or tmp_path)
+    assert robot_cli.main(["--fetch", "--affordances-file", str(DOG_BED)]) == 0 and seen == ["dog bed"]
