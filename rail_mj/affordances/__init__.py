@@ -3,6 +3,9 @@
 The rows live in :mod:`rail_mj.affordances.registry`; how a name in words becomes a row (spelling, plurals,
 aliases, a request's agent and its scale, the offline request parser) lives in :mod:`rail_mj.affordances.names`.
 
+Rows beyond the built-in ones come from affordance files (TOML; :mod:`rail_mj.affordances.files` parses them,
+:func:`load` registers them) and from installed packages' ``rail_mj.affordances`` entry points.
+
 The kinds of physics that imagine them live in :mod:`rail_mj.affordances.kinds`,
 which register themselves and their rows' parameter models; the registry imports
 them for those models. This package needs no LLM or simulator module, so the
@@ -20,6 +23,9 @@ from rail_mj.affordances.registry import (
     PERSON_HEIGHT,
     REGISTRY,
     known_affordances,
+    load,
+    load_files,
+    unload_all,
 )
 from rail_mj.affordances.row import Affordance, KindParams
 
@@ -36,6 +42,9 @@ __all__ = [
     "KindParams",
     "get",
     "known_affordances",
+    "load",
+    "load_files",
+    "unload_all",
     "label_key",
     "normalize",
     "for_request",

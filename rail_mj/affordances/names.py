@@ -16,7 +16,13 @@ import re
 from dataclasses import dataclass
 from typing import Literal
 
-from rail_mj.affordances.registry import FIGURE_HEIGHTS, PERSON_HEIGHT, REGISTRY, known_affordances
+from rail_mj.affordances.registry import (
+    BY_NAME,
+    FIGURE_HEIGHTS,
+    PERSON_HEIGHT,
+    ensure_entry_points,
+    known_affordances,
+)
 from rail_mj.affordances.row import Affordance
 from rail_mj.core.errors import ConfigError, UnknownAffordanceError
 
@@ -32,7 +38,8 @@ __all__ = [
     "parse_words",
 ]
 
-_BY_NAME: dict[str, Affordance] = {**{alias: a for a in REGISTRY.values() for alias in a.aliases}, **REGISTRY}
+#: Every name and alias -> its row: the registry's index, which loading an affordance file extends.
+_BY_NAME: dict[str, Affordance] = BY_NAME
 
 
 def _spelling(name: str) -> str:
@@ -40,6 +47,7 @@ def _spelling(name: str) -> str:
 
 
 def _find(name: str) -> Affordance | None:
+    ensure_entry_points()
     key = _spelling(name)
     candidates = [key]  # then simple plurals: shelves, benches, cups
     if key.endswith("ves"):

@@ -8,6 +8,12 @@ paper evaluates it. How a requested name becomes a row (spelling, plurals, alias
 lives in :mod:`rail_mj.affordances.names`. A new affordance is a new row here, plus
 a kind file only when its physics is new (docs/new_affordance.md).
 
+Rows also come from affordance files (TOML, parsed by :mod:`rail_mj.affordances.files`): :func:`load`
+registers a file's rows after the built-in ones, and installed packages' ``rail_mj.affordances`` entry
+points are loaded once, on the first lookup (:func:`ensure_entry_points`). A name or alias that clashes with
+a registered row is an error naming both, unless the new row says ``override = true``; :func:`unload_all`
+goes back to the built-in rows.
+
 The dataset's ground truth (:mod:`rail_mj.dataset.ground_truth`) reads the names from here
 but keeps its own per-class truth: it is what these rules are measured against.
 """
@@ -15,16 +21,29 @@ but keeps its own per-class truth: it is what these rules are measured against.
 from __future__ import annotations
 
 import math
+import os
+from collections.abc import Iterable, Sequence
+from dataclasses import replace
+from pathlib import Path
 
 from rail_mj.affordances.envelope import Envelope
+from rail_mj.affordances.files import FileRow, entry_point_rows, read
 from rail_mj.affordances.kinds.container import ContainerParams, Droplets
 from rail_mj.affordances.kinds.seat import SeatParams
 from rail_mj.affordances.kinds.surface import SurfaceParams
 from rail_mj.affordances.row import Affordance
+from rail_mj.core.errors import AffordanceFileError
 
 __all__ = [
     "LIQUID_RADIUS",
     "REGISTRY",
+    "BY_NAME",
+    "SOURCES",
+    "register",
+    "load",
+    "load_files",
+    "unload_all",
+    "ensure_entry_points",
     "PAPER_AFFORDANCES",
     "known_affordances",
     "PERSON_HEIGHT",
@@ -157,8 +176,126 @@ REGISTRY: dict[str, Affordance] = {a.name: a for a in _rows()}
 #: The paper's eight, in registry order (cup, bowl, vase, basket, bathtub, plate, table, chair).
 PAPER_AFFORDANCES: tuple[str, ...] = tuple(a.name for a in REGISTRY.values() if a.paper)
 
+#: Every registered name and alias -> its row (the index the name lookup reads).
+BY_NAME: dict[str, Affordance] = {**{alias: a for a in REGISTRY.values() for alias in a.aliases}, **REGISTRY}
+
+#: Where each registered row came from: ``built-in``, an affordance file's path, or an entry point.
+SOURCES: dict[str, str] = dict.fromkeys(REGISTRY, "built-in")
+
+_BUILT_IN = (dict(REGISTRY), dict(BY_NAME), dict(SOURCES))
+#: The rows of each loaded affordance file, by resolved path: loading a file again is a no-op.
+_LOADED: dict[str, tuple[Affordance, ...]] = {}
+#: The entry points' state: ``pending`` (not looked at yet), ``loading`` or ``done``.
+_ENTRY_POINTS = {"state": "pending"}
+
+
+def _snapshot() -> tuple[dict, dict, dict]:
+    return dict(REGISTRY), dict(BY_NAME), dict(SOURCES)
+
+
+def _restore(saved: tuple[dict, dict, dict]) -> None:
+    for table, content in zip((REGISTRY, BY_NAME, SOURCES), saved):
+        table.clear()
+        table.update(content)
+
+
+def _clash(source: str, row: Affordance, n: str, holder: Affordance, sources: dict[str, str], hint: str) -> str:
+    what = "name" if n == row.name else "alias"
+    role = "the name" if n == holder.name else "an alias"
+    return (f"{source}: affordance {row.name!r}: its {what} {n!r} is already {role} of the affordance "
+            f"{holder.name!r} ({sources[holder.name]}); {hint}")
+
+
+def _add(entry: FileRow, source: str, table: dict[str, Affordance], index: dict[str, Affordance],
+         sources: dict[str, str]) -> None:
+    """Add one row to copies of the registry's tables, by the clash rule (see the module's doc)."""
+    row = entry.row
+    rename = "give it another name, or set override = true in its row to replace that one"
+    old = table.get(row.name)
+    if old is not None:  # the same name: the whole row is replaced
+        if not entry.override:
+            raise AffordanceFileError(_clash(source, row, row.name, old, sources, rename))
+        for n in (old.name, *old.aliases):
+            if index.get(n) is old:
+                del index[n]
+    for n in (row.name, *row.aliases):
+        holder = index.get(n)
+        if holder is None:
+            continue
+        if n == holder.name:
+            raise AffordanceFileError(_clash(source, row, n, holder, sources, (
+                f"an alias never replaces a row; give a row named {n!r} with override = true to replace it"
+                if entry.override else "choose another alias")))
+        if not entry.override:
+            raise AffordanceFileError(_clash(source, row, n, holder, sources, rename))
+        shrunk = replace(holder, aliases=tuple(a for a in holder.aliases if a != n))  # the alias moves over
+        table[holder.name] = shrunk
+        for a in (shrunk.name, *shrunk.aliases):
+            index[a] = shrunk
+        del index[n]
+    table[row.name] = row
+    index.update(dict.fromkeys(row.aliases, row))
+    index[row.name] = row
+    sources[row.name] = source
+
+
+def register(entries: Iterable[FileRow], source: str) -> None:
+    """Register rows after the ones registered before (all or none of them), by the clash rule: a name or alias
+    already registered is an :class:`AffordanceFileError` naming both rows, unless the new row overrides it
+    (a row of the same name is replaced; an alias it names moves to it). ``source`` names the rows' origin."""
+    ensure_entry_points()
+    table, index, sources = _snapshot()
+    for entry in entries:
+        _add(entry, source, table, index, sources)
+    _restore((table, index, sources))
+
+
+def load(path: str | os.PathLike[str]) -> tuple[Affordance, ...]:
+    """Register the rows of the affordance file at ``path`` (:mod:`rail_mj.affordances.files`) and return
+    them; a file loaded before (the same resolved path) is not read again."""
+    key = str(Path(path).resolve())
+    if key not in _LOADED:
+        entries = read(path)
+        register(entries, str(path))
+        _LOADED[key] = tuple(e.row for e in entries)
+    return _LOADED[key]
+
+
+def load_files(paths: Sequence[str | os.PathLike[str]]) -> None:
+    """:func:`load` each file, in order (a later file may override an earlier one's rows)."""
+    for path in paths:
+        load(path)
+
+
+def unload_all() -> None:
+    """Back to the built-in rows alone: every file's and entry point's rows are unregistered, and the entry
+    points are loaded again at the next lookup."""
+    _restore(_BUILT_IN)
+    _LOADED.clear()
+    _ENTRY_POINTS["state"] = "pending"
+
+
+def ensure_entry_points() -> None:
+    """Register the rows of the installed ``rail_mj.affordances`` entry points, once (every lookup calls this).
+    A broken entry point is an :class:`AffordanceFileError` naming it and its distribution, at every lookup
+    until it is fixed; nothing of the entry points is registered then."""
+    if _ENTRY_POINTS["state"] != "pending":
+        return
+    _ENTRY_POINTS["state"] = "loading"
+    saved = _snapshot()
+    try:
+        for source, entries in entry_point_rows():
+            register(entries, source)
+    except BaseException:
+        _restore(saved)
+        _ENTRY_POINTS["state"] = "pending"
+        raise
+    _ENTRY_POINTS["state"] = "done"
+
+
 def known_affordances() -> list[str]:
     """The registered canonical names, sorted."""
+    ensure_entry_points()
     return sorted(REGISTRY)
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 __all__ = [
     "RailError",
     "ConfigError",
+    "AffordanceFileError",
     "MeshError",
     "DecompositionError",
     "DecompositionTimeout",
@@ -35,6 +36,12 @@ class RailError(Exception):
 
 class ConfigError(RailError, ValueError):
     """An option or setting has a value that is not allowed."""
+
+
+class AffordanceFileError(ConfigError):
+    """An affordance file (TOML) or a package's ``rail_mj.affordances`` entry point is malformed, or one of its
+    rows clashes with a registered affordance; the message names the file (or distribution), the row, the
+    field and what is valid."""
 
 
 class MeshError(RailError, ValueError):

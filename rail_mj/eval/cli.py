@@ -38,6 +38,9 @@ def _parser() -> argparse.ArgumentParser:
                    "scan-like corruption mixed in) or all")
     p.add_argument("--classes", help="comma-separated classes (procedural), default all of the family")
     p.add_argument("--affordances", help="comma-separated requested affordances, default all labelled")
+    p.add_argument("--affordances-file", action="append", type=Path, default=[], metavar="F",
+                   help="an affordance file (TOML) whose rows are registered before the names are checked, here "
+                        "and in every worker; repeatable")
     p.add_argument("--out", type=Path, required=True, help="output folder (one run at a time)")
     p.add_argument("--resume", action="store_true", help="continue an interrupted run in --out")
     p.add_argument("--provider", default="auto", choices=PROVIDERS)
@@ -85,6 +88,7 @@ def _config(args: argparse.Namespace) -> EvalConfig:
             backend=args.backend,
             n_drops=args.drops,
             render=not args.no_render,
+            affordances_files=args.affordances_file,
         )
     except ValidationError as exc:
         problems = "; ".join(

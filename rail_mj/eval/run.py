@@ -42,7 +42,7 @@ from typing import Literal
 
 from pydantic import Field
 
-from rail_mj.affordances import PAPER_AFFORDANCES
+from rail_mj.affordances import PAPER_AFFORDANCES, load_files
 from rail_mj.core.errors import ConfigError, DatasetError
 from rail_mj.core.runfiles import atomic_write_text, folder_lock
 from rail_mj.dataset import ground_truth, labels, procedural, shapes
@@ -241,6 +241,7 @@ def _run_locked(
     results_path = out / "results.jsonl"
     if results_path.exists() and not resume:
         raise ConfigError(f"{results_path} exists: pass --resume to continue it, or choose another --out")
+    load_files(cfg.affordances_files)  # before any name is read
     requested = list(dict.fromkeys(normalize_affordance(a) for a in cfg.affordances)) if cfg.affordances else None
     root, records = _dataset(cfg, out, requested)
     repeated = sorted(m for m, n in Counter(r.mesh for r in records).items() if n > 1)

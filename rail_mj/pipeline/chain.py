@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from rail_mj import llm
-from rail_mj.affordances import request_scale
+from rail_mj.affordances import load_files, request_scale
 from rail_mj.core.errors import ConfigError, RailError
 from rail_mj.core.results import AffordanceResult, PlanInfo, PoseInfo
 from rail_mj.core.types import RailObject, StablePoses
@@ -65,6 +65,8 @@ class Pipeline:
         # the parent, leaves an unset ImaginationConfig.nthread to this worker's RAIL_MJ_THREADS
         config = config or RunConfig()
         self.config = type(config).model_validate(config.model_dump(exclude_unset=True))
+        # the run's affordance files, registered here too: a worker is a fresh interpreter
+        load_files(self.config.affordances_files)
         self.backend = resolve_backend(self.config.backend)
         # the run's LLM settings go to the provider once; every stage then reads them from it
         options = {"model": self.config.model} if self.config.model else {}
@@ -256,6 +258,7 @@ def classify(
     workers: int | None = None,
     executor: str = "local",
     ray_address: str | None = None,
+    affordances_files: Sequence[str | Path] = (),
 ) -> list[AffordanceResult]:
     """Classify every object for every requested affordance; results object-major, in input order.
 
@@ -263,7 +266,8 @@ def classify(
     mesh frame's z up, on the ground), the paper's real-robot test, and the result's best plan is the one in that
     pose. ``agent`` is the request's agent ("doll" for "put the doll on the chair"): a figure scales the
     affordance's sizes, dimension check, envelope and agent to its own (a doll's chair). Both default to the
-    ``config``'s (``stable``, no agent).
+    ``config``'s (``stable``, no agent). ``affordances_files`` (TOML, :mod:`rail_mj.affordances.files`) are
+    added to the config's: their rows are registered before the names are checked, here and in every worker.
 
     ``progress`` is ``True`` for a progress bar, ``False`` for none, or a callback
     ``(done, total, result)`` called after each (object, affordance), as objects finish.
@@ -276,13 +280,15 @@ def classify(
     result is the same however the objects were spread.
     """
     _check_names(affordances)
-    update = {"provider": provider, "backend": backend}
+    update: dict[str, Any] = {"provider": provider, "backend": backend}
     if pose is not None:
         if pose not in ("stable", "as_placed"):
             raise ConfigError(f"unknown pose mode {pose!r}; valid: stable, as_placed")
         update["pose"] = pose
     if agent is not None:
         update["agent"] = agent
+    if affordances_files:
+        update["affordances_files"] = [*(config or RunConfig()).affordances_files, *map(Path, affordances_files)]
     cfg = RunConfig.model_validate({**(config or RunConfig()).model_dump(exclude_unset=True), **update})
     pipe = Pipeline(cfg)
     pipe.check_affordances(affordances)

@@ -105,6 +105,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("mesh", type=Path, help="OBJ, STL, PLY, OFF, GLB or GLTF file")
     p.add_argument("--affordance", "-a", action="append", required=True, help="requested use; repeat for several")
+    p.add_argument("--affordances-file", action="append", type=Path, default=[], metavar="F",
+                   help="an affordance file (TOML) whose rows are registered before the names are checked; "
+                        "repeatable (examples/*.toml)")
     p.add_argument("--units", type=_metres_per_unit, default=1.0, help="metres per mesh unit (0.001 for millimetres)")
     p.add_argument("--up", choices=("z", "y"), default="z", help="the mesh's up axis")
     p.add_argument("--provider", default="auto",
@@ -141,6 +144,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             provider=args.provider,
             backend=args.backend,
             progress=False,
+            affordances_files=args.affordances_file,
         )
         for r in results:
             if r.error:

@@ -11,7 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from rail_mj.imagination.config import ImaginationConfig
 from rail_mj.mesh import DecompositionConfig
@@ -44,6 +44,16 @@ class RunOptions(BaseModel):
     agent: str | None = Field(default=None, description="the request's agent (doll, apple, ...): a figure scales "
                                                         "every real-world size of the affordance (rail_mj."
                                                         "affordances.request_scale)")
+    affordances_files: list[Path] = Field(
+        default_factory=list, description="affordance files (TOML, rail_mj.affordances.files) whose rows are "
+                                          "registered before the names are checked, in this process and in "
+                                          "every worker (absolute paths: a worker may run elsewhere)"
+    )
+
+    @field_validator("affordances_files")
+    @classmethod
+    def _absolute(cls, paths: list[Path]) -> list[Path]:
+        return [p.resolve() for p in paths]
 
 
 def _run_drops() -> StablePoseConfig:

@@ -13,6 +13,7 @@ import math
 import sys
 from pathlib import Path
 
+from rail_mj.affordances import load_files
 from rail_mj.core.cli import EXIT_OK, report_error
 from rail_mj.core.errors import RailError
 from rail_mj.robot.control import RobotConfig
@@ -45,6 +46,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="--experiment without the scan: imagine on the true mesh (and say so)")
     parser.add_argument("--affordance", action="append", choices=sorted(DEMO_AFFORDANCES),
                         help="repeatable; default: all")
+    parser.add_argument("--affordances-file", action="append", type=Path, default=[], metavar="F",
+                        help="an affordance file (TOML) whose rows are registered before anything runs (an "
+                             "override changes how a built-in affordance is imagined); repeatable")
     parser.add_argument("--trials", type=_positive(int), default=4, help="objects per affordance")
     parser.add_argument("--planner", choices=("imagined", "scripted"), default="imagined",
                         help="imagined: classify -> functional pose -> best plan (default); scripted: hand-written "
@@ -58,6 +62,7 @@ def main(argv: list[str] | None = None) -> int:
     if not (args.fetch or args.demo or args.experiment):
         parser.error("give --fetch, --demo and/or --experiment")
     try:
+        load_files(args.affordances_file)
         if args.fetch:
             print(f"Panda model downloaded and verified in {fetch_panda()}")
         if args.demo:
