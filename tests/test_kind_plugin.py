@@ -9,7 +9,7 @@ from typing import cast
 
 import pytest
 
-from rail_mj.affordances import REGISTRY, Affordance, Envelope, KindParams, names
+from rail_mj.affordances import REGISTRY, Affordance, Envelope, KindParams, registry
 from rail_mj.affordances.kinds import KINDS, AgentShape, SeatParams, kind_of, register_kind
 from rail_mj.affordances.kinds.base import box_agent, rest_bounds, rest_scoring, rest_window, rest_words
 from rail_mj.affordances.kinds.lowering import Lowering
@@ -60,7 +60,7 @@ def plant_stand(monkeypatch: pytest.MonkeyPatch) -> Iterator[Affordance]:
                          "high.", (0.3, 1.1), (0.2, 0.6), envelope=Envelope(rest=(0.29, 1.01)),
                          params=StandParams(item_half=0.06))
         monkeypatch.setitem(REGISTRY, row.name, row)
-        monkeypatch.setitem(names._BY_NAME, row.name, row)
+        monkeypatch.setitem(registry.BY_NAME, row.name, row)
         yield row
     finally:
         KINDS.pop(Stand.name)

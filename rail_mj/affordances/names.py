@@ -38,10 +38,6 @@ __all__ = [
     "parse_words",
 ]
 
-#: Every name and alias -> its row: the registry's index, which loading an affordance file extends.
-_BY_NAME: dict[str, Affordance] = BY_NAME
-
-
 def _spelling(name: str) -> str:
     return re.sub(r"[\s_\-]+", " ", name.strip().lower())
 
@@ -56,7 +52,7 @@ def _find(name: str) -> Affordance | None:
         candidates.append(key[:-2])
     if key.endswith("s"):
         candidates.append(key[:-1])
-    return next((_BY_NAME[c] for c in candidates if c in _BY_NAME), None)
+    return next((BY_NAME[c] for c in candidates if c in BY_NAME), None)
 
 
 def get(name: str) -> Affordance:
