@@ -42,6 +42,18 @@ class Envelope:
                  ("height/width", "e[:, 2] / np.maximum(np.minimum(e[:, 0], e[:, 1]), 1e-9)", self.aspect)]
         return [t for t in terms if t[2] != ANY]
 
+    def values(self, half: Sequence[float], rim: float | None = None) -> list[tuple[str, float, Range]]:
+        """(name, value, range) of each constrained box size of a pose (half extents); with the pose's ``rim``
+        (spill level, m) an aspect above its range is the rim's, ``min(H, rim) / W`` (a handle rising above the
+        rim does not make a vessel taller)."""
+        hx, hy, hz = half
+        width = max(min(hx, hy), 1e-9)
+        aspect = hz / width
+        if rim is not None and aspect > self.aspect[1]:
+            aspect = min(hz, rim / 2) / width
+        values = {"height": 2 * hz, "width": 2 * min(hx, hy), "length": 2 * max(hx, hy), "height/width": aspect}
+        return [(name, values[name], rng) for name, _, rng in self.terms()]
+
     def violation(self, half: Sequence[float], rim: float | None = None) -> tuple[str, float, Range] | None:
         """The first box size of a pose (half extents) outside its range: (name, value, range); None when all fit.
         With the pose's ``rim`` (spill level, m) the aspect's upper bound is the rim's: ``rim / W``."""

@@ -13,6 +13,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 from rail_mj.affordances.envelope import Envelope, Range
+from rail_mj.affordances.prior import DEFAULT_WIDTH, Prior
 from rail_mj.core.errors import ConfigError
 
 __all__ = ["KindParams", "KIND_PARAMS", "Affordance"]
@@ -70,6 +71,16 @@ class Affordance:
     def dims_fit(self, dims: Sequence[float]) -> bool:
         """Whether OBB dims lie in the plausible size ranges (the stage-1 dimension check)."""
         return self.largest[0] <= max(dims) <= self.largest[1] and self.smallest[0] <= min(dims) <= self.smallest[1]
+
+    def size_prior(self, dims: Sequence[float]) -> Prior:
+        """The stage-1 dimension check as a prior: the plausibility of the OBB's largest and smallest dims."""
+        return Prior.of([("largest dim", max(dims), self.largest, DEFAULT_WIDTH),
+                         ("smallest dim", min(dims), self.smallest, DEFAULT_WIDTH)])
+
+    def pose_prior(self, half: Sequence[float], rim: float | None = None) -> Prior:
+        """The envelope as a prior over one pose's box (half extents), a vessel's aspect at its ``rim`` (the
+        pose's spill level, m) when given: the product of each constrained size's plausibility."""
+        return Prior.of([(name, value, rng, DEFAULT_WIDTH) for name, value, rng in self.envelope.values(half, rim)])
 
     def pose_fits(self, half: Sequence[float], rim: float | None = None) -> tuple[bool, str]:
         """Whether a pose's box (half extents) is inside the envelope, a vessel's aspect at its ``rim`` (the

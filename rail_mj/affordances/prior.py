@@ -1,0 +1,98 @@
+"""Size priors: how plausible a size is for an affordance, in [0, 1], smooth at a range's edges.
+
+A registry range (the OBB's largest and smallest dims, a pose envelope's height, width, length, aspect, rest)
+is the *typical* range of an object of that use. Inside it the plausibility is 1; outside it falls off as a
+Gaussian in log-size, so that a size ``1 + width`` times past an edge keeps half of it:
+
+    p(v) = 2 ** -((ln(v / hi) / ln(1 + width)) ** 2)    for v > hi   (and ln(lo / v) below lo)
+
+It is continuous at the edges (no cliff), and a size far outside the range (a 2 m "cup") is near 0 without
+ever being a veto. The prior of several sizes is the product of their plausibilities.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+from rail_mj.core.errors import ConfigError
+
+__all__ = ["DEFAULT_WIDTH", "Factor", "Prior", "plausibility", "check_width"]
+
+#: Half the plausibility is gone this far past a range, as a fraction of the bound (a 25% larger cup is half as
+#: plausible): the spread of one class's real sizes past its typical range, unless a quantity states its own.
+DEFAULT_WIDTH = 0.25
+#: Widths outside this range are no prior: 1% would be a cliff again, a factor 10 would accept anything.
+_WIDTH_RANGE = (0.01, 10.0)
+
+
+def check_width(width: float) -> float:
+    """``width`` if it is a usable prior width, else a ConfigError naming the valid range."""
+    lo, hi = _WIDTH_RANGE
+    if isinstance(width, bool) or not isinstance(width, (int, float)) or not lo <= width <= hi:
+        raise ConfigError(f"a prior width must be a number in [{lo:g}, {hi:g}] (a fraction of the bound); "
+                          f"got {width!r}")
+    return float(width)
+
+
+def plausibility(value: float, lo: float, hi: float, width: float = DEFAULT_WIDTH) -> float:
+    """The plausibility in [0, 1] of ``value`` for a typical range ``[lo, hi]`` (``lo`` 0 or ``hi`` inf leave a
+    side open); ``width``: the fraction past a bound at which half of it is gone. A non-positive or non-finite
+    value has plausibility 0 against a range with a positive lower bound, else 1 or 0 as it lies."""
+    check_width(width)
+    if not math.isfinite(value):
+        return 0.0 if math.isfinite(hi) else 1.0
+    if lo <= value <= hi:
+        return 1.0
+    if value <= 0.0:
+        return 0.0
+    ratio = hi / value if value > hi else value / lo
+    x = math.log(ratio) / math.log1p(width)
+    return float(2.0 ** -(x * x))
+
+
+@dataclass(frozen=True)
+class Factor:
+    """One size's share of a prior: the size, its typical range, its width and its plausibility."""
+
+    name: str  # e.g. "largest dim", "height", "height/width"
+    value: float
+    lo: float
+    hi: float
+    width: float
+    plausibility: float
+
+    def doc(self) -> str:
+        """``height 0.175 (typical 0.06-0.16, width 25%): 0.72``."""
+        return (f"{self.name} {self.value:.3g} (typical {self.lo:g}-{self.hi:g}, width {self.width:.0%}): "
+                f"{self.plausibility:.2f}")
+
+
+@dataclass(frozen=True)
+class Prior:
+    """A product of size plausibilities, each kept as a :class:`Factor` for the explanation."""
+
+    factors: tuple[Factor, ...] = ()
+
+    @classmethod
+    def of(cls, terms: Iterable[tuple[str, float, tuple[float, float], float]]) -> Prior:
+        """From (name, value, (lo, hi), width) terms."""
+        return cls(tuple(Factor(name, float(v), lo, hi, w, plausibility(v, lo, hi, w))
+                         for name, v, (lo, hi), w in terms))
+
+    @property
+    def value(self) -> float:
+        p = 1.0
+        for f in self.factors:
+            p *= f.plausibility
+        return p
+
+    def __mul__(self, other: Prior) -> Prior:
+        return Prior(self.factors + other.factors)
+
+    def doc(self) -> str:
+        """Each factor in words, ``; ``-separated, then the product."""
+        if not self.factors:
+            return "no size prior: 1"
+        return "; ".join(f.doc() for f in self.factors) + f" -> prior {self.value:.2f}"
