@@ -25,6 +25,7 @@ from rail_mj.core.errors import RailError
 __all__ = [
     "RailError",
     "classify",
+    "rank",
     "imagine",
     "find_stable_poses",
     "load_object",
@@ -38,6 +39,7 @@ __version__ = "0.1.0"
 
 _LAZY = {
     "classify": "rail_mj.pipeline.chain",
+    "rank": "rail_mj.pipeline.rank",
     "ObjectInput": "rail_mj.pipeline.config",
     "RunConfig": "rail_mj.pipeline.config",
     "AffordanceResult": "rail_mj.core.results",

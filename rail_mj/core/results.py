@@ -90,6 +90,8 @@ class AffordanceResult(BaseModel):
         default=None, description="the Affordance Analyzer's dimension check; None when the case failed before it"
     )
     functional: bool = False
+    probability: float = Field(default=0.0, ge=0.0, le=1.0, description="how probable it is that the object "
+                               "affords the use, in its most probable pose (functional: probability >= 0.5)")
     functional_pose: PoseInfo | None = None
     best_plan: PlanInfo | None = None
     pose_without_analyzer: PoseInfo | None = Field(

@@ -47,6 +47,23 @@ def _describe(r) -> str:
     return "\n".join(lines)
 
 
+def _ranking(results) -> str:
+    """One line per affordance, most probable first: probability, verdict, functional pose and best plan."""
+    name = results[0].object if results else ""
+    lines = [f"{name}: what it affords, most probable first"]
+    for i, r in enumerate(results, 1):
+        if r.error:
+            lines.append(f"{i:3d}. {r.requested:<14} error: {r.error}")
+            continue
+        where = ""
+        if r.functional_pose is not None:
+            plan = f", {r.best_plan.name}" if r.best_plan is not None else ""
+            where = f"  pose #{r.functional_pose.index}{plan}"
+        verdict = "FUNCTIONAL" if r.functional else "no"
+        lines.append(f"{i:3d}. {r.affordance:<14} p={r.probability:.2f}  {verdict:<10}{where}")
+    return "\n".join(lines)
+
+
 def _metres_per_unit(text: str) -> float:
     value = float(text)
     if not (math.isfinite(value) and value > 0):
@@ -104,7 +121,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python -m rail_mj", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("mesh", type=Path, help="OBJ, STL, PLY, OFF, GLB or GLTF file")
-    p.add_argument("--affordance", "-a", action="append", required=True, help="requested use; repeat for several")
+    p.add_argument("--affordance", "-a", action="append",
+                   help="requested use; repeat for several (required unless --rank, which ranks every registered "
+                        "affordance when none is given)")
+    p.add_argument("--rank", action="store_true",
+                   help="what is this object for: the affordances ranked by probability, each with its functional "
+                        "pose; with --json one result line per affordance, most probable first")
     p.add_argument("--affordances-file", action="append", type=Path, default=[], metavar="F",
                    help="an affordance file (TOML) whose rows are registered before the names are checked; "
                         "repeatable (examples/*.toml)")
@@ -128,9 +150,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--draw-mesh", action="store_true",
                    help="draw the original mesh in the pictures instead of its CoACD hulls")
     args = p.parse_args(argv)
+    if not args.rank and not args.affordance:
+        p.error("the following arguments are required: --affordance/-a (or --rank)")
 
     from rail_mj.pipeline.chain import classify
     from rail_mj.pipeline.config import ObjectInput
+    from rail_mj.pipeline.rank import rank
     from rail_mj.render.explain import explain, format_explanation
 
     try:
@@ -138,14 +163,15 @@ def main(argv: Sequence[str] | None = None) -> int:
             from rail_mj.render.mjcf_export import check_scene_dir
 
             check_scene_dir(args.save_scene)  # before any work
-        results = classify(
-            [ObjectInput(path=args.mesh, units=args.units, up=args.up)],
-            args.affordance,
-            provider=args.provider,
-            backend=args.backend,
-            progress=False,
-            affordances_files=args.affordances_file,
-        )
+        options = dict(provider=args.provider, backend=args.backend, progress=False,
+                       affordances_files=args.affordances_file)
+        item = ObjectInput(path=args.mesh, units=args.units, up=args.up)
+        if args.rank:
+            results = rank([item], args.affordance, **options)[0].results
+            if not args.json and not args.explain:
+                print(_ranking(results))
+        else:
+            results = classify([item], args.affordance, **options)
         for r in results:
             if r.error:
                 print(f"error: {r.object}: {r.requested!r}: {r.error}", file=sys.stderr)
@@ -154,7 +180,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                       if args.explain else r.model_dump_json())
             elif args.explain:
                 print(format_explanation(explain(r)))
-            elif not r.error:
+            elif not r.error and not args.rank:
                 print(_describe(r))
         if args.render or args.contact_sheet or args.save_scene is not None:
             _outputs(args, results)
