@@ -74,8 +74,10 @@ def closest_names(name: str, n: int = 4) -> list[str]:
     return [c if index[c].name == c else f"{c} ({index[c].name})" for c in close]
 
 
-def _closest_text(name: str) -> str:
-    close = closest_names(name)
+def _closest_text(name: str, head: str | None = None) -> str:
+    """``closest: ...; `` for an error message: the row a head noun names first, when there is one."""
+    close = [head] if head is not None else []
+    close += [c for c in closest_names(name) if c != head]
     return f"closest: {', '.join(close)}; " if close else ""
 
 
@@ -270,7 +272,7 @@ def object_name(words: Sequence[str], text: str | None = None) -> ObjectName:
                f"whose it is ({', '.join(sorted([*FIGURE_HEIGHTS, *ANIMAL_LENGTHS]))}) nor a colour, material or "
                "size word, so it may name another thing")
         raise UnknownAffordanceError(
-            f"{phrase!r}{source} is no registered affordance: {why}; {_closest_text(phrase)}known: "
+            f"{phrase!r}{source} is no registered affordance: {why}; {_closest_text(phrase, head.name)}known: "
             f"{', '.join(known_affordances())}; an affordance file (--affordances-file) or an LLM provider "
             "adds a new one")
     raise UnknownAffordanceError(
