@@ -42,7 +42,7 @@ def _dims(name: str, where: float) -> list[float]:
 #: Rows whose agent keeps its kind's least size at both of the test's dims, whose middle dim (the geometric mean of
 #: the others) makes a flat object a narrow strip: the saucer's food disc (2 cm radius) and the cutting board's
 #: book (8 cm; it only grows on boards over 33 cm wide).
-_AGENT_AT_LEAST_SIZE = ("saucer", "cutting board")
+_AGENT_AT_LEAST_SIZE = ("saucer", "cutting board", "soap dish")
 
 
 def test_catalogue_covers_the_paper_and_more():

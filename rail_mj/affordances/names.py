@@ -1,18 +1,24 @@
 """Names in one place: how words become registry rows (spelling, plurals, aliases, articles); the request parser.
 
 A requested name becomes a row here (:func:`get`, :func:`normalize`, :func:`label_key`): any case, spaces /
-underscores / hyphens, simple plurals, aliases. A request's agent becomes its scale here (:func:`request_scale`:
-"put the doll on the chair" asks for a doll's chair). The rows themselves, the figures' heights included, are
-:mod:`rail_mj.affordances.registry`'s.
+underscores / hyphens, simple plurals, aliases. A request's agent, or the owner its object's name gives, becomes
+its scale here (:func:`request_scale`: "put the doll on the chair" and "put the cup on the doll's table" ask for a
+doll's furniture). The rows themselves, the figures' heights included, are :mod:`rail_mj.affordances.registry`'s.
 
 :func:`parse_words` is the offline request parser, of the form "VERB the AGENT in|into|inside|on|onto|on top of
-the OBJECT". The object's words are matched against the registry (aliases, plurals, any spelling); words in front
-of the name (a toy chair, the red pen holder) are dropped one by one until a registered name is left.
+the OBJECT". The object's words keep their meaning (:func:`object_name`): the whole name is matched first
+(registry names, aliases, rows of loaded affordance files: "dog bed", "bedside table"), then without the words
+that say nothing of its use or size (colours, materials, size words, "toy"), then its head noun, where the words
+in front name whose it is (a doll's chair, a dog bed: :data:`ANIMAL_LENGTHS`). Any other word in front of a
+name may make it another thing (a soap dish is no dinner plate), so such a name is refused, naming the closest
+known names.
 """
 
 from __future__ import annotations
 
+import difflib
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Literal
 
@@ -31,7 +37,12 @@ __all__ = [
     "normalize",
     "label_key",
     "request_scale",
+    "owner_scale",
     "for_request",
+    "closest_names",
+    "ANIMAL_LENGTHS",
+    "ObjectName",
+    "object_name",
     "singular",
     "REQUEST_FORM",
     "RequestWords",
@@ -55,15 +66,31 @@ def _find(name: str) -> Affordance | None:
     return next((BY_NAME[c] for c in candidates if c in BY_NAME), None)
 
 
+def closest_names(name: str, n: int = 4) -> list[str]:
+    """The registered names and aliases spelt most like ``name`` (difflib), best first; an alias as
+    ``"alias (name)"``."""
+    index = dict(BY_NAME)
+    close = difflib.get_close_matches(_spelling(name), list(index), n=n, cutoff=0.5)
+    return [c if index[c].name == c else f"{c} ({index[c].name})" for c in close]
+
+
+def _closest_text(name: str, head: str | None = None) -> str:
+    """``closest: ...; `` for an error message: the row a head noun names first, when there is one."""
+    close = [head] if head is not None else []
+    close += [c for c in closest_names(name) if c != head]
+    return f"closest: {', '.join(close)}; " if close else ""
+
+
 def get(name: str) -> Affordance:
     """The row of a name in any spelling (case, spaces / underscores / hyphens, simple plurals, aliases).
 
-    Raises UnknownAffordanceError listing the known names when there is none.
+    Raises UnknownAffordanceError naming the closest and the known names when there is none.
     """
     found = _find(name)
     if found is None:
         raise UnknownAffordanceError(
-            f"no offline imagination profile for affordance {name!r}; known: {', '.join(known_affordances())}. "
+            f"no offline imagination profile for affordance {name!r}; {_closest_text(name)}"
+            f"known: {', '.join(known_affordances())}. "
             "An LLM provider imagines novel affordances: use --provider anthropic with ANTHROPIC_API_KEY set, or "
             "--provider openai with OPENAI_BASE_URL (and RAIL_MJ_MODEL) or OPENAI_API_KEY set."
         )
@@ -94,18 +121,59 @@ def _figure(agent: str) -> str | None:
     return next((c for c in candidates if c in FIGURE_HEIGHTS), None)
 
 
-def request_scale(agent: str | None) -> float:
-    """Size of a request's agent relative to a person's: a figure's height / :data:`PERSON_HEIGHT` (a doll
-    0.18), 1 for every other agent (an item a person carries) and for none."""
+#: Body lengths (m) of the animals an object's name may say it is for ("dog bed"), nose to base of tail: an animal
+#: lies along its body as a person along its height, so its bed is a person's scaled by length / PERSON_HEIGHT.
+ANIMAL_LENGTHS: dict[str, float] = {
+    # a medium dog (a ~20 kg border collie) is about 0.65 m nose to tail base; makers size a medium dog bed
+    # 76-91 cm, that length plus room to stretch (0.65 / 1.7 makes a person's 1.6-2.6 m bed 0.61-0.99 m)
+    "dog": 0.65,
+}
+#: The kinds an animal's body sets the size of: what it lies or sits on. Its bowl is sized by its food and
+#: its basket by what it carries, not by its body, so "dog bowl" is refused unless a row names it.
+_ANIMAL_KINDS = ("lie", "seat")
+
+
+def _animal(word: str) -> str | None:
+    key = singular(_spelling(word))
+    return key if key in ANIMAL_LENGTHS else None
+
+
+def _owner(words: Sequence[str]) -> str | None:
+    """The figure or animal that words in front of a name make it for (``doll's``, ``dolls'``, ``teddy bear``,
+    ``dog``), else None."""
+    text = re.sub(r"'s?$", "", " ".join(words))
+    return _figure(text) or _animal(text)
+
+
+def owner_scale(owner: str) -> float:
+    """Size of the figure or animal an object is for relative to a person (:func:`request_scale`'s owner).
+
+    Raises ConfigError naming the valid owners for any other."""
+    figure, animal = _figure(owner), _animal(owner)
+    if figure is not None:
+        return FIGURE_HEIGHTS[figure] / PERSON_HEIGHT
+    if animal is not None:
+        return ANIMAL_LENGTHS[animal] / PERSON_HEIGHT
+    raise ConfigError(f"no figure or animal {owner!r} sets the scale of an object; valid owners: "
+                      f"{', '.join(sorted([*FIGURE_HEIGHTS, *ANIMAL_LENGTHS]))}")
+
+
+def request_scale(agent: str | None, owner: str | None = None) -> float:
+    """Size of what a request's object is for relative to a person: its ``owner``'s when its name gives one
+    (:func:`owner_scale`: a doll's table, a dog bed), else its agent's: a figure's height /
+    :data:`PERSON_HEIGHT` (a doll 0.18), 1 for every other agent (an item a person carries; an animal, which
+    may be put on a person's bed or in a person's bathtub) and for none."""
+    if owner is not None:
+        return owner_scale(owner)
     if agent is None:
         return 1.0
     figure = _figure(agent)
     return 1.0 if figure is None else FIGURE_HEIGHTS[figure] / PERSON_HEIGHT
 
 
-def for_request(name: str, agent: str | None) -> Affordance:
-    """The row of ``name`` (see :func:`get`) scaled to the request's agent (:func:`request_scale`)."""
-    return get(name).scaled(request_scale(agent))
+def for_request(name: str, agent: str | None, owner: str | None = None) -> Affordance:
+    """The row of ``name`` (see :func:`get`) scaled to the request (:func:`request_scale`)."""
+    return get(name).scaled(request_scale(agent, owner))
 
 
 _VERBS = ("put", "place", "set", "drop", "pour", "lay", "sit", "seat", "stand", "move", "store", "keep", "hang")
@@ -123,14 +191,32 @@ _PATTERN = re.compile(
 REQUEST_FORM = "'put the AGENT in|into|inside|on|onto|on top of the OBJECT', e.g. 'put the apple in the bowl'"
 
 
+#: Words in front of a name that say nothing of its use or size (the dimension check judges the size): colours,
+#: materials, size words and "toy" (a toy chair is a chair at its agent's scale).
+_NEUTRAL = frozenset((
+    "toy", "red", "blue", "green", "yellow", "white", "black", "brown", "grey", "gray", "pink", "orange", "purple",
+    "wooden", "plastic", "metal", "glass", "ceramic", "porcelain", "clay", "stone", "wicker",
+    "small", "little", "big", "large", "empty", "clean", "old", "new",
+))
+
+
 @dataclass(frozen=True)
 class RequestWords:
     """What the offline parser reads in a request: the agent (singular, no article), the affordance (registry
-    name) and the preposition (in | on)."""
+    name), the preposition (in | on) and the owner the object's name gives (a doll's chair: ``doll``), if any."""
 
     agent: str
     affordance: str
     preposition: Literal["in", "on"]
+    owner: str | None = None
+
+
+@dataclass(frozen=True)
+class ObjectName:
+    """An object's name read whole: the registered affordance and whose it is (``doll`` in "doll's chair")."""
+
+    affordance: str
+    owner: str | None = None
 
 
 def _words(text: str) -> list[str]:
@@ -154,16 +240,44 @@ def singular(word: str) -> str:
     return word
 
 
-def _affordance(words: list[str], text: str) -> str:
-    """The registered name the object's words end with (the longest such tail)."""
-    for start in range(len(words)):
-        try:
-            return normalize(" ".join(words[start:]))
-        except UnknownAffordanceError:
+def object_name(words: Sequence[str], text: str | None = None) -> ObjectName:
+    """The affordance an object's words name, keeping every word's meaning (see the module's doc): the whole
+    name, then without neutral words, then the head noun with its owner in front ("doll's chair": chair for a
+    doll; "dog bed": bed for a dog, which sets only what an animal lies or sits on).
+
+    Raises UnknownAffordanceError, naming the closest known names, for a name with any other word in front of a
+    registered one, or with none (``text``, the request, is named in the message).
+    """
+    words = _drop_articles([w for w in (_spelling(w) for w in words) if w])
+    phrase = " ".join(words)
+    source = f" (from {text!r})" if text is not None else ""
+    if not words:
+        raise ConfigError(f"an object's name must have a word{source}")
+    core = [w for w in words[:-1] if w not in _NEUTRAL] + words[-1:]
+    for candidate in (words, core):
+        found = _find(" ".join(candidate))
+        if found is not None:
+            return ObjectName(found.name)
+    for start in range(1, len(core)):
+        head = _find(" ".join(core[start:]))
+        if head is None:
             continue
+        front = core[:start]
+        owner = _owner(front)
+        if owner is not None and (owner in FIGURE_HEIGHTS or head.kind in _ANIMAL_KINDS):
+            return ObjectName(head.name, owner)
+        why = (f"a {owner}'s body sets the size of what it lies or sits on, not of a {head.name} (a {head.kind}: "
+               "sized by what it holds)" if owner is not None else
+               f"{' '.join(front)!r} in front of {' '.join(core[start:])!r} ({head.name}) is no figure or animal "
+               f"whose it is ({', '.join(sorted([*FIGURE_HEIGHTS, *ANIMAL_LENGTHS]))}) nor a colour, material or "
+               "size word, so it may name another thing")
+        raise UnknownAffordanceError(
+            f"{phrase!r}{source} is no registered affordance: {why}; {_closest_text(phrase, head.name)}known: "
+            f"{', '.join(known_affordances())}; an affordance file (--affordances-file) or an LLM provider "
+            "adds a new one")
     raise UnknownAffordanceError(
-        f"no registered affordance in {' '.join(words)!r} (from {text!r}); known: {', '.join(known_affordances())}"
-    )
+        f"no registered affordance in {phrase!r}{source}; {_closest_text(phrase)}known: "
+        f"{', '.join(known_affordances())}")
 
 
 def parse_words(text: str) -> RequestWords:
@@ -183,7 +297,8 @@ def parse_words(text: str) -> RequestWords:
         raise ConfigError(f"cannot read the request {text!r}: it names no agent or no object; give it the form "
                           f"{REQUEST_FORM}")
     agent[-1] = singular(agent[-1])
-    return RequestWords(agent=" ".join(agent), affordance=_affordance(obj, text),
-                        preposition=_PREPOSITIONS[match["prep"]])
+    name = object_name(obj, text)
+    return RequestWords(agent=" ".join(agent), affordance=name.affordance, preposition=_PREPOSITIONS[match["prep"]],
+                        owner=name.owner)
 
 

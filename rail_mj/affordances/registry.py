@@ -166,6 +166,19 @@ def _rows() -> tuple[Affordance, ...]:
                    (0.008, 0.05), aliases=("chopping board", "carving board"),
                    envelope=Envelope(height=(0.008, 0.05), width=(0.12, 0.4), length=(0.2, 0.6),
                                      rest=(0.008, 0.05))),
+        # a low table in front of a sofa: its top is about a sofa seat's height (0.4-0.46 m, 16-18 in), low ones
+        # 0.3 m; 0.5-1.6 m long (a small round one to two thirds of a 2.3 m sofa). One sits behind it, not at it
+        # with knees under its edge: no legroom. Its smallest box side is its height (tops 0.45 m and more)
+        Affordance("coffee table", "surface", "A coffee table holds cups, books or a tray in front of a sofa on a "
+                   "level top 0.3-0.5 m high, at least 0.45 m across, lower than a table.", (0.5, 1.6), (0.3, 0.5),
+                   aliases=("cocktail table", "sofa table"),
+                   envelope=Envelope(height=(0.3, 0.5), width=(0.45, 1.2), length=(0.5, 1.6), rest=(0.29, 0.51))),
+        # a bar of soap is 7-10 cm long, 5-6.5 cm wide, 2-3 cm thick; its dish is a little longer (9-16 cm) and
+        # 1-4 cm tall, ribbed or with a shallow well
+        Affordance("soap dish", "dish", "A soap dish holds a bar of soap on a small, low dish with a shallow well or "
+                   "ribs inside a rim (9-16 cm long, 1-4 cm tall).", (0.09, 0.16), (0.01, 0.04),
+                   aliases=("soap holder", "soap tray"),
+                   envelope=Envelope(height=(0.01, 0.04), length=(0.09, 0.16))),
     )
 
 

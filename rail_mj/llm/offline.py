@@ -189,7 +189,8 @@ def offline_functional_poses(request: FunctionalPoseRequest) -> FunctionalPoseVe
 def offline_request(request: RequestText) -> Request:
     """The request parser by rules (:func:`rail_mj.affordances.names.parse_words`)."""
     words = parse_words(request.text)
-    return Request(text=request.text, agent=words.agent, affordance=words.affordance, preposition=words.preposition)
+    return Request(text=request.text, agent=words.agent, affordance=words.affordance, preposition=words.preposition,
+                   owner=words.owner)
 
 
 #: The offline answer to each request type (looked up by name when called, so a patched function answers).

@@ -45,7 +45,8 @@ PROMPT_VERSION: dict[str, str] = {
     "scoring": "2",
     # 3: the poses carry their basin's length
     "functional_pose": "4",
-    "request_parser": "1",
+    # 2: the owner the object's name gives (a doll's chair)
+    "request_parser": "2",
 }
 
 
@@ -122,8 +123,11 @@ the same order."""),
         StageSpec("request_parser", Request, """You are the Request Parser of a robot that places things. Given a \
 sentence asking it to put an agent in or on an object ("put the apple in the bowl", "place the doll on the toy \
 chair"), answer the agent (what is placed: singular, lower case, no article), the affordance the object must have \
-for it (singular, lower case: its registered name, e.g. "pen holder" for "pencil cup"), and the preposition: "in" \
-for in / into / inside, "on" for on / onto / on top of. Keep "text" equal to the sentence as given."""),
+for it (singular, lower case: its registered name, e.g. "pen holder" for "pencil cup"; a compound name such as \
+"coffee table" or "soap dish" whole, never only its last word), the preposition: "in" for in / into / inside, "on" \
+for on / onto / on top of, and the owner: the figure or animal whose smaller thing the object's name says it is, when \
+the affordance is the person-sized thing's name ("the doll's chair": affordance "chair", owner "doll"), else null. \
+Keep "text" equal to the sentence as given."""),
     )
 }
 
@@ -134,7 +138,7 @@ _EXAMPLE_TASKS = (
 )
 
 #: Sentences whose offline parses are the request parser's few-shot examples.
-_EXAMPLE_REQUESTS = ("put the apple in the bowl", "Place the dolls onto the chairs.")
+_EXAMPLE_REQUESTS = ("put the apple in the bowl", "Place the dolls onto the chairs.", "put the cup on the doll's table")
 
 
 @cache

@@ -197,3 +197,6 @@ class Request(ProfileModel):
     affordance: str = Field(min_length=1, description="the use asked of the object, singular (bowl, chair, pen "
                                                       "holder)")
     preposition: Preposition = Field(description="in (in, into, inside) or on (on, onto, on top of)")
+    owner: str | None = Field(default=None, description="the figure or animal the object's name says it is for "
+                                                        "(doll for \"the doll's chair\", dog for \"the dog bed\"), "
+                                                        "else null")

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from rail_mj.affordances.names import owner_scale
 from rail_mj.core.errors import ConfigError, UnknownAffordanceError
 from rail_mj.core.profile import AgentLayout, ScoringCode
 from rail_mj.core.types import Outcomes, StablePose
@@ -136,9 +137,10 @@ def analyze_functional_poses(request: FunctionalPoseRequest,
 
 
 def parse_request_text(request: RequestText, provider: ProviderLike = "offline") -> Request:
-    """The request parser: the agent, the affordance and the preposition of a sentence like "put the apple in
-    the bowl". The answer's affordance is the name ``provider`` resolves (the registry's canonical name; an LLM
-    provider may also name a novel use), its agent is non-empty, its text the sentence as given."""
+    """The request parser: the agent, the affordance, the preposition and the owner of a sentence like "put the
+    apple in the bowl". The answer's affordance is the name ``provider`` resolves (the registry's canonical name;
+    an LLM provider may also name a novel use), its agent is non-empty, its owner null or one that
+    :func:`rail_mj.affordances.names.owner_scale` knows, its text the sentence as given."""
     prov = _provider(provider)
 
     def check(answer: Request) -> None:
@@ -152,6 +154,12 @@ def parse_request_text(request: RequestText, provider: ProviderLike = "offline")
             raise InvalidAnswerError(str(exc)) from exc
         if name != answer.affordance:
             raise InvalidAnswerError(f"affordance must be the canonical name {name!r}; got {answer.affordance!r}")
+        if answer.owner is not None:
+            try:
+                owner_scale(answer.owner)
+            except ConfigError as exc:
+                raise InvalidAnswerError(f"owner must be null or a figure or animal whose size sets the object's: "
+                                         f"{exc}") from exc
 
     return prov.answer(STAGES["request_parser"], request, check)
 

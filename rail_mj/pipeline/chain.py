@@ -108,7 +108,8 @@ class Pipeline:
     def profile(self, affordance: str, obb_dims: Sequence[float] | np.ndarray) -> ImaginationProfile:
         """A profile for this affordance, reused for objects of similar size and for every spelling
         of the name that the provider resolves alike ("mug" and "cup" share one)."""
-        task = llm.task_description(affordance, obb_dims, self.provider, scale=request_scale(self.config.agent))
+        scale = request_scale(self.config.agent, self.config.owner)
+        task = llm.task_description(affordance, obb_dims, self.provider, scale=scale)
         b = math.log1p(self.config.profile_bin)
         # lower case: a novel name (an LLM provider's) is kept as written, in any case
         key = (task.affordance.lower(), task.scale, *(round(math.log(max(d, 1e-4)) / b) for d in task.obb_dims))
@@ -255,6 +256,7 @@ def classify(
     config: RunConfig | None = None,
     pose: PoseMode | None = None,
     agent: str | None = None,
+    owner: str | None = None,
     workers: int | None = None,
     executor: str = "local",
     ray_address: str | None = None,
@@ -265,8 +267,10 @@ def classify(
     ``pose="as_placed"`` skips the stable-pose search: each object is imagined in the pose it stands in (its
     mesh frame's z up, on the ground), the paper's real-robot test, and the result's best plan is the one in that
     pose. ``agent`` is the request's agent ("doll" for "put the doll on the chair"): a figure scales the
-    affordance's sizes, dimension check, envelope and agent to its own (a doll's chair). Both default to the
-    ``config``'s (``stable``, no agent). ``affordances_files`` (TOML, :mod:`rail_mj.affordances.files`) are
+    affordance's sizes, dimension check, envelope and agent to its own (a doll's chair); ``owner``, the figure or
+    animal the request's object is for by its name ("doll" for "the doll's chair", "dog" for "the dog bed"), sets
+    the scale in its place (:func:`rail_mj.affordances.request_scale`). They default to the ``config``'s
+    (``stable``, no agent, no owner). ``affordances_files`` (TOML, :mod:`rail_mj.affordances.files`) are
     added to the config's: their rows are registered before the names are checked, here and in every worker.
 
     ``progress`` is ``True`` for a progress bar, ``False`` for none, or a callback
@@ -287,6 +291,8 @@ def classify(
         update["pose"] = pose
     if agent is not None:
         update["agent"] = agent
+    if owner is not None:
+        update["owner"] = owner
     if affordances_files:
         update["affordances_files"] = [*(config or RunConfig()).affordances_files, *map(Path, affordances_files)]
     cfg = RunConfig.model_validate({**(config or RunConfig()).model_dump(exclude_unset=True), **update})

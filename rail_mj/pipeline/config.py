@@ -44,6 +44,9 @@ class RunOptions(BaseModel):
     agent: str | None = Field(default=None, description="the request's agent (doll, apple, ...): a figure scales "
                                                         "every real-world size of the affordance (rail_mj."
                                                         "affordances.request_scale)")
+    owner: str | None = Field(default=None, description="the figure or animal the request's object is for, by its "
+                                                        "name (doll for \"the doll's chair\", dog for \"the dog "
+                                                        "bed\"): sets the scale in place of the agent")
     affordances_files: list[Path] = Field(
         default_factory=list, description="affordance files (TOML, rail_mj.affordances.files) whose rows are "
                                           "registered before the names are checked, in this process and in "

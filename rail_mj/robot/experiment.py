@@ -172,14 +172,14 @@ def run_task(task: Task, *, scan: bool = True, config: RobotConfig | None = None
     times["parse"] = time.perf_counter() - t0
     row: dict[str, Any] = {"task": task.name, "request": task.request, "agent": req.agent,
                            "affordance": req.affordance, "preposition": req.preposition,
-                           "scale": request_scale(req.agent), "paper": req.affordance in PAPER_AFFORDANCES}
+                           "scale": request_scale(req.agent, req.owner), "paper": req.affordance in PAPER_AFFORDANCES}
     obj = task_object(task)
     pose = as_placed_pose(obj)[0]
     row["dims"] = [round(float(d), 4) for d in obj.obb_dims]
 
     def imagine(o: RailObject):
         return classify([o], [req.affordance], provider="offline", progress=False, workers=1, pose="as_placed",
-                        agent=req.agent)[0]
+                        agent=req.agent, owner=req.owner)[0]
 
     t0 = time.perf_counter()
     true = imagine(obj)
