@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
 import shutil
 from pathlib import Path
 
@@ -218,9 +219,11 @@ def test_a_run_imagines_the_folder_and_keeps_the_other_results(tmp_path: Path, c
     broken = shutil.copytree(FIXTURES / "basket", profiles / "bowl")
     shutil.copy(BROKEN / "evaluation_wrong_shape.py", broken / "evaluation.py")
     (broken / "analysis.txt").write_text((broken / "analysis.txt").read_text().replace("basket", "bowl"))
-    results = classify([cup_mesh, cup_mesh], ["cup", "bowl", "plate"], provider="offline", backend="native",
-                       pose="as_placed", progress=False, workers=1, profile_dir=profiles)
-    assert len(results) == 6
+    planter = shutil.copytree(FIXTURES / "basket", profiles / "planter")  # a name the offline library lacks
+    (planter / "analysis.txt").write_text((planter / "analysis.txt").read_text().replace("basket", "planter"))
+    results = classify([cup_mesh, cup_mesh], ["cup", "bowl", "plate", "planter"], provider="offline",
+                       backend="native", pose="as_placed", progress=False, workers=1, profile_dir=profiles)
+    assert len(results) == 8
     cups = [r for r in results if r.requested == "cup"]
     bowls = [r for r in results if r.requested == "bowl"]
     plates = [r for r in results if r.requested == "plate"]
@@ -229,3 +232,39 @@ def test_a_run_imagines_the_folder_and_keeps_the_other_results(tmp_path: Path, c
     assert all(len(r.agent_offsets) == 8 for r in cups)
     assert all(r.error and "evaluation.py" in r.error and "ProfileFolderError" in r.error for r in bowls)
     assert all(r.error is None and r.plans != cups[0].plans for r in plates)  # the provider's own profile
+    planters = [r for r in results if r.requested == "planter"]
+    assert all(r.error is None and r.affordance == "planter" and len(r.agent_offsets) == 3 for r in planters)
+    assert all(r.analyzer_reasons for r in planters)  # stage 7 judged it (the offline rules for a novel use)
+
+
+def test_every_command_line_takes_profile_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys) -> None:
+    from rail_mj.eval import cli as eval_cli
+    from rail_mj.robot import __main__ as robot_cli
+
+    args = eval_cli._parser().parse_args(["--out", str(tmp_path / "out"), "--profile-dir", str(FIXTURES),
+                                          "--profile-origin", "center"])
+    cfg = eval_cli._config(args)
+    assert cfg.profile_dir == FIXTURES.resolve() and cfg.profile_origin == "center"
+    seen: list[str | None] = []
+    monkeypatch.setattr(robot_cli, "run_demo", lambda *a, **k: seen.append(os.environ.get(PROFILE_DIR_ENV)) or {
+        "success_rate": 1.0, "n_trials": 0, "n_affordances": 0, "max_peak_force": 0.0, "force_limit": 1.0,
+        "n_force_events": 0})
+    assert robot_cli.main(["--demo", "--profile-dir", str(FIXTURES)]) == 0
+    assert seen == [str(FIXTURES.resolve())]  # every classification of the demo, in any worker, reads it
+    assert robot_cli.main(["--demo", "--profile-dir", str(tmp_path / "none")]) == 2
+    assert "is not a folder" in capsys.readouterr().err
+
+
+def test_classify_cli_saves_and_reads_back_profile_folders(tmp_path: Path, cup_mesh: Path, capsys) -> None:
+    from rail_mj.__main__ import main as rail_main
+
+    common = [str(cup_mesh), "-a", "cup", "--provider", "offline", "--backend", "native", "--json"]
+    assert rail_main([*common, "--profile-dir", str(FIXTURES), "--save-profile", str(tmp_path / "saved")]) == 0
+    out, err = capsys.readouterr()
+    first = json.loads(out)
+    assert f"wrote {tmp_path / 'saved' / 'cup'}" in err and first["plans"][0] == "plan_1"
+    assert rail_main([*common, "--profile-dir", str(tmp_path / "saved")]) == 0
+    again = json.loads(capsys.readouterr()[0])
+    assert again["scores"] == first["scores"] and again["best_plan"] == first["best_plan"]
+    assert rail_main([*common, "--profile-dir", str(tmp_path / "missing")]) == 2
+    assert "is not a folder" in json.loads(capsys.readouterr()[0])["error"]
