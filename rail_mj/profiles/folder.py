@@ -47,6 +47,7 @@ from rail_mj.llm.schemas import (
     Trajectories,
     TrajectoryRequest,
 )
+from rail_mj.mjcf import check_fragment
 from rail_mj.profiles.evaluation import evaluation_scoring, probe_scoring
 from rail_mj.profiles.urdf import fragment_to_urdf, urdf_to_fragment
 
@@ -129,7 +130,7 @@ def _agent(folder: Path, task: TaskDescription, side: dict) -> AgentModel | None
     if old is not None and fragment_to_urdf(old.agent.mjcf, old.agent.name) == text:
         agent = old.agent
     else:
-        name = fragment.split('name="', 2)[1].split('"', 1)[0]
+        name = check_fragment(fragment).worldbody.first_body().name
         agent = AgentModel(name=name, description=f"the agent of {path}", mjcf=fragment)
     try:
         check_agent(agent, task)
