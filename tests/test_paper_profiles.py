@@ -35,7 +35,8 @@ DIMS = {"cup": [0.098, 0.098, 0.081], "chair": [0.895, 0.427, 0.384], "basket": 
 @pytest.fixture(autouse=True)
 def _cache(tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("RAIL_MJ_CACHE", str(tmp_path_factory.getbasetemp() / "cache"))
-    monkeypatch.delenv(PROFILE_DIR_ENV, raising=False)
+    # set (empty: no folder), so that teardown restores it after the robot command sets it for its process
+    monkeypatch.setenv(PROFILE_DIR_ENV, "")
 
 
 @pytest.fixture(scope="module")
@@ -111,6 +112,7 @@ def test_an_edited_file_wins_over_rail_mj_json(tmp_path: Path, offline) -> None:
     profile = _import(folder, "cup", offline)
     assert profile.trajectories != made.trajectories and profile.agent == made.agent
     assert profile.trajectories.trajectories[0].via_poses[-1].offset_m == plans["plan_1"][-1]
+    assert profile.provider == "folder+offline" and profile.prompt_versions["trajectory"] == "folder"
 
 
 # (the good folder, the file it replaces, the broken fixture, what the error must say)

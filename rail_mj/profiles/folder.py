@@ -3,10 +3,11 @@
 A folder holds ``analysis.txt``, ``agent.urdf``, ``arrangement.json``, ``plan.json`` and/or
 ``agents_traj.json`` and sometimes ``evaluation.py`` (see :mod:`rail_mj.profiles`); every stage the folder
 lacks comes from the provider. Via-points are metres from an origin (:data:`Origin`): ``ground``, the centre
-of the object's footprint on the ground, z up (as we read the published folders: a 10 cm cup's droplets end
-13 cm up), or ``center``, the centre of the object's box. Either way a via-point becomes a via-pose
-``rel * h + offset_m`` with ``offset_m`` the point and ``rel = (0, 0, -1)`` or ``(0, 0, 0)``, so it stays at
-the same height above the ground (or the box centre) in every stable pose.
+of the object's footprint on the ground, z up (the default: how the published folders were read when this
+format was specified, a 10 cm cup's droplets ending 13 cm up), or ``center``, the centre of the object's box.
+Either way a via-point becomes a via-pose ``rel * h + offset_m`` with ``offset_m`` the point and
+``rel = (0, 0, -1)`` or ``(0, 0, 0)``, so it stays at the same height above the ground (or the box centre) in
+every stable pose.
 
 :func:`save_profile` writes a profile in the same format, plus ``scoring.py`` (rail_mj's own vectorised scoring
 code, used when there is no ``evaluation.py``) and ``rail_mj.json``, which holds what the paper's files cannot
@@ -248,13 +249,17 @@ def import_profile(folder: str | Path, task: TaskDescription, provider: Provider
     mark("scoring", scoring is not None)
     scoring = scoring or stages.generate_scoring(
         ScoringRequest(task=task, analysis=analysis, agent=agent, layout=layout, plans=plans), provider)
+    parts = (analysis, agent, layout, plans, trajectories, scoring)
     old = side.get("profile")
-    from_folder = all(v == "folder" for v in used.values())
+    # a folder rail_mj wrote and nobody changed is the profile it was written from, whoever made that
+    exact = old if old is not None and parts == (old.analysis.model_copy(update={"affordance": task.affordance}),
+                                                 old.agent, old.layout, old.plans, old.trajectories,
+                                                 old.scoring) else None
     return ImaginationProfile(
         affordance=task.affordance, obb_dims=list(task.obb_dims), scale=task.scale,
-        provider=old.provider if old is not None and from_folder else f"folder+{provider.name}",
-        model=old.model if old is not None and from_folder else provider.model,
-        prompt_versions=old.prompt_versions if old is not None and from_folder else used,
+        provider=exact.provider if exact else f"folder+{provider.name}",
+        model=exact.model if exact else provider.model,
+        prompt_versions=exact.prompt_versions if exact else used,
         analysis=analysis, agent=agent, layout=layout, plans=plans, trajectories=trajectories, scoring=scoring)
 
 
