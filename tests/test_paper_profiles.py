@@ -247,6 +247,9 @@ def test_every_command_line_takes_profile_dir(tmp_path: Path, monkeypatch: pytes
                                           "--profile-origin", "center"])
     cfg = eval_cli._config(args)
     assert cfg.profile_dir == FIXTURES.resolve() and cfg.profile_origin == "center"
+    monkeypatch.setenv(PROFILE_DIR_ENV, str(FIXTURES / "cup"))
+    assert eval_cli._config(eval_cli._parser().parse_args(["--out", "o"])).profile_dir == (FIXTURES / "cup").resolve()
+    monkeypatch.setenv(PROFILE_DIR_ENV, "")
     seen: list[str | None] = []
     monkeypatch.setattr(robot_cli, "run_demo", lambda *a, **k: seen.append(os.environ.get(PROFILE_DIR_ENV)) or {
         "success_rate": 1.0, "n_trials": 0, "n_affordances": 0, "max_peak_force": 0.0, "force_limit": 1.0,
@@ -270,3 +273,33 @@ def test_classify_cli_saves_and_reads_back_profile_folders(tmp_path: Path, cup_m
     assert again["scores"] == first["scores"] and again["best_plan"] == first["best_plan"]
     assert rail_main([*common, "--profile-dir", str(tmp_path / "missing")]) == 2
     assert "is not a folder" in json.loads(capsys.readouterr()[0])["error"]
+
+
+def test_urdf_written_and_read_back_keeps_the_body() -> None:
+    import mujoco
+
+    from rail_mj.mjcf import check_fragment
+    from rail_mj.profiles import fragment_to_urdf
+
+    mjcf = ('<mujoco><worldbody><body name="toy"><geom type="box" size="0.05 0.02 0.01" mass="0.2" '
+            'euler="0.3 -0.4 1.1"/><body pos="0.06 0.01 -0.02" euler="0 0.5 0"><geom type="cylinder" '
+            'size="0.01 0.03" pos="0 0.01 0" mass="0.1"/><geom type="sphere" size="0.015" mass="0.05"/></body>'
+            '</body></worldbody></mujoco>')
+
+    def world(xml: str):
+        model = check_fragment(xml).compile()
+        data = mujoco.MjData(model)
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_comPos(model, data)
+        mass = model.body_mass[1:].sum()
+        com = (model.body_mass[1:, None] * data.xipos[1:]).sum(axis=0) / mass
+        inertia = sum(data.ximat[b].reshape(3, 3) @ np.diag(model.body_inertia[b]) @ data.ximat[b].reshape(3, 3).T
+                      + model.body_mass[b] * ((d := data.xipos[b] - com) @ d * np.eye(3) - np.outer(d, d))
+                      for b in range(1, model.nbody))
+        return (model.geom_type.tolist(), model.geom_size.copy(), data.geom_xpos.copy(), data.geom_xmat.copy(),
+                mass, com, inertia)
+
+    before, after = world(mjcf), world(urdf_to_fragment(fragment_to_urdf(mjcf, "toy")))
+    assert before[0] == after[0]
+    for a, b in zip(before[1:], after[1:]):
+        assert np.allclose(a, b, atol=1e-7)

@@ -95,8 +95,9 @@ def _config(args: argparse.Namespace) -> EvalConfig:
             n_drops=args.drops,
             render=not args.no_render,
             affordances_files=args.affordances_file,
-            profile_dir=args.profile_dir,
             profile_origin=args.profile_origin,
+            # absent: the default ($RAIL_MJ_PROFILE_DIR), never an explicit None over it
+            **({} if args.profile_dir is None else {"profile_dir": args.profile_dir}),
         )
     except ValidationError as exc:
         problems = "; ".join(
