@@ -10,6 +10,7 @@ __all__ = [
     "RailError",
     "ConfigError",
     "AffordanceFileError",
+    "ProfileFolderError",
     "MeshError",
     "DecompositionError",
     "DecompositionTimeout",
@@ -42,6 +43,11 @@ class AffordanceFileError(ConfigError):
     """An affordance file (TOML) or a package's ``rail_mj.affordances`` entry point is malformed, or one of its
     rows clashes with a registered affordance; the message names the file (or distribution), the row, the
     field and what is valid."""
+
+
+class ProfileFolderError(ConfigError):
+    """A profile folder in the paper authors' format (rail_mj.profiles) cannot be imported or written; the
+    message names the file and what was wrong in it."""
 
 
 class MeshError(RailError, ValueError):

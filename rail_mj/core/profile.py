@@ -19,7 +19,8 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_serializer
+from pydantic.json_schema import SkipJsonSchema
 
 from rail_mj.core.results import BasinInfo
 
@@ -30,6 +31,7 @@ __all__ = [
     "ProfileModel",
     "BENEATH_MIDDLE",
     "OPEN_SECTOR",
+    "MAX_ARRANGED_AGENTS",
     "AgentLayout",
     "MotionPlan",
     "ViaPose",
@@ -60,6 +62,9 @@ Scale = Annotated[float, Field(gt=0, le=10, description="size of the agent the o
 #: (run in the sandbox, so it cannot import this) has it formatted in; stage 7's ``frac_through_object`` reads it.
 BENEATH_MIDDLE = 0.25
 
+#: Most agents an explicit arrangement may hold: the grid's own largest (12 per axis).
+MAX_ARRANGED_AGENTS = 12**3
+
 #: Consecutive directions of the enclosure probe (:data:`rail_mj.imagination.batch.PROBE_DIRECTIONS`, 16, 22.5 deg
 #: apart) free of the object that make a droplet's side open: 4 span 67.5 deg, wider than a chance line-up of a
 #: basket's slots, narrower than the gap between an upturned table's legs or a seat's open front.
@@ -67,7 +72,8 @@ OPEN_SECTOR = 4
 
 
 class AgentLayout(ProfileModel):
-    """Output of stage 3: a world-aligned grid of identical agents about the layout centre."""
+    """Output of stage 3: a world-aligned grid of identical agents about the layout centre (or, imported, their
+    explicit ``offsets``)."""
 
     nx: int = Field(ge=1, le=12)
     ny: int = Field(ge=1, le=12)
@@ -76,10 +82,22 @@ class AgentLayout(ProfileModel):
     sy: float = Field(gt=0, description="spacing along y, m")
     sz: float = Field(gt=0, description="spacing along z, m")
     collide_agents: bool = Field(description="whether agents collide with each other (droplets pile up)")
+    # Not in the stage's schema (an LLM answers the grid); set by an imported arrangement (rail_mj.profiles).
+    offsets: SkipJsonSchema[list[Vec3] | None] = Field(
+        default=None, min_length=1, max_length=MAX_ARRANGED_AGENTS,
+        description="explicit agent positions about the layout centre, m, in place of the grid (an arrangement)")
 
     @property
     def n_agents(self) -> int:
-        return self.nx * self.ny * self.nz
+        return len(self.offsets) if self.offsets is not None else self.nx * self.ny * self.nz
+
+    @model_serializer(mode="wrap")
+    def _drop_unset_offsets(self, handler):
+        # a grid layout dumps as before the field existed: prompts, cache keys and saved profiles are unchanged
+        out = handler(self)
+        if isinstance(out, dict) and out.get("offsets", 0) is None:
+            out.pop("offsets")
+        return out
 
 
 class MotionPlan(ProfileModel):

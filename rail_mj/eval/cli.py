@@ -41,6 +41,12 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--affordances-file", action="append", type=Path, default=[], metavar="F",
                    help="an affordance file (TOML) whose rows are registered before the names are checked, here "
                         "and in every worker; repeatable")
+    p.add_argument("--profile-dir", type=Path, metavar="DIR",
+                   help="a profile folder in the paper authors' format, or a folder of them named by affordance: an "
+                        "affordance with a folder is imagined from it, the rest from the provider")
+    p.add_argument("--profile-origin", choices=("ground", "center"), default="ground",
+                   help="where the folders' via-points start: the object's footprint centre on the ground, or its "
+                        "box centre")
     p.add_argument("--out", type=Path, required=True, help="output folder (one run at a time)")
     p.add_argument("--resume", action="store_true", help="continue an interrupted run in --out")
     p.add_argument("--provider", default="auto", choices=PROVIDERS)
@@ -71,7 +77,7 @@ def _merge_parser() -> argparse.ArgumentParser:
 
 
 #: The command-line option of each EvalConfig field, for error messages.
-_OPTIONS = {"per_class": "--per-class", "dataset_seed": "--seed", "n_drops": "--drops"}
+_OPTIONS = {"per_class": "--per-class", "dataset_seed": "--seed", "n_drops": "--drops", "profile_dir": "--profile-dir"}
 
 
 def _config(args: argparse.Namespace) -> EvalConfig:
@@ -89,6 +95,9 @@ def _config(args: argparse.Namespace) -> EvalConfig:
             n_drops=args.drops,
             render=not args.no_render,
             affordances_files=args.affordances_file,
+            profile_origin=args.profile_origin,
+            # absent: the default ($RAIL_MJ_PROFILE_DIR), never an explicit None over it
+            **({} if args.profile_dir is None else {"profile_dir": args.profile_dir}),
         )
     except ValidationError as exc:
         problems = "; ".join(

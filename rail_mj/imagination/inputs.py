@@ -19,7 +19,10 @@ __all__ = ["layout_offsets", "via_positions", "trajectory_array", "agent_setup"]
 
 
 def layout_offsets(layout: AgentLayout) -> np.ndarray:
-    """Agent positions (N, 3) about the layout centre, x fastest."""
+    """Agent positions (N, 3) about the layout centre: the explicit ``offsets`` when given, else the grid, x
+    fastest."""
+    if layout.offsets is not None:
+        return np.array(layout.offsets, dtype=float).reshape(-1, 3)
     axes = [
         (np.arange(n) - (n - 1) / 2.0) * s
         for n, s in ((layout.nx, layout.sx), (layout.ny, layout.sy), (layout.nz, layout.sz))

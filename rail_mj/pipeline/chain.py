@@ -17,9 +17,9 @@ from typing import Any
 
 import numpy as np
 
-from rail_mj import llm
+from rail_mj import llm, profiles
 from rail_mj.affordances import load_files, request_scale
-from rail_mj.core.errors import ConfigError, RailError
+from rail_mj.core.errors import ConfigError, RailError, UnknownAffordanceError
 from rail_mj.core.results import AffordanceResult, PlanInfo, PoseInfo
 from rail_mj.core.types import RailObject, StablePoses
 from rail_mj.imagination import imagine, pose_plan, resolve_backend, rollout_index
@@ -73,6 +73,8 @@ class Pipeline:
         self.provider = llm.get_provider(
             self.config.provider, max_retries=self.config.max_retries, cache=self.config.cache, **options
         )
+        if self.config.profile_dir is not None:
+            profiles.check_profile_dir(self.config.profile_dir)
         self._profiles: dict[tuple, ImaginationProfile] = {}
         self._scorers: dict[str, ScoringFunction] = {}
 
@@ -88,7 +90,18 @@ class Pipeline:
         """
         _check_names(affordances)
         for a in affordances:
-            self.provider.affordance_name(a)
+            if self.profile_folder(a) is None:  # a folder imagines a name the provider may not know
+                self.provider.affordance_name(a)
+
+    def profile_folder(self, affordance: str) -> Path | None:
+        """The run's profile folder for ``affordance`` (by the name requested or the provider's), if any."""
+        if self.config.profile_dir is None:
+            return None
+        try:
+            names = {affordance, self.provider.affordance_name(affordance)}
+        except UnknownAffordanceError:
+            names = {affordance}
+        return profiles.find_folder(self.config.profile_dir, names)
 
     # ---- per-object work ------------------------------------------------------------
     def load(self, item: ObjectInput | RailObject | str | Path) -> RailObject:
@@ -107,14 +120,19 @@ class Pipeline:
     # ---- per-affordance work --------------------------------------------------------
     def profile(self, affordance: str, obb_dims: Sequence[float] | np.ndarray) -> ImaginationProfile:
         """A profile for this affordance, reused for objects of similar size and for every spelling
-        of the name that the provider resolves alike ("mug" and "cup" share one)."""
+        of the name that the provider resolves alike ("mug" and "cup" share one); imported from the run's
+        profile folder for it when there is one (:mod:`rail_mj.profiles`)."""
+        folder = self.profile_folder(affordance)
         scale = request_scale(self.config.agent, self.config.owner)
-        task = llm.task_description(affordance, obb_dims, self.provider, scale=scale)
+        task = (llm.task_description(affordance, obb_dims, self.provider, scale=scale) if folder is None
+                else profiles.folder_task(affordance, obb_dims, self.provider, scale=scale))
         b = math.log1p(self.config.profile_bin)
         # lower case: a novel name (an LLM provider's) is kept as written, in any case
         key = (task.affordance.lower(), task.scale, *(round(math.log(max(d, 1e-4)) / b) for d in task.obb_dims))
         if key not in self._profiles:
-            self._profiles[key] = llm.task_profile(task, self.provider)
+            self._profiles[key] = (llm.task_profile(task, self.provider) if folder is None else
+                                   profiles.import_profile(folder, task, self.provider,
+                                                           origin=self.config.profile_origin))
         return self._profiles[key]
 
     def scorer(self, source: str) -> ScoringFunction:
@@ -261,6 +279,7 @@ def classify(
     executor: str = "local",
     ray_address: str | None = None,
     affordances_files: Sequence[str | Path] = (),
+    profile_dir: str | Path | None = None,
 ) -> list[AffordanceResult]:
     """Classify every object for every requested affordance; results object-major, in input order.
 
@@ -272,6 +291,9 @@ def classify(
     the scale in its place (:func:`rail_mj.affordances.request_scale`). They default to the ``config``'s
     (``stable``, no agent, no owner). ``affordances_files`` (TOML, :mod:`rail_mj.affordances.files`) are
     added to the config's: their rows are registered before the names are checked, here and in every worker.
+    ``profile_dir`` (else the config's) is a profile folder in the paper authors' format or a folder of them named
+    by affordance (:mod:`rail_mj.profiles`): an affordance with a folder is imagined from it; the stages it lacks
+    and the other affordances come from the provider.
 
     ``progress`` is ``True`` for a progress bar, ``False`` for none, or a callback
     ``(done, total, result)`` called after each (object, affordance), as objects finish.
@@ -295,7 +317,11 @@ def classify(
         update["owner"] = owner
     if affordances_files:
         update["affordances_files"] = [*(config or RunConfig()).affordances_files, *map(Path, affordances_files)]
+    if profile_dir is not None:
+        update["profile_dir"] = Path(profile_dir)
     cfg = RunConfig.model_validate({**(config or RunConfig()).model_dump(exclude_unset=True), **update})
+    # set, not defaulted: a worker elsewhere has no $RAIL_MJ_PROFILE_DIR of this process
+    cfg = cfg.model_copy(update={"profile_dir": cfg.profile_dir})
     pipe = Pipeline(cfg)
     pipe.check_affordances(affordances)
     task_cfg = cfg.model_copy(update={"provider": pipe.provider_name, "backend": pipe.backend})

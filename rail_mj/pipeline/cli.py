@@ -6,7 +6,9 @@ line was wrong (an empty or unknown affordance, a bad option value) and nothing 
 A picture asked for (``--render``, ``--contact-sheet``) or a scene (``--save-scene DIR``) of a result
 that has nothing to draw (its dimension check failed, so nothing was imagined) is not written; a line on
 stderr says why, and that alone is not a failure. ``--save-scene`` refuses a non-empty DIR that holds no
-previous scene.xml before any work (exit 2).
+previous scene.xml before any work (exit 2). ``--profile-dir`` that is no profile folder is refused before
+any work (exit 2); a broken file in it is the error of the cases it serves. A profile that ``--save-profile``
+cannot write (an agent shape URDF lacks) is an ``error:`` line and exit 1; the others are written.
 """
 
 from __future__ import annotations
@@ -117,6 +119,37 @@ def _outputs(args: argparse.Namespace, results) -> None:
               file=sys.stderr)
 
 
+def _save_profiles(args: argparse.Namespace, results) -> bool:
+    """Write the profile of each result that has one as DIR/<affordance>/, its via-points for the pose shown
+    (the functional one, else the best-scoring one); False when one could not be written (its error printed)."""
+    from rail_mj.mesh import load_object
+    from rail_mj.pipeline.chain import Pipeline
+    from rail_mj.pipeline.config import RunConfig
+    from rail_mj.profiles import save_profile
+
+    done = [r for r in results if not r.error]
+    if not done:
+        print(f"no profile written to {args.save_profile}: every case failed", file=sys.stderr)
+        return True
+    obj = load_object(args.mesh, units=args.units, up=args.up)
+    pipe = Pipeline(RunConfig(provider=done[0].provider, backend=args.backend,
+                              profile_dir=args.profile_dir, profile_origin=args.profile_origin))
+    ok = True
+    for r in done:
+        pose = r.functional_pose or (r.stable_poses[r.evidence_pose] if r.evidence_pose is not None else None)
+        try:
+            folder = save_profile(pipe.profile(r.requested, obj.obb_dims),
+                                  args.save_profile / r.affordance.replace(" ", "_"),
+                                  half_extents=pose.half_extents if pose is not None else None,
+                                  origin=args.profile_origin)
+        except RailError as exc:  # e.g. an agent shape URDF lacks: that profile is not written, the rest are
+            print(f"error: {r.object}: {r.requested!r}: no profile written: {exc}", file=sys.stderr)
+            ok = False
+            continue
+        print(f"wrote {folder}", file=sys.stderr)
+    return ok
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python -m rail_mj", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -130,6 +163,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--affordances-file", action="append", type=Path, default=[], metavar="F",
                    help="an affordance file (TOML) whose rows are registered before the names are checked; "
                         "repeatable (examples/*.toml)")
+    p.add_argument("--profile-dir", type=Path, metavar="DIR",
+                   help="a profile folder in the paper authors' format (analysis.txt, agent.urdf, arrangement.json, "
+                        "plan.json / agents_traj.json, evaluation.py), or a folder of them named by affordance: "
+                        "an affordance with a folder is imagined from it, the rest from the provider")
+    p.add_argument("--profile-origin", choices=("ground", "center"), default="ground",
+                   help="where the folders' via-points start: the centre of the object's footprint on the ground "
+                        "(default) or the centre of its box")
+    p.add_argument("--save-profile", type=Path, metavar="DIR",
+                   help="write each affordance's profile as DIR/<affordance>/ in the same format (with rail_mj's "
+                        "scoring.py and rail_mj.json), for --profile-dir DIR to read back")
     p.add_argument("--units", type=_metres_per_unit, default=1.0, help="metres per mesh unit (0.001 for millimetres)")
     p.add_argument("--up", choices=("z", "y"), default="z", help="the mesh's up axis")
     p.add_argument("--provider", default="auto",
@@ -154,7 +197,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         p.error("the following arguments are required: --affordance/-a (or --rank)")
 
     from rail_mj.pipeline.chain import classify
-    from rail_mj.pipeline.config import ObjectInput
+    from rail_mj.pipeline.config import ObjectInput, RunConfig
     from rail_mj.pipeline.rank import rank
     from rail_mj.render.explain import explain, format_explanation
 
@@ -164,7 +207,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
             check_scene_dir(args.save_scene)  # before any work
         options = dict(provider=args.provider, backend=args.backend, progress=False,
-                       affordances_files=args.affordances_file)
+                       affordances_files=args.affordances_file, config=RunConfig(profile_origin=args.profile_origin),
+                       profile_dir=args.profile_dir)
         item = ObjectInput(path=args.mesh, units=args.units, up=args.up)
         if args.rank:
             results = rank([item], args.affordance, **options)[0].results
@@ -184,6 +228,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                 print(_describe(r))
         if args.render or args.contact_sheet or args.save_scene is not None:
             _outputs(args, results)
+        if args.save_profile is not None and not _save_profiles(args, results):
+            return EXIT_FAILED
     except (RailError, KeyboardInterrupt) as exc:
         return report_error(exc, json_out=args.json)
     return EXIT_OK if all(r.error is None for r in results) else EXIT_FAILED

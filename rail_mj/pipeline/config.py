@@ -15,6 +15,7 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from rail_mj.imagination.config import ImaginationConfig
 from rail_mj.mesh import DecompositionConfig
+from rail_mj.profiles import PROFILE_DIR_ENV, Origin, default_profile_dir
 from rail_mj.stable_poses.config import StablePoseConfig
 
 __all__ = ["PoseMode", "RunOptions", "RunConfig", "ObjectInput"]
@@ -24,7 +25,8 @@ PoseMode = Literal["stable", "as_placed"]
 
 
 class RunOptions(BaseModel):
-    """The run's own options (no stage's config): provider, backend, LLM, profile reuse, poses and agent."""
+    """The run's own options (no stage's config): provider, backend, LLM, profile reuse and folders, poses and
+    agent."""
 
     model_config = ConfigDict(extra="forbid")
 
@@ -53,10 +55,25 @@ class RunOptions(BaseModel):
                                           "every worker (absolute paths: a worker may run elsewhere)"
     )
 
+    profile_dir: Path | None = Field(
+        default_factory=default_profile_dir,
+        description="a profile folder in the paper authors' format, or a folder of them named by affordance "
+                    "(rail_mj.profiles): an affordance with a folder is imagined from it, the stages it lacks and "
+                    "the other affordances from the provider (absolute: a worker may run elsewhere; default "
+                    f"${PROFILE_DIR_ENV})")
+    profile_origin: Origin = Field(
+        default="ground", description="where the folders' via-points start: ground (the centre of the object's "
+                                      "footprint on the ground, z up) or center (the centre of its box)")
+
     @field_validator("affordances_files")
     @classmethod
     def _absolute(cls, paths: list[Path]) -> list[Path]:
         return [p.resolve() for p in paths]
+
+    @field_validator("profile_dir")
+    @classmethod
+    def _absolute_dir(cls, path: Path | None) -> Path | None:
+        return None if path is None else path.expanduser().resolve()
 
 
 def _run_drops() -> StablePoseConfig:

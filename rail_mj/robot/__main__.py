@@ -10,12 +10,14 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 from pathlib import Path
 
 from rail_mj.affordances import load_files
 from rail_mj.core.cli import EXIT_OK, report_error
 from rail_mj.core.errors import RailError
+from rail_mj.profiles import PROFILE_DIR_ENV, check_profile_dir
 from rail_mj.robot.control import RobotConfig
 from rail_mj.robot.demo import DEMO_AFFORDANCES, run_demo
 from rail_mj.robot.model import fetch_panda
@@ -49,6 +51,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--affordances-file", action="append", type=Path, default=[], metavar="F",
                         help="an affordance file (TOML) whose rows are registered before anything runs (an "
                              "override changes how a built-in affordance is imagined); repeatable")
+    parser.add_argument("--profile-dir", type=Path, metavar="DIR",
+                        help="a profile folder in the paper authors' format, or a folder of them named by affordance, "
+                             "that every imagination of the run reads (as $RAIL_MJ_PROFILE_DIR)")
     parser.add_argument("--trials", type=_positive(int), default=4, help="objects per affordance")
     parser.add_argument("--planner", choices=("imagined", "scripted"), default="imagined",
                         help="imagined: classify -> functional pose -> best plan (default); scripted: hand-written "
@@ -63,6 +68,8 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("give --fetch, --demo and/or --experiment")
     try:
         load_files(args.affordances_file)
+        if args.profile_dir is not None:
+            os.environ[PROFILE_DIR_ENV] = str(check_profile_dir(args.profile_dir))
         if args.fetch:
             print(f"Panda model downloaded and verified in {fetch_panda()}")
         if args.demo:

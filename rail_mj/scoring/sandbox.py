@@ -66,7 +66,7 @@ NUMPY_FUNCTIONS: frozenset[str] = frozenset(
         "arcsin", "arctan", "arctan2", "argmax", "argmin", "argsort", "around", "array",
         "asarray", "atleast_1d", "atleast_2d", "broadcast_to", "cbrt", "ceil", "clip",
         "column_stack", "concatenate", "cos", "cosh", "count_nonzero", "cross", "cumprod",
-        "cumsum", "deg2rad", "degrees", "diff", "divide", "dot", "einsum", "empty",
+        "cumsum", "deg2rad", "degrees", "diag", "diff", "divide", "dot", "einsum", "empty",
         "empty_like", "equal", "exp", "expand_dims", "fabs", "floor", "fmax", "fmin", "full",
         "full_like", "greater", "greater_equal", "hypot", "isclose", "isfinite", "isinf",
         "isnan", "less", "less_equal", "linspace", "log", "log10", "log1p", "log2",
