@@ -23,10 +23,12 @@ from pathlib import Path
 import pytest
 from eval_procs import GUARD_S, REPO, output, start_eval, wait_until
 
+from rail_mj.core.errors import ConfigError
 from rail_mj.core.paths import CACHE_ENV
 from rail_mj.dataset.procedural import generate
 from rail_mj.eval import run as rail_eval
 from rail_mj.eval.run import cases_without_timings as _cases
+from rail_mj.pipeline.parallel import _head_reachable
 
 ray = pytest.importorskip("ray")
 from ray.cluster_utils import Cluster  # noqa: E402 - only with Ray installed
@@ -195,3 +197,9 @@ def test_a_node_without_rail_mj_is_named(cluster, tmp_path, monkeypatch):
         assert f"node {cluster.head_node.node_id} " not in text  # the nodes with rail_mj are not blamed
     finally:
         cluster.remove_node(bare)
+
+
+@pytest.mark.parametrize("address", ["headnode", "ray://headnode", "headnode:port", ":6379"])
+def test_an_address_without_host_and_port_is_refused_with_the_forms_that_work(address):
+    with pytest.raises(ConfigError, match=r"give host:port .* or ray://host:10001"):
+        _head_reachable(address)
