@@ -29,10 +29,12 @@ RUN_ONLY = {"timing", "wall_s_this_run", "execution"}
 
 @pytest.fixture(scope="module")
 def cluster(tmp_path_factory):
-    """A local two-CPU Ray whose workers share this module's cache and can import the crashing object."""
+    """A local two-CPU Ray, with a HOME of its own, whose workers share this module's cache and can import the
+    crashing object."""
     cache, code = tmp_path_factory.mktemp("cache"), tmp_path_factory.mktemp("code")
     (code / "crashing_mesh.py").write_text(CRASHER)
     with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("HOME", str(tmp_path_factory.mktemp("home")))  # Ray's state (~/.ray) stays out of the next Ray
         mp.setenv(CACHE_ENV, str(cache))  # Ray's workers inherit this process's environment
         mp.setenv("PYTHONPATH", os.pathsep.join([str(code), os.environ.get("PYTHONPATH", "")]))
         mp.syspath_prepend(str(code))

@@ -36,6 +36,7 @@ __all__ = [
     "fsync_dir",
     "write_synced",
     "atomic_write_text",
+    "atomic_write_bytes",
     "staging_dir",
     "publish",
     "folder_lock",
@@ -67,11 +68,19 @@ def write_synced(path: Path, text: str) -> None:
 
 def atomic_write_text(path: Path, text: str) -> None:
     """Replace ``path`` with ``text`` in one step (temporary file in the same folder, fsync, ``os.replace``)."""
+    atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def atomic_write_bytes(path: Path, data: bytes) -> None:
+    """Replace ``path`` with ``data`` in one step, like :func:`atomic_write_text`. Each writer has its own
+    temporary file, so two processes writing the same path at once leave one's data whole, never a mix."""
     path = Path(path)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    os.close(fd)
     try:
-        write_synced(Path(tmp), text)
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

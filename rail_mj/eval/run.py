@@ -53,7 +53,7 @@ from rail_mj.eval.report import write_report
 from rail_mj.eval.summary import _line, summarize
 from rail_mj.pipeline.chain import Pipeline, object_task
 from rail_mj.pipeline.config import ObjectInput, RunConfig, RunOptions
-from rail_mj.pipeline.parallel import check_executor, cpu_count, plan_workers, run_tasks
+from rail_mj.pipeline.parallel import Placement, check_executor, cpu_count, plan_workers, run_tasks
 from rail_mj.stable_poses import StablePoseConfig
 
 __all__ = [
@@ -273,7 +273,9 @@ def _run_locked(
     # visibly instead of falling back to another provider
     task_cfg = run_cfg.model_copy(update={"provider": pipe.provider_name, "backend": pipe.backend})
     tasks = [
-        object_task(i, ObjectInput(path=root / r.mesh, units=r.units, up=r.up, name=r.mesh), affs, task_cfg)
+        # absolute: a Ray worker resolves a relative path against its own folder, not this process's
+        object_task(i, ObjectInput(path=root.resolve() / r.mesh, units=r.units, up=r.up, name=r.mesh), affs,
+                    task_cfg)
         for i, (r, affs) in enumerate(pending)
     ]
     if executor == "local":
@@ -282,6 +284,7 @@ def _run_locked(
     else:
         execution = {"executor": executor, "address": ray_address, "local_cpus": workers}
     execution["shard"] = f"{shard[0]}/{shard[1]}" if shard else None
+    placement = Placement()  # filled by a Ray run: which node ran which object
     bar = None
     if progress:
         from tqdm.auto import tqdm
@@ -293,7 +296,8 @@ def _run_locked(
         with ExitStack() as stack:
             fh = stack.enter_context(results_path.open("a", encoding="utf-8"))
             stream = stack.enter_context(
-                closing(run_tasks(tasks, workers=workers, executor=executor, ray_address=ray_address))
+                closing(run_tasks(tasks, workers=workers, executor=executor, ray_address=ray_address,
+                                  placement=placement))
             )
             for task, results in stream:
                 record = pending[task.index][0]
@@ -318,6 +322,10 @@ def _run_locked(
     summary["n_expected"] = len(expected)
     summary["wall_s_this_run"] = time.perf_counter() - t0  # a wall time, not a stage: kept out of "timing"
     summary["complete"] = not interrupted and all(counts[k] == 1 for k in expected)
+    if executor == "ray":
+        mesh = {t.label: pending[t.index][0].mesh for t in tasks}  # the dataset's names, as in results.jsonl
+        execution.update(nodes={node: [mesh[label] for label in labels] for node, labels in placement.nodes.items()},
+                         node_ips=placement.node_ips, lost_nodes=placement.lost)
     summary["execution"] = execution
     atomic_write_text(out / "summary.json", json.dumps(summary, indent=2))
     write_report(out, summary, lines, root, render=cfg.render and not interrupted)

@@ -25,6 +25,7 @@ from scipy.spatial import ConvexHull, QhullError
 
 from rail_mj.core.errors import ConfigError, DecompositionError, DecompositionTimeout
 from rail_mj.core.paths import cache_dir
+from rail_mj.core.runfiles import atomic_write_bytes
 from rail_mj.mesh.repair import _body_labels, _decimate
 
 __all__ = [
@@ -320,9 +321,11 @@ def decompose(mesh: trimesh.Trimesh, config: DecompositionConfig | None = None) 
             f"decomposition gave no usable hull ({len(raw)} raw parts, all flat or tiny); "
             "check the mesh has volume or lower DecompositionConfig.threshold"
         )
-    tmp = path.with_suffix(f".{np.random.default_rng().integers(1 << 62)}.tmp.npz")
-    np.savez(tmp, **{f"hull{i}": h for i, h in enumerate(hulls)})
-    tmp.replace(path)  # atomic: a concurrent reader never sees a half-written file
+    data = io.BytesIO()
+    np.savez(data, **{f"hull{i}": h for i, h in enumerate(hulls)})
+    # atomic and fsynced: a concurrent reader, another worker or a node on shared storage writing the same key,
+    # a power cut: none sees or leaves half a file
+    atomic_write_bytes(path, data.getvalue())
     return tuple(hulls)
 
 
