@@ -134,7 +134,7 @@ def _rows() -> tuple[Affordance, ...]:
                    # buttock-heel length, 0.6 of stature (Pheasant, Bodyspace); a console on its back, whose
                    # compartments hold water, parts it into basins 0.6-0.9 m long
                    params=ContainerParams(droplets=Droplets(scale=0.05, max_radius=LIQUID_RADIUS),
-                                          holds_water=True, basin_length=0.6 * PERSON_HEIGHT),
+                                          holds_water=True, basin_length=0.6 * PERSON_HEIGHT),  # Bodyspace
                    # a person lies in it: a rim at knee to hip height (0.35-0.8 m), wider than the hips (0.5 m),
                    # longer than a sitting bather (1.25 m) and than a lying one (2.5 m) at most
                    envelope=Envelope(height=(0.35, 0.8), width=(0.5, inf), length=(1.25, 2.5))),

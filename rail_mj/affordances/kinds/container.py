@@ -157,7 +157,7 @@ class Container(Kind):
 
     def layout(self, shape: AgentShape) -> AgentLayout:
         """A 3×3×3 grid, 0.4 droplet diameters apart (they fall as a loose pour, not a block); droplets pile up."""
-        s = round(2.4 * shape.radius, 5)
+        s = round(2.4 * shape.radius, 5)  # centres 1.2 diameters apart
         return AgentLayout(nx=_GRID, ny=_GRID, nz=_GRID, sx=s, sy=s, sz=s, collide_agents=True)
 
     def plans(self, shape: AgentShape) -> list[MotionPlan]:
