@@ -40,7 +40,8 @@ class Storage(Kind):
 
     def agent(self, aff: Affordance, dims: Sequence[float]) -> AgentShape:
         # a book or a jar, 20 cm at most, and a fifth of the thinnest side (never taller than a shelf allows)
-        return box_agent("item", (min(0.1, 0.2 * dims[2]),) * 3)
+        side = min(0.1, 0.2 * dims[2])
+        return box_agent("item", (side, side, side))
 
     def plans(self, shape: AgentShape) -> list[MotionPlan]:
         plans = [MotionPlan(name=side, description=f"Start at the {side} of the object at mid height; push the "
