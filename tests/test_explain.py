@@ -42,8 +42,8 @@ def test_explain_splits_the_reasons_by_pose_and_names_the_envelope() -> None:
     )
     e = explain(r)
     assert [p.up for p in e.poses] == ["+z", "-y"]
-    assert e.poses[0].box_size_m == [0.08, 0.08, 0.1] and e.poses[0].envelope == "fits"
-    assert e.poses[1].envelope == "in this pose its height is 0.040; a cup has 0.06-0.16"
+    assert e.poses[0].box_size_m == [0.08, 0.08, 0.1] and e.poses[0].envelope.endswith("-> prior 1.00")
+    assert e.poses[1].envelope.startswith("height 0.04 (typical 0.06-0.16, width 10%): 0.0")
     assert e.poses[0].scores == {"above": 0.4, "above_front": -1.0}
     assert e.poses[0].analyzer == "above: 90% of droplets rest inside" and e.poses[1].analyzer == ""
     assert e.reasons == ["no other pose"] and e.verdict == "not functional"
@@ -58,8 +58,8 @@ def test_explain_judges_a_vessels_aspect_at_its_rim_as_the_analyser_does() -> No
                          stable_poses=[_pose(0, [0, 0, 1], half, 1.0, rim=0.07), _pose(1, [0, 0, 1], half, 0.0)],
                          plans=["above"], scores=[[0.5], [0.5]])
     e = explain(r)
-    assert e.poses[0].envelope == "fits"
-    assert e.poses[1].envelope.startswith("in this pose its height/width is 0.778")
+    assert e.poses[0].envelope.endswith("-> prior 1.00")
+    assert "height/width 0.778 (typical 0-0.55" in e.poses[1].envelope
     assert AffordanceResult.model_validate_json(r.model_dump_json()).stable_poses[0].basin.rim == 0.07
 
 
@@ -83,7 +83,8 @@ def test_cli_explain_prints_every_pose_scores_rules_and_verdict(block: Path, cap
     assert rail_main([str(block), "-a", "plate", "--explain", "--provider", "offline"]) == 0
     out = capsys.readouterr().out
     assert "'plate'" in out and "verdict: " in out
-    assert out.count("  pose ") >= 2 and "envelope: " in out and "scores: above " in out
+    assert out.count("  pose ") >= 2 and "envelope prior: " in out and "scores: above " in out
+    assert "probability " in out
     assert "analyser: " in out or "rule: " in out
 
 

@@ -83,7 +83,7 @@ def test_the_offline_provider_answers_every_stage_for_a_row_of_the_new_kind(plan
     assert profile.analysis.fits and profile.agent.name == "plant"
     assert [p.name for p in profile.plans.plans] == ["above", "above_front", "above_back", "above_left",
                                                      "above_right"]
-    assert "a plant stand" in profile.scoring.description
+    assert "plant rests" in profile.scoring.description  # the physics; the row's sizes are its prior
 
     def candidate(plan: str, mean_height: float, on_ground: float) -> CandidateInteraction:
         summary = ResultSummary(frac_inside_bbox=0.0, frac_on_ground=on_ground, frac_touching_object=1.0,

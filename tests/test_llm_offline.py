@@ -8,8 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from rail_mj.affordances import LIQUID_RADIUS, PAPER_AFFORDANCES, REGISTRY
+from rail_mj.affordances import ANY, LIQUID_RADIUS, PAPER_AFFORDANCES, REGISTRY
 from rail_mj.affordances.kinds import ContainerParams
+from rail_mj.affordances.prior import NEGLIGIBLE
 from rail_mj.core.errors import ConfigError, UnknownAffordanceError
 from rail_mj.core.profile import AgentLayout, CandidateInteraction, PoseCandidates, ResultSummary
 from rail_mj.core.results import BasinInfo
@@ -30,11 +31,23 @@ from rail_mj.llm.checks import InvalidAnswerError, check_layout, check_trajector
 from rail_mj.scoring import compile_scoring
 
 
+def _across(rng: tuple[float, float], where: float) -> float:
+    """``where`` in [0, 1] across a range in log scale; an open side is a factor 2 from the other."""
+    lo, hi = rng
+    lo, hi = (lo or hi / 2), (hi if math.isfinite(hi) else 2 * lo)
+    return lo * (hi / lo) ** where
+
+
 def _dims(name: str, where: float) -> list[float]:
-    """Plausible sorted dims for an affordance: ``where`` in [0, 1] across its size ranges (log scale)."""
+    """Plausible sorted dims for an affordance: ``where`` in [0, 1] across its typical ranges (log scale): the OBB's
+    largest and smallest, or the envelope's height, width and length."""
     spec = REGISTRY[name]
-    big = spec.largest[0] * (spec.largest[1] / spec.largest[0]) ** where
-    small = spec.smallest[0] * (spec.smallest[1] / spec.smallest[0]) ** where
+    env = spec.envelope
+    if env.ranges():
+        width = _across(env.width if env.width != ANY else env.length, where)
+        length = _across(env.length, where) if env.length != ANY else width
+        return sorted((_across(env.height, where), width, max(width, length)), reverse=True)
+    big, small = _across(spec.largest, where), _across(spec.smallest, where)
     small = min(small, big)
     return [big, math.sqrt(big * small), small]
 
@@ -107,9 +120,9 @@ def test_unknown_affordance_lists_known_ones_and_the_llm_route():
 ])
 def test_dimension_check_and_alternative(name, dims, alternative):
     profile = generate_profile(name, dims)
-    assert not profile.analysis.fits
+    assert not profile.analysis.fits and "prior" in profile.analysis.reason
     assert profile.analysis.alternative == alternative
-    assert profile.affordance == name  # still imagined as asked; the caller decides
+    assert profile.affordance == name  # still imagined as asked; the chain decides by the prior
 
 
 @pytest.mark.parametrize("name", ["bowl", "basket"])
@@ -188,9 +201,13 @@ def test_seat_scoring_height_and_uprightness():
 
 
 def test_plate_must_be_low():
+    """Low is the plate's prior, not its scoring: a plate on its edge whose rim holds the food scores by the
+    physics, and its pose is a 25 cm tall "plate", past every plate's height."""
     food_on_plate = [[0.0, 0.0, 0.02]]
-    assert _score("plate", [0.25, 0.25, 0.03], _outcomes(food_on_plate, [0.125, 0.125, 0.015])) > 0
-    assert _score("plate", [0.25, 0.25, 0.03], _outcomes([[0.0, 0.0, 0.1]], [0.125, 0.015, 0.125])) < 0
+    flat, edge = [0.125, 0.125, 0.015], [0.125, 0.015, 0.125]
+    assert _score("plate", [0.25, 0.25, 0.03], _outcomes(food_on_plate, flat)) > 0
+    assert _score("plate", [0.25, 0.25, 0.03], _outcomes([[0.0, 0.0, 0.1]], edge)) > 0
+    assert REGISTRY["plate"].pose_prior(flat).value == 1.0 and REGISTRY["plate"].pose_prior(edge).value < NEGLIGIBLE
 
 
 def _candidate(plan, start, score=0.4, **summary) -> CandidateInteraction:
@@ -234,17 +251,21 @@ def test_functional_pose_rules_for_a_chair_and_no_valid_pose():
     assert none.best_pose is None and none.best_plan is None
 
 
-def test_pose_size_envelope_in_scoring_and_analyzer():
+def test_pose_size_envelope_is_a_prior_not_a_mask():
+    """Droplets held are a success in the scoring and in stage 7 whatever the pose's size; the sizes are the
+    pose's prior, which keeps a cup from being a bowl and a bowl from being a cup."""
     inside = np.random.default_rng(1).uniform(-0.03, 0.03, (27, 3))
     cup_pose, bowl_pose = [0.04, 0.04, 0.05], [0.1, 0.1, 0.04]  # 8 x 10 cm cup; 20 cm wide, 8 cm tall bowl
-    assert _score("cup", [0.1, 0.08, 0.08], _outcomes(inside, cup_pose)) > 0
-    assert _score("cup", [0.2, 0.2, 0.08], _outcomes(inside, bowl_pose)) < 0  # too wide and shallow for a cup
-    assert _score("bowl", [0.2, 0.2, 0.08], _outcomes(inside, bowl_pose)) > 0
-    assert _score("bowl", [0.1, 0.08, 0.08], _outcomes(inside, cup_pose)) < 0  # too narrow and deep for a bowl
+    for name in ("cup", "bowl"):
+        assert _score(name, [0.1, 0.08, 0.08], _outcomes(inside, cup_pose)) > 0
+        assert _score(name, [0.2, 0.2, 0.08], _outcomes(inside, bowl_pose)) > 0
+    assert REGISTRY["cup"].pose_prior(bowl_pose).value < 0.5 < REGISTRY["cup"].pose_prior(cup_pose).value
+    assert REGISTRY["bowl"].pose_prior(cup_pose).value < 0.5 < REGISTRY["bowl"].pose_prior(bowl_pose).value
     filled = _candidate("above", [0.0, 0.0, 0.1])
     verdict = analyze_functional_poses(FunctionalPoseRequest(affordance="bowl", expected_outcome="filled", poses=[
-        PoseCandidates(pose_index=0, probability=1.0, half_extents=cup_pose, candidates=[filled])]))
-    assert verdict.best_pose is None and "width" in verdict.poses[0].reason
+        PoseCandidates(pose_index=0, probability=1.0, half_extents=cup_pose, candidates=[filled],
+                       basin=BasinInfo(rim=0.1, opening=[0.0, 0.0], length=0.07))]))
+    assert verdict.best_pose == 0  # the physics holds; the chain weighs the pose by its prior
 
 
 def test_table_needs_a_wide_top_and_plate_a_solid_centre():

@@ -66,7 +66,7 @@ def test_the_new_rows_are_registered_beyond_the_paper():
     assert len(set(REGISTRY) - set(PAPER_AFFORDANCES)) >= 13
     for name in NEW:
         row = REGISTRY[name]
-        assert row.ibd.startswith(f"A {name} ") and row.envelope.terms(), name
+        assert row.ibd.startswith(f"A {name} ") and row.envelope.ranges(), name
 
 
 @pytest.mark.parametrize("name", NEW)

@@ -144,7 +144,8 @@ def test_a_non_empty_directory_is_refused_unless_it_holds_a_previous_scene(block
 
 def test_a_result_with_nothing_to_draw_is_a_clear_error(cup, tmp_path: Path) -> None:
     obj, result = cup
-    failed = result.model_copy(update={"dims_fit": False, "analyzer_reasons": ["too small for a bathtub"]})
+    failed = result.model_copy(update={"dims_fit": False, "scores": [],  # an absurd size: nothing was imagined
+                                       "analyzer_reasons": ["too small for a bathtub"]})
     with pytest.raises(RailError, match="nothing to draw: the dimension check failed.*too small for a bathtub"):
         save_scene(obj, failed, tmp_path / "x")
     with pytest.raises(RailError, match="nothing to draw: the case failed"):

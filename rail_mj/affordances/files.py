@@ -9,13 +9,14 @@ the file, the row, the field and what is valid). A file holds one ``[[affordance
     aliases = ["bird bath"]         # optional; other names get() and the request parser accept
     kind = "container"              # a registered kind (rail_mj.affordances.kinds.KINDS)
     ibd = "A birdbath holds ..."    # the interaction-based definition
-    largest = [0.3, 0.9]            # m: range of the largest OBB dim, 0 < lo <= hi (stage 1's check)
-    smallest = [0.05, 0.8]          # m: range of the smallest OBB dim
+    largest = [0.3, 0.9]            # optional, m: typical range of the largest OBB dim, 0 < lo <= hi
+    smallest = [0.05, 0.8]          # optional, m: of the smallest OBB dim (both are stage 1's size prior)
     override = false                # optional: true replaces the registered row its names clash with
 
     [affordance.envelope]           # optional: height, width, length, rest (m) and aspect (H / W),
     height = [0.03, 0.95]           # each [lo, hi] with 0 <= lo <= hi (hi may be inf); left out: any
-    aspect = [0.0, 1.0]
+    aspect = [0.0, 1.0]             # typical ranges: priors, never vetoes (rail_mj.affordances.prior)
+    widths = {height = 0.25}        # optional: a quantity's prior width, if not the default one
 
     [affordance.params]             # optional: the kind's own fields (Kind.params_model), nested tables
     holds_water = true              # for nested models (a container's [affordance.params.droplets])
@@ -42,16 +43,16 @@ from typing import Any
 from rail_mj.affordances.envelope import ANY, Envelope, Range
 from rail_mj.affordances.kinds import KINDS
 from rail_mj.affordances.row import Affordance
-from rail_mj.core.errors import AffordanceFileError
+from rail_mj.core.errors import AffordanceFileError, ConfigError
 
 __all__ = ["ENTRY_POINT_GROUP", "FIELDS", "FileRow", "parse", "read", "entry_point_rows"]
 
 #: The entry-point group through which installed packages register affordances.
 ENTRY_POINT_GROUP = "rail_mj.affordances"
-_REQUIRED = ("name", "kind", "ibd", "largest", "smallest")
+_REQUIRED = ("name", "kind", "ibd")
 #: Every key an ``[[affordance]]`` table may have.
-FIELDS = (*_REQUIRED, "aliases", "envelope", "params", "override")
-_ENVELOPE = tuple(f.name for f in dataclasses.fields(Envelope))
+FIELDS = (*_REQUIRED, "largest", "smallest", "aliases", "envelope", "params", "override")
+_ENVELOPE = tuple(f.name for f in dataclasses.fields(Envelope) if f.name != "widths")
 
 
 @dataclass(frozen=True)
@@ -102,15 +103,24 @@ def _size_range(value: Any, where: _Where, field: str) -> Range:
 def _envelope(value: Any, where: _Where) -> Envelope:
     if not isinstance(value, dict):
         raise where.fail("envelope", f"must be a table ([affordance.envelope]); got {value!r}")
-    unknown = sorted(set(value) - set(_ENVELOPE))
+    unknown = sorted(set(value) - {*_ENVELOPE, "widths"})
     if unknown:
-        raise where.fail("envelope", f"unknown key {', '.join(map(repr, unknown))}; valid: {', '.join(_ENVELOPE)}")
+        raise where.fail("envelope", f"unknown key {', '.join(map(repr, unknown))}; valid: "
+                                     f"{', '.join(_ENVELOPE)}, widths")
+    widths = value.get("widths", {})
+    if not isinstance(widths, dict):
+        raise where.fail("envelope.widths", f"must be a table of quantity = width; got {widths!r}")
     ranges = {}
     for key, r in value.items():
+        if key == "widths":
+            continue
         if not (isinstance(r, list) and len(r) == 2 and all(_number(v) for v in r) and 0 <= r[0] <= r[1]):
             raise where.fail(f"envelope.{key}", f"must be [lo, hi] with 0 <= lo <= hi (hi may be inf); got {r!r}")
         ranges[key] = (float(r[0]), float(r[1]))
-    return Envelope(**{key: ranges.get(key, ANY) for key in _ENVELOPE})
+    try:
+        return Envelope(**{key: ranges.get(key, ANY) for key in _ENVELOPE}, widths=tuple(widths.items()))
+    except ConfigError as exc:
+        raise where.fail("envelope.widths", str(exc)) from None
 
 
 def _field_value(kind: Any, value: Any, where: _Where, field: str) -> Any:
@@ -171,8 +181,9 @@ def _row(table: Any, where: _Where) -> FileRow:
         raise where.fail("override", f"must be true or false; got {override!r}")
     params = _model(KINDS[kind].params_model, table.get("params", {}), where, "params")
     return FileRow(Affordance(
-        table["name"], kind, table["ibd"].strip(), _size_range(table["largest"], where, "largest"),
-        _size_range(table["smallest"], where, "smallest"), envelope=_envelope(table.get("envelope", {}), where),
+        table["name"], kind, table["ibd"].strip(),
+        *(_size_range(table[k], where, k) if k in table else ANY for k in ("largest", "smallest")),
+        envelope=_envelope(table.get("envelope", {}), where),
         aliases=tuple(aliases), params=params,
     ), override)
 

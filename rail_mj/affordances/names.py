@@ -231,7 +231,7 @@ def _drop_articles(words: list[str]) -> list[str]:
 
 def singular(word: str) -> str:
     """A simple English singular: teddies -> teddy, boxes -> box, apples -> apple; glass, water stay."""
-    if len(word) > 3 and word.endswith("ies"):
+    if len(word) > len("ies") and word.endswith("ies"):
         return word[:-3] + "y"
     if re.search(r"(ss|x|ch|sh)es$", word):
         return word[:-2]

@@ -8,6 +8,10 @@ Gaussian in log-size, so that a size ``1 + width`` times past an edge keeps half
 
 It is continuous at the edges (no cliff), and a size far outside the range (a 2 m "cup") is near 0 without
 ever being a veto. The prior of several sizes is the product of their plausibilities.
+
+How the pipeline uses a prior (:mod:`rail_mj.pipeline.chain`): below :data:`NEGLIGIBLE` the physics is not
+run (the probability, at most the prior, is reported as the prior); otherwise a pose's probability is the
+prior times its physics, and a use is functional when that is at least :data:`FUNCTIONAL`.
 """
 
 from __future__ import annotations
@@ -18,22 +22,39 @@ from dataclasses import dataclass
 
 from rail_mj.core.errors import ConfigError
 
-__all__ = ["DEFAULT_WIDTH", "Factor", "Prior", "plausibility", "check_width"]
+__all__ = ["DEFAULT_WIDTH", "ASPECT_WIDTH", "NEGLIGIBLE", "FUNCTIONAL", "WIDTH_RANGE", "Factor", "Prior",
+           "plausibility", "check_width", "width_of"]
 
-#: Half the plausibility is gone this far past a range, as a fraction of the bound (a 25% larger cup is half as
-#: plausible): the spread of one class's real sizes past its typical range, unless a quantity states its own.
-DEFAULT_WIDTH = 0.25
+#: Half the plausibility of a length is gone this far past its range, as a fraction of the bound. Things of
+#: everyday use are sized to the body that uses them (a hand, a seat, a lying person), and their typical range
+#: already spans the 5th to 95th percentile of users; past it they fit fewer users as fast as body sizes thin
+#: out: adult body dimensions have a coefficient of variation of about 5% (Pheasant, Bodyspace, 3rd ed.,
+#: tables 2.x), and half is gone two of them past the range.
+DEFAULT_WIDTH = 0.1
+#: A ratio of two lengths (height/width) spreads as both do, independently: ln(1 + w) grows by sqrt(2).
+ASPECT_WIDTH = (1.0 + DEFAULT_WIDTH) ** math.sqrt(2.0) - 1.0
+#: A prior below this is no use worth imagining: a size about 2.6 widths past its range (2 ** -6.6), a 30%
+#: larger or smaller object than any of its class; the physics is skipped and the prior is the probability.
+NEGLIGIBLE = 0.01
+#: A use is functional when its probability is at least this: more likely than not.
+FUNCTIONAL = 0.5
 #: Widths outside this range are no prior: 1% would be a cliff again, a factor 10 would accept anything.
-_WIDTH_RANGE = (0.01, 10.0)
+WIDTH_RANGE = (0.01, 10.0)
 
 
 def check_width(width: float) -> float:
     """``width`` if it is a usable prior width, else a ConfigError naming the valid range."""
-    lo, hi = _WIDTH_RANGE
+    lo, hi = WIDTH_RANGE
     if isinstance(width, bool) or not isinstance(width, (int, float)) or not lo <= width <= hi:
         raise ConfigError(f"a prior width must be a number in [{lo:g}, {hi:g}] (a fraction of the bound); "
                           f"got {width!r}")
     return float(width)
+
+
+def width_of(name: str) -> float:
+    """The width of a quantity by its name: :data:`ASPECT_WIDTH` for a ratio (``height/width``), else
+    :data:`DEFAULT_WIDTH`."""
+    return ASPECT_WIDTH if "/" in name else DEFAULT_WIDTH
 
 
 def plausibility(value: float, lo: float, hi: float, width: float = DEFAULT_WIDTH) -> float:

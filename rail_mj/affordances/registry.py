@@ -50,11 +50,35 @@ __all__ = [
     "FIGURE_HEIGHTS",
 ]
 
+#: A person's height (m): the registry's sizes are those of things a person uses.
+PERSON_HEIGHT = 1.7
+
 #: Largest droplet radius standing for a liquid, m: drops 9 mm across leak through 1 cm slots and holes.
 LIQUID_RADIUS = 0.0045
 
 #: Droplets of a liquid: small enough to leak through a basket's slots, the same size in any vessel.
 _LIQUID = Droplets(max_radius=LIQUID_RADIUS)
+
+#: A hand's grip (m): the widest rim one hand holds round (a cup's widest), the narrowest a bowl or a basket has.
+_GRIP = 0.125
+#: The span of two arms carrying a thing before the body (m): a basket's or a tray's widest.
+_ARMS = 0.6
+#: A dish's rim (m): a finger high, 1-4.5 cm from its foot to its rim (a plate's, a tray's).
+_DISH = (0.01, 0.045)
+#: Seat heights (m): the lowest a person sits on, a 5th-percentile woman's popliteal height (0.36 m), and the
+#: highest whose feet stand on the floor, a 95th-percentile man's with shoes (0.57 m; Pheasant, Bodyspace).
+_SEAT_LOW, _KNEE = 0.36, 0.57
+#: A seat's box (m): 0.4-1.3 m at its largest (a stool to an armchair's high back), 0.3-0.9 m at its smallest
+#: (a seat's width to an armchair's arms).
+_SEAT_LARGEST, _SEAT_SMALLEST = (0.4, 1.3), (0.3, 0.9)
+#: Storage furniture's largest side (m): a wall cabinet's 0.5 m to the highest board a person reaches (2.5 m).
+_FURNITURE = (0.5, 2.5)
+
+# Every size below is a typical range of real objects of the class (catalogue sizes), m, or a ratio for the
+# aspect (height / width): a prior, never a veto (rail_mj.affordances.prior). A bound left out is one the
+# physics decides (droplets that do not fit an opening, a seat too small for the sitter) or one another bound
+# implies (a box's length is never below its width). A row whose envelope leaves the box free states its OBB's
+# largest / smallest dims instead; no row states both.
 
 
 def _rows() -> tuple[Affordance, ...]:
@@ -63,120 +87,141 @@ def _rows() -> tuple[Affordance, ...]:
         Affordance("cup", "container", "A cup holds a small amount of liquid in an upward-facing cavity that can be "
                    "filled from above and keeps the liquid while resting on a table; it is held in one hand (rim at "
                    "most 12.5 cm across, 6-16 cm tall, taller than about half its width).",
-                   (0.06, 0.2), (0.03, 0.15), aliases=("mug",), paper=True,
-                   params=ContainerParams(droplets=_LIQUID, holds_water=True),
-                   # the rim's 12.5 cm is the width's bound (a handle lengthens the box, never widens it): a
-                   # 13 cm bowl 7 cm deep is no cup
-                   envelope=Envelope(height=(0.06, 0.16), width=(0.03, 0.125), length=(0.03, 0.2),
-                                     aspect=(0.5, inf))),
+                   aliases=("mug",), paper=True, params=ContainerParams(droplets=_LIQUID, holds_water=True),
+                   # held in one hand (its rim the width; a handle lengthens the box, never widens it); 6 cm (an
+                   # espresso cup) to 16 cm (a tall mug) deep enough to drink from
+                   envelope=Envelope(height=(0.06, 0.16), width=(0.0, _GRIP),
+                                     aspect=(0.5, inf))),  # a cup's wall is at least half its rim high
         Affordance("bowl", "container", "A bowl holds food or liquid in a wide, open, upward-facing cavity reachable "
                    "from above (rim 12.5-35 cm across, up to 50 cm long with a handle, at least 4 cm deep, height at "
-                   "most 0.55 of the rim).",
-                   # a saucepan's 15-22 cm pan and its 16-22 cm handle make 31-44 cm; the rim bounds the width
-                   (0.125, 0.5), (0.04, 0.2), paper=True,
-                   params=ContainerParams(droplets=_LIQUID, holds_water=True),
-                   envelope=Envelope(height=(0.04, 0.2), width=(0.125, 0.4), length=(0.125, 0.5),
-                                     aspect=(0.0, 0.55))),
+                   "most 0.55 of the rim).", paper=True, params=ContainerParams(droplets=_LIQUID, holds_water=True),
+                   # a rim wider than a hand's grip up to a serving bowl's 40 cm (a saucepan's handle lengthens
+                   # its box, never widens it); 4 cm (a soup plate's depth) to 20 cm deep; wide and shallow: the
+                   # wall at most 0.55 of the rim
+                   envelope=Envelope(height=(0.04, 0.2), width=(_GRIP, 0.4), aspect=(0.0, 0.55))),
         Affordance("vase", "container", "A vase holds water and flower stems in a deep cavity with an opening at the "
                    "top, often narrower than its body (15-80 cm tall, clearly taller than wide, its body rarely over "
-                   "23 cm across).", (0.15, 0.85), (0.03, 0.23), paper=True,
+                   "23 cm across).", paper=True,
+                   # droplets sized to a narrow neck: 3.5% of the body's width
                    params=ContainerParams(droplets=Droplets(scale=0.035, max_radius=LIQUID_RADIUS),
-                                           holds_water=True),
-                   envelope=Envelope(height=(0.15, 0.8), width=(0.03, 0.23), aspect=(1.2, inf))),
+                                          holds_water=True),
+                   # a bud vase's 15 cm to a floor vase's 80 cm; a body an arm holds (23 cm); taller than wide (1.2)
+                   envelope=Envelope(height=(0.15, 0.8), width=(0.0, 0.23), aspect=(1.2, inf))),
         Affordance("pot", "container", "A pot holds food or soil in an open cavity, filled from above (rim 15-45 cm, "
-                   "10-30 cm tall).", (0.15, 0.5), (0.1, 0.45), params=ContainerParams(droplets=_LIQUID),
+                   "10-30 cm tall).", params=ContainerParams(droplets=_LIQUID),
+                   # a cooking or flower pot: a 15-50 cm rim on a hob or a sill, 10-30 cm deep, 0.4 of its rim at least
                    envelope=Envelope(height=(0.1, 0.3), width=(0.15, 0.5), aspect=(0.4, inf))),
         Affordance("pen holder", "container", "A pen holder keeps pens upright in an open cavity filled from above "
-                   "(opening 4-12.5 cm, 7-16 cm tall).", (0.07, 0.2), (0.04, 0.15),
-                   aliases=("pencil holder", "pencil cup"),
-                   envelope=Envelope(height=(0.07, 0.16), width=(0.04, 0.15))),
+                   "(opening 4-12.5 cm, 7-16 cm tall).", aliases=("pencil holder", "pencil cup"),
+                   # a pen's 14 cm stands in it up to half its length (7-16 cm); a hand's grip wide at most (15 cm)
+                   envelope=Envelope(height=(0.07, 0.16), width=(0.0, 0.15))),
         Affordance("trash bin", "container", "A trash bin collects waste dropped through its top opening and keeps "
-                   "it inside (opening at least 18 cm, 30-90 cm tall).", (0.3, 1.0), (0.18, 0.8),
-                   aliases=("trash can", "garbage can", "bin"),
+                   "it inside (opening at least 18 cm, 30-90 cm tall).", aliases=("trash can", "garbage can", "bin"),
+                   # stands on the floor, its opening from a desk bin's knee height (30 cm) to a hip's (90 cm),
+                   # wider than a hand's full (18 cm) and narrower than a wheelie bin (80 cm)
                    envelope=Envelope(height=(0.3, 0.9), width=(0.18, 0.8))),
         Affordance("basket", "container", "A basket carries items in an open, often perforated cavity whose holes are "
                    "smaller than the items (opening over 12.5 cm, 4-35 cm deep, footprint at most 60 cm, not taller "
-                   "than wide).", (0.125, 0.65), (0.04, 0.6), paper=True,
+                   "than wide).", paper=True,
+                   # items, not liquid: 2.4 cm across at least, larger than a basket's weave or slots
                    params=ContainerParams(droplets=Droplets(min_radius=0.012)),
-                   envelope=Envelope(height=(0.04, 0.35), width=(0.125, 0.6), length=(0.125, 0.65),
-                                     aspect=(0.0, 1.0))),
+                   # carried in the arms: wider than a hand's grip, 4 cm (a bread basket) to 35 cm (a laundry
+                   # basket) deep, not taller than wide
+                   envelope=Envelope(height=(0.04, 0.35), width=(_GRIP, _ARMS), aspect=(0.0, 1.0))),
         Affordance("bathtub", "container", "A bathtub holds enough water for a person to bathe in a long open basin "
-                   "on the floor (over 1.2 m long inside, 0.35-0.8 m tall).", (1.25, 2.5), (0.35, 1.2),
-                   aliases=("bath tub", "tub"), paper=True,
-                   # a person lies in one basin, knees bent in a short one; a console on its back, whose
+                   "on the floor (over 1.2 m long inside, 0.35-0.8 m tall).", aliases=("bath tub", "tub"), paper=True,
+                   # droplets sized to a basin a person fills; the basin a bather sits in with legs stretched: their
+                   # buttock-heel length, 0.6 of stature (Pheasant, Bodyspace); a console on its back, whose
                    # compartments hold water, parts it into basins 0.6-0.9 m long
                    params=ContainerParams(droplets=Droplets(scale=0.05, max_radius=LIQUID_RADIUS),
-                                          holds_water=True, basin_length=1.0),
-                   envelope=Envelope(height=(0.35, 0.8), width=(0.5, 2.5), length=(1.25, 2.5))),
+                                          holds_water=True, basin_length=0.6 * PERSON_HEIGHT),  # Bodyspace
+                   # a person lies in it: a rim at knee to hip height (0.35-0.8 m), wider than the hips (0.5 m),
+                   # longer than a sitting bather (1.25 m) and than a lying one (2.5 m) at most
+                   envelope=Envelope(height=(0.35, 0.8), width=(0.5, inf), length=(1.25, 2.5))),
         Affordance("plate", "dish", "A plate holds food on a low, level, nearly flat surface (15-32 cm across, 1-4 cm "
-                   "tall).", (0.15, 0.32), (0.01, 0.045), aliases=("dish",), paper=True,
-                   envelope=Envelope(height=(0.01, 0.045), length=(0.15, 0.32))),
+                   "tall).", aliases=("dish",), paper=True,
+                   # a side plate's 15 cm to a charger's 32 cm
+                   envelope=Envelope(height=_DISH, length=(0.15, 0.32))),
         Affordance("table", "surface", "A table holds items on a level top surface 0.55-1.1 m high and at least "
                    "0.5 m across, with free space above it and room for a person's feet under its edge.",
-                   (0.55, 3.0), (0.3, 1.6), paper=True, params=SurfaceParams(legroom=True),
-                   # the top's depth against its height is no rule: a desk or a console is 0.55-0.6 m deep and
-                   # 0.6-0.77 m high; a bathtub on its side, which is as deep, has no room under its edge
-                   envelope=Envelope(height=(0.55, 1.12), width=(0.5, 3.0), rest=(0.54, 1.12))),
+                   paper=True, params=SurfaceParams(legroom=True),
+                   # its top at a seated person's elbow (a coffee table's 0.55 m) to a standing one's (a bar
+                   # table's 1.12 m), wide enough for a place setting (0.5 m); the top's depth against its height
+                   # is no rule: a desk or a console is 0.55-0.6 m deep and 0.6-0.77 m high
+                   envelope=Envelope(height=(0.55, 1.12), width=(0.5, inf))),
         Affordance("chair", "seat", "A chair lets one person sit: a level seat 0.3-0.7 m across, 0.38-0.55 m "
                    "high, up to 0.77 m for a counter or bar chair (feet on a rung, a back behind), usually with a "
                    "backrest.",
-                   (0.4, 1.3), (0.3, 0.9), paper=True,
                    # a seat for one by the seat kind's second-sitter test, not by the box: arms and a back
-                   # make an armchair's box 0.9 m wide around a 0.5 m seat. Counter and bar chairs seat a person
-                   # at 0.6-0.77 m (24-30 in), with a back; a pelvis on an armchair's 0.79 m back is no sitter
-                   envelope=Envelope(rest=(0.36, 0.78)), params=SeatParams(perch=0.57)),
-        # sizes as a chair's: an armchair or a bar chair is a stool too
+                   # make an armchair's box 0.9 m wide around a 0.5 m seat and 1.3 m high with a high back
+                   _SEAT_LARGEST, _SEAT_SMALLEST, paper=True,
+                   # counter and bar chairs seat a person at 0.6-0.77 m (24-30 in), with a back: above the knee
+                   # the feet hang, and a back is behind
+                   envelope=Envelope(rest=(_SEAT_LOW, 0.78)), params=SeatParams(perch=_KNEE)),
+        # an armchair or a bar chair is a stool too
         Affordance("stool", "seat", "A stool lets one person sit on a level seat 0.38-0.85 m high, without a "
-                   "backrest.", (0.3, 1.3), (0.25, 0.9), envelope=Envelope(rest=(0.36, 0.87))),
+                   # a footstool is lower and smaller than any chair: 0.3 m at its largest, a 0.25 m seat
+                   "backrest.", (0.3, _SEAT_LARGEST[1]), (0.25, _SEAT_SMALLEST[1]),
+                   envelope=Envelope(rest=(_SEAT_LOW, 0.87))),  # up to a bar stool's 0.87 m
         Affordance("bench", "seat", "A bench lets people sit side by side on a long level seat 0.38-0.55 m high.",
-                   # a bed's headboard makes its smallest side 0.9-1.2 m
-                   (0.9, 3.0), (0.25, 1.3), envelope=Envelope(rest=(0.36, 0.57)), params=SeatParams(persons=2)),
+                   # two people side by side (0.9 m) to a long garden bench (3 m); a bed's headboard makes its
+                   # smallest side 0.9-1.2 m, a backless bench's is its 0.25 m seat
+                   (0.9, 3.0), (0.25, 1.3), envelope=Envelope(rest=(_SEAT_LOW, _KNEE)), params=SeatParams(persons=2)),
         Affordance("bed", "lie", "A bed lets a person lie down on a large level surface a little above the floor.",
-                   (1.6, 2.6), (0.2, 1.2), envelope=Envelope(length=(1.6, 2.6), rest=(0.15, 0.9))),
+                   # a lying person (1.6 m, a child's bed) to a king size (2.6 m); a mattress on the floor (0.2 m)
+                   # to a headboard (1.2 m); the sleeper a little above the floor to a high bed (0.15-0.9 m)
+                   (1.6, 2.6), (0.2, 1.2), envelope=Envelope(rest=(0.15, 0.9))),
         Affordance("tray", "dish", "A tray carries items on a flat level base with a low rim (15-60 cm across, at "
-                   "most 4.5 cm tall).", (0.15, 0.6), (0.01, 0.045),
-                   envelope=Envelope(height=(0.01, 0.045), length=(0.15, 0.6))),
+                   "most 4.5 cm tall).",
+                   # carried in two hands: 15 cm (a tray for one cup) to the span of the arms
+                   envelope=Envelope(height=_DISH, length=(0.15, _ARMS))),
         Affordance("shelf", "storage", "A shelf stores items on level boards reached horizontally from the front.",
-                   (0.5, 2.5), (0.15, 0.8), aliases=("bookshelf",)),
+                   # a paperback's depth (0.15 m) to a storage rack's (0.8 m)
+                   _FURNITURE, (0.15, 0.8), aliases=("bookshelf",)),
         Affordance("cupboard", "storage", "A cupboard stores items inside an enclosure on level boards, reached "
-                   "through an opening at the front.", (0.5, 2.5), (0.3, 1.0), aliases=("cabinet",)),
-        # the bucket's height/width keeps a bowl (at most 0.55) and a tall narrow bin out
+                   "through an opening at the front.",
+                   # at least a plate's depth (0.3 m), within an arm's reach (1 m)
+                   _FURNITURE, (0.3, 1.0), aliases=("cabinet",)),
         Affordance("bucket", "container", "A bucket carries water or soil in an open, upward-facing cavity with a "
                    "flat base, filled from above and keeping its load while standing (opening 15-40 cm across, "
-                   "15-45 cm tall, about as tall as wide).", (0.15, 0.45), (0.14, 0.4), aliases=("pail",),
+                   "15-45 cm tall, about as tall as wide).", aliases=("pail",),
                    params=ContainerParams(droplets=_LIQUID, holds_water=True),
+                   # carried by a handle beside the leg: 15-45 cm tall, 14-40 cm across; about as tall as wide
+                   # (0.6-2), which keeps a bowl (at most 0.55) and a tall narrow bin out
                    envelope=Envelope(height=(0.15, 0.45), width=(0.14, 0.4), aspect=(0.6, 2.0))),
         Affordance("jar", "container", "A jar stores food or liquid in a standing cavity with a wide mouth at the "
                    "top, filled from above and keeping its contents (5-16 cm across, 7-30 cm tall, at least as "
-                   "tall as wide).", (0.07, 0.3), (0.05, 0.16), aliases=("mason jar", "jam jar"),
+                   "tall as wide).", aliases=("mason jar", "jam jar"),
                    params=ContainerParams(droplets=_LIQUID, holds_water=True),
-                   envelope=Envelope(height=(0.07, 0.3), width=(0.05, 0.16), aspect=(1.0, inf))),
+                   # a spice jar's 7 cm to a storage jar's 30 cm, a hand's grip wide (16 cm), as tall as wide
+                   envelope=Envelope(height=(0.07, 0.3), width=(0.0, 0.16), aspect=(1.0, inf))),
         Affordance("saucer", "dish", "A saucer holds a cup or a little food on a small, low dish with a shallow "
-                   "well inside a rim (10-18 cm across, 1-3.5 cm tall).", (0.1, 0.18), (0.01, 0.035),
+                   "well inside a rim (10-18 cm across, 1-3.5 cm tall).",
+                   # under a cup's foot (10 cm) to a side plate's size (18 cm), 1-3.5 cm high
                    envelope=Envelope(height=(0.01, 0.035), length=(0.1, 0.18))),
         Affordance("nightstand", "surface", "A nightstand holds a lamp, a book or a glass beside a bed on a level top "
                    "0.4-0.75 m high, 0.25-0.55 m deep and at most 0.8 m long, lower and smaller than a table.",
-                   (0.35, 0.8), (0.25, 0.55),
                    aliases=("night stand", "bedside table", "night table", "bedside cabinet"),
-                   envelope=Envelope(height=(0.4, 0.76), width=(0.25, 0.55), length=(0.3, 0.8),
-                                     rest=(0.39, 0.77))),
+                   # its top at a lying person's reach beside a bed's mattress (0.4-0.76 m), a lamp's foot deep
+                   # (0.25 m) to an arm's reach (0.55 m), no longer than a bed's side allows (0.8 m)
+                   envelope=Envelope(height=(0.4, 0.76), width=(0.25, 0.55), length=(0.0, 0.8))),
         # a surface on the counter: the item rests on its top, a few cm up, with no rim to keep it below
         Affordance("cutting board", "surface", "A cutting board holds food to be cut on a flat, level, rimless top "
-                   "that lies on the counter (20-60 cm long, 12-40 cm wide, 0.8-5 cm thick).", (0.2, 0.6),
-                   (0.008, 0.05), aliases=("chopping board", "carving board"),
-                   envelope=Envelope(height=(0.008, 0.05), width=(0.12, 0.4), length=(0.2, 0.6),
-                                     rest=(0.008, 0.05))),
+                   "that lies on the counter (20-60 cm long, 12-40 cm wide, 0.8-5 cm thick).",
+                   aliases=("chopping board", "carving board"),
+                   # a board for a hand and a knife: 0.8-5 cm thick, 12-40 cm wide, 20-60 cm long
+                   envelope=Envelope(height=(0.008, 0.05), width=(0.12, 0.4), length=(0.2, 0.6))),
         # a low table in front of a sofa: its top is about a sofa seat's height (0.4-0.46 m, 16-18 in), low ones
-        # 0.3 m; 0.5-1.6 m long (a small round one to two thirds of a 2.3 m sofa). One sits behind it, not at it
-        # with knees under its edge: no legroom. Its smallest box side is its height (tops 0.45 m and more)
+        # 0.3 m; 0.5-1.6 m long (a small round one to two thirds of a 2.3 m sofa), at least a tray across (0.45 m).
+        # One sits behind it, not at it with knees under its edge: no legroom
         Affordance("coffee table", "surface", "A coffee table holds cups, books or a tray in front of a sofa on a "
-                   "level top 0.3-0.5 m high, at least 0.45 m across, lower than a table.", (0.5, 1.6), (0.3, 0.5),
+                   "level top 0.3-0.5 m high, at least 0.45 m across, lower than a table.",
                    aliases=("cocktail table", "sofa table"),
-                   envelope=Envelope(height=(0.3, 0.5), width=(0.45, 1.2), length=(0.5, 1.6), rest=(0.29, 0.51))),
+                   envelope=Envelope(height=(0.3, 0.5), width=(0.45, 1.2), length=(0.5, 1.6))),
         # a bar of soap is 7-10 cm long, 5-6.5 cm wide, 2-3 cm thick; its dish is a little longer (9-16 cm) and
         # 1-4 cm tall, ribbed or with a shallow well
         Affordance("soap dish", "dish", "A soap dish holds a bar of soap on a small, low dish with a shallow well or "
-                   "ribs inside a rim (9-16 cm long, 1-4 cm tall).", (0.09, 0.16), (0.01, 0.04),
+                   "ribs inside a rim (9-16 cm long, 1-4 cm tall).",
                    aliases=("soap holder", "soap tray"),
                    envelope=Envelope(height=(0.01, 0.04), length=(0.09, 0.16))),
     )
@@ -312,13 +357,19 @@ def known_affordances() -> list[str]:
     return sorted(REGISTRY)
 
 
-#: A person's height (m): the registry's sizes are those of things a person uses.
-PERSON_HEIGHT = 1.7
+#: A doll's or a teddy bear's height (m): the figure a child plays with, a fashion doll's 0.3 m.
+_DOLL = 0.3
+#: A child's height (m): a six-year-old's stature (WHO growth charts, 1.15 m).
+_CHILD = 1.15
 
 #: Heights (m) of the figures a request may name as its agent. A figure uses furniture, dishes and vessels made
 #: at its own scale, so a doll's chair is a chair scaled by 0.3 / 1.7. Any other agent is an item a person
-#: carries (an apple, a pen, a book, water) and keeps a person's scale.
+#: carries (an apple, a pen, a book, water) and keeps a person's scale. A man or a woman is a person: their mean
+#: statures differ from a person's by 3%, well inside a size prior's width.
 FIGURE_HEIGHTS: dict[str, float] = {
-    "person": PERSON_HEIGHT, "man": 1.75, "woman": 1.65, "child": 1.1, "kid": 1.1, "baby": 0.6,
-    "doll": 0.3, "teddy": 0.3, "teddy bear": 0.3, "action figure": 0.15, "figurine": 0.1,
+    "person": PERSON_HEIGHT, "man": PERSON_HEIGHT, "woman": PERSON_HEIGHT, "child": _CHILD, "kid": _CHILD,
+    "baby": 0.6,  # a one-year-old's length (WHO growth charts, 0.75 m lying; 0.6 m sitting up)
+    "doll": _DOLL, "teddy": _DOLL, "teddy bear": _DOLL,
+    "action figure": 0.15,  # a 1:12 figure of a 1.8 m person
+    "figurine": 0.1,  # a table-top figure, a hand high
 }

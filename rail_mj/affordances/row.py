@@ -9,11 +9,11 @@ checks that its params are its kind's.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable
 from dataclasses import dataclass, replace
 
-from rail_mj.affordances.envelope import Envelope, Range
-from rail_mj.affordances.prior import DEFAULT_WIDTH, Prior
+from rail_mj.affordances.envelope import ANY, Envelope, Range
+from rail_mj.affordances.prior import FUNCTIONAL, Prior, width_of
 from rail_mj.core.errors import ConfigError
 
 __all__ = ["KindParams", "KIND_PARAMS", "Affordance"]
@@ -41,8 +41,10 @@ class Affordance:
     name: str  # canonical: lower case, words separated by one space
     kind: str  # a registered kind's name (rail_mj.affordances.kinds.KINDS)
     ibd: str  # interaction-based definition
-    largest: Range  # plausible range of the largest OBB dim, m
-    smallest: Range  # plausible range of the smallest OBB dim, m
+    #: typical ranges of the largest / smallest OBB dim, m, for a row whose envelope leaves the box free (a
+    #: chair's box is no seat's size); stage 1 also reads the envelope's box sizes (:meth:`size_prior`)
+    largest: Range = ANY
+    smallest: Range = ANY
     envelope: Envelope = Envelope()
     aliases: tuple[str, ...] = ()
     paper: bool = False  # one of the paper's eight
@@ -68,28 +70,49 @@ class Affordance:
         """The name as an identifier: label files, the ground-truth matrix, CLI lists (``trash_bin``)."""
         return self.name.replace(" ", "_")
 
-    def dims_fit(self, dims: Sequence[float]) -> bool:
-        """Whether OBB dims lie in the plausible size ranges (the stage-1 dimension check)."""
-        return self.largest[0] <= max(dims) <= self.largest[1] and self.smallest[0] <= min(dims) <= self.smallest[1]
+    def _width(self, name: str) -> float:
+        return dict(self.envelope.widths).get(name, width_of(name))
 
-    def size_prior(self, dims: Sequence[float]) -> Prior:
-        """The stage-1 dimension check as a prior: the plausibility of the OBB's largest and smallest dims."""
-        return Prior.of([("largest dim", max(dims), self.largest, DEFAULT_WIDTH),
-                         ("smallest dim", min(dims), self.smallest, DEFAULT_WIDTH)])
+    def size_prior(self, dims: Iterable[float]) -> Prior:
+        """The pose-free part of a use's prior: the plausibility of the OBB's largest and smallest dims against
+        ``largest`` / ``smallest`` (1 for a row whose sizes are all in its envelope). A pose's probability is
+        this times its :meth:`pose_prior` times its physics: each size is weighed once."""
+        dims = [float(v) for v in dims]
+        return Prior.of([(name, v, rng, self._width(name)) for name, v, rng in
+                         (("largest dim", max(dims), self.largest), ("smallest dim", min(dims), self.smallest))
+                         if rng != ANY])
 
-    def pose_prior(self, half: Sequence[float], rim: float | None = None) -> Prior:
+    def dims_prior(self, dims: Iterable[float]) -> Prior:
+        """Stage 1's dimension check as a prior, from the OBB dims alone (no pose known yet): the
+        :meth:`size_prior` times the envelope's :meth:`pose_prior` in the OBB's most plausible orientation
+        (each of its axes up in turn; a vessel's rim unknown)."""
+        dims = [float(v) for v in dims]
+        prior = self.size_prior(dims)
+        if self.envelope.ranges():
+            a, b, c = dims
+            poses = [(b / 2, c / 2, a / 2), (a / 2, c / 2, b / 2), (a / 2, b / 2, c / 2)]
+            prior = prior * max((self.pose_prior(h) for h in poses), key=lambda p: p.value)
+        return prior
+
+    def dims_fit(self, dims: Iterable[float]) -> bool:
+        """Stage 1's dimension check: the :meth:`dims_prior` is at least
+        :data:`~rail_mj.affordances.prior.FUNCTIONAL` (the sizes are as plausible for this use as not)."""
+        return self.dims_prior(dims).value >= FUNCTIONAL
+
+    def pose_prior(self, half: Iterable[float], rim: float | None = None) -> Prior:
         """The envelope as a prior over one pose's box (half extents), a vessel's aspect at its ``rim`` (the
         pose's spill level, m) when given: the product of each constrained size's plausibility."""
-        return Prior.of([(name, value, rng, DEFAULT_WIDTH) for name, value, rng in self.envelope.values(half, rim)])
+        values = self.envelope.values([float(v) for v in half], rim)
+        return Prior.of([(name, v, rng, self._width(name)) for name, v, rng in values])
 
-    def pose_fits(self, half: Sequence[float], rim: float | None = None) -> tuple[bool, str]:
-        """Whether a pose's box (half extents) is inside the envelope, a vessel's aspect at its ``rim`` (the
-        pose's spill level, m) when given; the reason when it is not."""
-        bad = self.envelope.violation(half, rim)
-        if bad is None:
+    def pose_fits(self, half: Iterable[float], rim: float | None = None) -> tuple[bool, str]:
+        """Whether a pose's box (half extents) is inside the envelope's typical ranges, a vessel's aspect at its
+        ``rim`` (the pose's spill level, m) when given; the sizes outside them when it is not."""
+        out = [f for f in self.pose_prior(half, rim).factors if f.plausibility < 1.0]
+        if not out:
             return True, ""
-        name, value, (lo, hi) = bad
-        return False, f"in this pose its {name} is {value:.3f}; a {self.name} has {lo:g}-{hi:g}"
+        return False, "; ".join(f"in this pose its {f.name} is {f.value:.3f}; a {self.name} typically has "
+                                f"{f.lo:g}-{f.hi:g} (plausibility {f.plausibility:.2f})" for f in out)
 
     def scaled(self, factor: float) -> Affordance:
         """The row for an agent ``factor`` times the size of the one it is for ("put the doll on the chair": a
@@ -107,6 +130,6 @@ class Affordance:
 
         env = self.envelope
         envelope = Envelope(height=times(env.height), width=times(env.width), length=times(env.length),
-                            aspect=env.aspect, rest=times(env.rest))
+                            aspect=env.aspect, rest=times(env.rest), widths=env.widths)
         return replace(self, largest=times(self.largest), smallest=times(self.smallest), envelope=envelope,
                        params=self.params.scaled(factor), scale=self.scale * factor)

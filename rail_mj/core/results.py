@@ -89,9 +89,15 @@ class AffordanceResult(BaseModel):
     dims_fit: bool | None = Field(
         default=None, description="the Affordance Analyzer's dimension check; None when the case failed before it"
     )
-    functional: bool = False
-    probability: float = Field(default=0.0, ge=0.0, le=1.0, description="how probable it is that the object "
-                               "affords the use, in its most probable pose (functional: probability >= 0.5)")
+    functional: bool = Field(default=False, description="probability >= 0.5: the use is more likely than not")
+    probability: float = Field(
+        default=0.0, ge=0.0, le=1.0, allow_inf_nan=False,
+        description="how likely the object affords the use, in [0, 1]: the size prior (stage 1, OBB) times the "
+                    "functional pose's envelope prior times its physics (1 when stage 7 accepts the pose, else 0); "
+                    "the size prior alone when it is negligible (< 0.01) and nothing was imagined",
+    )
+    prior: str = Field(default="", description="the prior's factors in words (each size, its typical range and "
+                                               "width, its plausibility), for the most probable accepted pose")
     functional_pose: PoseInfo | None = None
     best_plan: PlanInfo | None = None
     pose_without_analyzer: PoseInfo | None = Field(

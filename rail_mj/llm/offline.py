@@ -10,8 +10,7 @@ prompts' few-shot examples.
 
 from __future__ import annotations
 
-import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from typing import Any
 
 from pydantic import BaseModel
@@ -19,6 +18,7 @@ from pydantic import BaseModel
 from rail_mj.affordances import REGISTRY, Affordance, get, kinds, known_affordances
 from rail_mj.affordances import normalize as normalize_affordance
 from rail_mj.affordances.names import parse_words
+from rail_mj.affordances.prior import FUNCTIONAL
 from rail_mj.core.errors import ConfigError, UnknownAffordanceError
 from rail_mj.core.profile import AgentLayout, CandidateInteraction, PlanTrajectory, ScoringCode
 from rail_mj.llm.schemas import (
@@ -68,29 +68,27 @@ def _resolve(task: TaskDescription) -> tuple[Affordance, kinds.Kind, kinds.Agent
     return aff, kind, kind.agent(aff, list(task.obb_dims))
 
 
-def _log_distance(aff: Affordance, dims: Sequence[float]) -> float:
-    centre = math.sqrt(aff.largest[0] * aff.largest[1])
-    return abs(math.log(max(dims) / centre))
-
-
 def offline_analysis(task: TaskDescription) -> AffordanceAnalysis:
-    """Stage 1: size check against real-world ranges (alternative from the same kind), IBD and outline."""
+    """Stage 1: the size prior against real-world typical ranges (:meth:`Affordance.dims_prior`), IBD and
+    outline. The dims fit when the prior is at least :data:`~rail_mj.affordances.prior.FUNCTIONAL`; when they do
+    not, the alternative is the row of the same kind whose prior is the highest of those that fit (the paper's
+    first), and the chain still imagines the requested use unless its prior is negligible."""
     aff = _row(task)
     kind = kinds.kind_of(aff)
     dims = list(task.obb_dims)
-    fits = aff.dims_fit(dims)
-    sizes = f"largest {max(dims):.3f} m, smallest {min(dims):.3f} m"
-    ranges = (f"a {aff.name} is {aff.largest[0]:g}–{aff.largest[1]:g} m at its largest and "
-              f"{aff.smallest[0]:g}–{aff.smallest[1]:g} m at its smallest")
+    prior = aff.dims_prior(dims)
+    fits = prior.value >= FUNCTIONAL
+    sizes = f"{dims[0]:.3f} x {dims[1]:.3f} x {dims[2]:.3f} m"
     alternative = None
     if fits:
-        reason = f"The object ({sizes}) fits: {ranges}."
+        reason = f"The object ({sizes}) is plausible as a {aff.name}: {prior.doc()}."
     else:
-        fitting = [a for a in (r.scaled(task.scale) for r in REGISTRY.values())
-                   if a.kind == aff.kind and a.name != aff.name and a.dims_fit(dims)]
+        priors = [(a.dims_prior(dims).value, a.paper, a.name) for a in (r.scaled(task.scale) for r in REGISTRY.values())
+                  if a.kind == aff.kind and a.name != aff.name]
+        fitting = [p for p in priors if p[0] >= FUNCTIONAL]
         if fitting:
-            alternative = min(fitting, key=lambda a: (not a.paper, _log_distance(a, dims))).name
-        reason = (f"The object ({sizes}) does not fit: {ranges}. "
+            alternative = max(fitting, key=lambda p: (p[1], p[0]))[2]
+        reason = (f"The object ({sizes}) is unusual for a {aff.name}: {prior.doc()}. "
                   + (f"Its size fits a {alternative}." if alternative else "No similar affordance fits its size."))
     return AffordanceAnalysis(
         affordance=task.affordance,
@@ -133,7 +131,7 @@ def offline_trajectories(task: TaskDescription, layout: AgentLayout) -> Trajecto
 
 
 def offline_scoring(task: TaskDescription) -> ScoringCode:
-    """Stage 6: vectorised numpy scoring source for the kind (constants and size envelope baked in)."""
+    """Stage 6: vectorised numpy scoring source of the kind's physics (constants baked in; sizes are priors)."""
     aff, kind, shape = _resolve(task)
     return kind.scoring(aff, shape)
 

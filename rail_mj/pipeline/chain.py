@@ -18,10 +18,11 @@ from typing import Any
 import numpy as np
 
 from rail_mj import llm, profiles
-from rail_mj.affordances import load_files, request_scale
+from rail_mj.affordances import Affordance, get, load_files, request_scale
+from rail_mj.affordances.prior import FUNCTIONAL, NEGLIGIBLE, Prior
 from rail_mj.core.errors import ConfigError, RailError, UnknownAffordanceError
 from rail_mj.core.results import AffordanceResult, PlanInfo, PoseInfo
-from rail_mj.core.types import RailObject, StablePoses
+from rail_mj.core.types import RailObject, StablePose, StablePoses
 from rail_mj.imagination import imagine, pose_plan, resolve_backend, rollout_index
 from rail_mj.imagination.inputs import agent_setup, trajectory_array
 from rail_mj.llm.schemas import ImaginationProfile
@@ -49,6 +50,10 @@ def _check_names(affordances: Sequence[str]) -> None:
                 f"affordance names must be non-empty text, got {a!r}; the offline library knows: {known} "
                 "(an LLM provider also imagines other named uses)"
             )
+
+
+def _rim(pose: StablePose) -> float | None:
+    return None if pose.basin is None else float(pose.basin.rim)
 
 
 def as_placed_pose(obj: RailObject) -> StablePoses:
@@ -149,12 +154,17 @@ class Pipeline:
         analysis = profile.analysis
         kept = [i for i, p in enumerate(poses) if p.probability >= self.config.min_pose_probability] or [0]
         pose_infos = [PoseInfo.from_pose(i, poses[i]) for i in range(len(poses))]
+        # this object's priors (stage 1's answer is shared by every object of a profile's size bin): its OBB's in
+        # its most plausible orientation (stage 1's check), and the pose-free part of every pose's
+        row = self._row(profile.affordance)
+        dims = row.dims_prior(obj.obb_dims) if row is not None else Prior()
+        size = row.size_prior(obj.obb_dims) if row is not None else Prior()
         result = AffordanceResult(
             object=obj.name,
             affordance=profile.affordance,
             requested=affordance,
             alternative=analysis.alternative,
-            dims_fit=analysis.fits,
+            dims_fit=analysis.fits if row is None else dims.value >= FUNCTIONAL,
             stable_poses=pose_infos,
             plans=[p.name for p in profile.plans.plans],
             agent_fragment=profile.agent.mjcf,
@@ -162,10 +172,12 @@ class Pipeline:
             provider=self.provider_name,
             backend=self.backend,
         )
-        if not analysis.fits:
-            # The analyser's dimension check: an object of the wrong size does not afford
-            # the requested use, whatever its shape (the paper swaps in the alternative).
+        if dims.value < NEGLIGIBLE or (row is None and not analysis.fits):
+            # A size no real object of the use has (prior.NEGLIGIBLE), or, for a use outside the registry, the
+            # LLM analyser's veto: the physics is not run, and the probability (at most the prior) is the prior.
             result.analyzer_reasons = [analysis.reason]
+            result.probability = dims.value if row is not None else 0.0
+            result.prior = dims.doc()
             result.timings = timings
             return result
 
@@ -201,23 +213,41 @@ class Pipeline:
             result.analyzer_reasons = ["no plan scored above 0 in any stable pose"]
             return result
         result.analyzer_reasons = [f"pose {v.pose_index}: {v.reason}" for v in verdict.poses] + [verdict.reason]
-        if verdict.best_pose is None or verdict.best_plan is None:
+        # The interim verdict (issue 22): probability = size prior x pose prior x physics, the physics 1 for a
+        # pose stage 7 accepts and 0 otherwise; the functional pose is the most probable accepted one (ties: stage
+        # 7's own choice first, then the most probable pose); functional when it is at least prior.FUNCTIONAL.
+        accepted = [(size * row.pose_prior(poses[v.pose_index].half_extents, _rim(poses[v.pose_index]))
+                     if row is not None else size, v) for v in verdict.poses if v.accept and v.plan is not None]
+        if not accepted:
             return result
-        plan_idx = result.plans.index(verdict.best_plan)
-        b = rollout_index(kept.index(verdict.best_pose), plan_idx, n_plans)
+        prior, best = max(accepted, key=lambda a: (a[0].value, a[1].pose_index == verdict.best_pose,
+                                                   -a[1].pose_index))
+        result.probability = prior.value
+        result.prior = prior.doc()
+        if prior.value < FUNCTIONAL or best.plan is None:
+            return result
+        plan_idx = result.plans.index(best.plan)
+        b = rollout_index(kept.index(best.pose_index), plan_idx, n_plans)
         plan = profile.plans.plans[plan_idx]
         result.functional = True
-        result.functional_pose = pose_infos[verdict.best_pose]
+        result.functional_pose = pose_infos[best.pose_index]
         result.best_plan = PlanInfo(
             index=plan_idx,
             name=plan.name,
             description=plan.description,
-            via_poses=trajectories[kept.index(verdict.best_pose)][plan_idx].tolist(),
+            via_poses=trajectories[kept.index(best.pose_index)][plan_idx].tolist(),
             score=float(scores[b]),
         )
-        result.evidence_pose = verdict.best_pose
+        result.evidence_pose = best.pose_index
         result.evidence_agent_pos = outcomes.agent_pos[b].tolist()
         return result
+
+    def _row(self, affordance: str) -> Affordance | None:
+        """The registry row of an imagined use at the run's agent scale; None for a use outside the registry."""
+        try:
+            return get(affordance).scaled(request_scale(self.config.agent, self.config.owner))
+        except UnknownAffordanceError:
+            return None
 
     def _analyse(self, profile, poses, kept, outcomes, scores, trajectories):
         """The Functional Pose Analyzer over the candidate functional interactions; None without one."""

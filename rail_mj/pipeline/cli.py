@@ -30,8 +30,10 @@ def _describe(r) -> str:
     lines = [f"{r.object}: {r.requested!r} -> {'FUNCTIONAL' if r.functional else 'not functional'}"]
     for note in r.mesh_notes:
         lines.append(f"  mesh: {note}")
+    if r.error is None:
+        lines.append(f"  probability {r.probability:.2f}" + (f" (prior: {r.prior})" if r.prior else ""))
     if not r.dims_fit:
-        lines.append(f"  dimension check failed: {'; '.join(r.analyzer_reasons)}")
+        lines.append("  dimension check: unusual sizes for the use" + ("" if r.scores else ", nothing imagined"))
         if r.alternative:
             lines.append(f"  the analyser suggests: {r.alternative}")
     if r.functional_pose is not None:
@@ -43,7 +45,7 @@ def _describe(r) -> str:
     if r.best_plan is not None:
         lines.append(f"  best interaction: {r.best_plan.name} (score {r.best_plan.score:.2f}): "
                      f"{r.best_plan.description}")
-    for reason in r.analyzer_reasons if r.dims_fit else []:
+    for reason in r.analyzer_reasons:
         lines.append(f"  analyser: {reason}")
     lines.append("  timings: " + ", ".join(f"{k} {v:.2f}s" for k, v in r.timings.items()))
     return "\n".join(lines)

@@ -31,7 +31,7 @@ def nothing_to_draw(result: AffordanceResult) -> str | None:
     head = f"{result.object} / {result.requested}: nothing to draw"
     if result.error:
         return f"{head}: the case failed ({result.error})"
-    if result.dims_fit is False:
+    if result.dims_fit is False and not result.scores:  # an unusual size is still imagined; an absurd one not
         reason = "; ".join(result.analyzer_reasons) or "the object's size is outside the affordance's range"
         return f"{head}: the dimension check failed, so no interaction was imagined ({reason})"
     if result.evidence_pose is None or not result.stable_poses:

@@ -31,7 +31,8 @@ class PoseExplanation(BaseModel):
     up: str = Field(description="the mesh axis that points up in this pose (+z, -y, ...), or the vector")
     up_in_mesh_frame: list[float]
     box_size_m: list[float] = Field(description="full extents of the pose's box, x y z (z up), m")
-    envelope: str = Field(description="'fits', or which pose-envelope size is outside its range")
+    envelope: str = Field(description="the pose's envelope prior: each box size, its typical range and width, "
+                                      "its plausibility, and their product")
     basin: str = Field(default="", description="seen from above, where poured water stands: its spill level and "
                                                "length, 'none' without a basin")
     scores: dict[str, float] = Field(description="plan -> score (> 0 succeeded; -1 also when not imagined)")
@@ -47,6 +48,9 @@ class Explanation(BaseModel):
     affordance: str
     verdict: str
     dims_fit: bool | None
+    probability: float = Field(default=0.0, description="the result's probability (prior x physics)")
+    prior: str = Field(default="", description="the factors of the functional (or most probable accepted) "
+                                               "pose's prior, in words")
     functional_pose: int | None
     best_plan: str | None
     poses: list[PoseExplanation]
@@ -67,8 +71,7 @@ def _envelope(affordance: str, half: list[float], rim: float | None) -> str:
         aff = get(affordance)
     except UnknownAffordanceError:
         return "no registered envelope"
-    fits, why = aff.pose_fits(half, rim)  # as the analyser judged it: a vessel's aspect at its rim
-    return "fits" if fits else why
+    return aff.pose_prior(half, rim).doc()  # a vessel's aspect at its rim
 
 
 def explain(r: AffordanceResult) -> Explanation:
@@ -101,7 +104,7 @@ def explain(r: AffordanceResult) -> Explanation:
     else:
         verdict = "not functional"
     return Explanation(object=r.object, requested=r.requested, affordance=r.affordance, verdict=verdict,
-                       dims_fit=r.dims_fit, functional_pose=best,
+                       dims_fit=r.dims_fit, probability=r.probability, prior=r.prior, functional_pose=best,
                        best_plan=r.best_plan.name if r.best_plan is not None else None,
                        poses=poses, reasons=general, error=r.error)
 
@@ -110,12 +113,15 @@ def format_explanation(e: Explanation) -> str:
     """The explanation as text for people: one block per stable pose, then the verdict."""
     lines = [f"{e.object}: {e.requested!r} (imagined as {e.affordance!r})"]
     if e.dims_fit is False:
-        lines.append("  dimension check: failed, nothing was imagined")
+        lines.append("  dimension check: unusual sizes for the use" + ("" if e.poses and any(p.scores for p in e.poses)
+                                                                         else ", nothing was imagined"))
+    if e.prior:
+        lines.append(f"  prior: {e.prior}")
     for p in e.poses:
         mark = "  <- functional pose" if p.functional else ""
         size = " x ".join(f"{v:.3f}" for v in p.box_size_m)
         lines.append(f"  pose {p.index}: p={p.probability:.2f}, up {p.up}, box {size} m{mark}")
-        lines.append(f"    envelope: {p.envelope}")
+        lines.append(f"    envelope prior: {p.envelope}")
         if p.basin:
             lines.append(f"    basin: {p.basin}")
         if p.scores:
@@ -125,5 +131,6 @@ def format_explanation(e: Explanation) -> str:
     for reason in e.reasons:
         lines.append(f"  rule: {reason}")
     tail = f" in pose {e.functional_pose} with plan {e.best_plan!r}" if e.functional_pose is not None else ""
-    lines.append(f"  verdict: {e.verdict}{tail}" + (f" ({e.error})" if e.error else ""))
+    error = f" ({e.error})" if e.error else ""
+    lines.append(f"  verdict: {e.verdict}{tail}, probability {e.probability:.2f}{error}")
     return "\n".join(lines)

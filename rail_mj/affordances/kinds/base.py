@@ -28,6 +28,10 @@ __all__ = [
     "SIDES",
     "SCORING_HEADER",
     "MAX_OBJECT_TILT_DEG",
+    "LEVEL_DEG",
+    "MOST",
+    "GAP",
+    "WATER_DENSITY",
     "AgentShape",
     "Kind",
     "KINDS",
@@ -49,8 +53,19 @@ __all__ = [
 IDENTITY = [1.0, 0.0, 0.0, 0.0]
 #: Directions of the side plans, (name, unit x, unit y).
 SIDES = (("front", 1.0, 0.0), ("back", -1.0, 0.0), ("left", 0.0, 1.0), ("right", 0.0, -1.0))
-#: A success with the object tilted this much (deg) or more relied on it tipping over.
+#: A success with the object tilted this much (deg) or more relied on it tipping over: a table top, a seat or a
+#: vessel used as made stands within a few degrees of level, and 15 deg is past any floor's or scan's slope.
 MAX_OBJECT_TILT_DEG = 15
+#: An agent resting tilted less than this (deg) rests level: an item on a surface tilted more slides off at the
+#: friction of wood or china (coefficient 0.27 = tan 15 deg).
+LEVEL_DEG = 15
+#: "Most" of the agents, by definition: more than half.
+MOST = 0.5
+#: Gap (m) that keeps an agent clear of the object at a plan's start or between agents: 1 cm, above a scan's or
+#: a decomposition's noise.
+GAP = 0.01
+#: Density of water (kg/m^3): the agents' (a droplet is water, food and stored items about as dense).
+WATER_DENSITY = 1000.0
 
 SCORING_HEADER = ("def score(agent_pos, agent_quat, agent_vel, contacts_object, contacts_agents, contacts_ground, "
                   "object_pos, object_tilt, object_half_extents):\n")
@@ -84,7 +99,7 @@ class Kind(ABC):
 
     def layout(self, shape: AgentShape) -> AgentLayout:
         """One agent; kinds whose agents come in a grid override this."""
-        s = round(2.0 * shape.radius + 0.01, 5)
+        s = round(2.0 * shape.radius + GAP, 5)
         return AgentLayout(nx=1, ny=1, nz=1, sx=s, sy=s, sz=s, collide_agents=False)
 
     @abstractmethod
@@ -97,15 +112,13 @@ class Kind(ABC):
 
     @abstractmethod
     def scoring(self, aff: Affordance, shape: AgentShape) -> ScoringCode:
-        """Vectorised numpy scoring source, constants and the pose envelope baked in."""
+        """Vectorised numpy scoring source of the physics alone, its constants baked in (the pose envelope is a
+        prior, :meth:`Affordance.pose_prior`, never a mask)."""
 
     def judge(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float],
               rim: float | None = None) -> tuple[bool, str]:
         """Whether one candidate of a pose with half extents ``h`` (and spill level ``rim``, m, when it has a
-        basin) is consistent with common sense, and why."""
-        fits, why = aff.pose_fits(h, rim)
-        if not fits:
-            return False, why
+        basin) is consistent with common sense, and why: the physics alone; the pose's sizes are its prior."""
         why = tipping(c)
         if why:
             return False, why
@@ -113,7 +126,7 @@ class Kind(ABC):
 
     @abstractmethod
     def accept(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float]) -> tuple[bool, str]:
-        """The kind's own rules for a candidate whose pose fits the envelope and whose object did not tip."""
+        """The kind's own rules for a candidate whose object did not tip."""
 
     def accept_pose(
         self, aff: Affordance, accepted: list[CandidateInteraction], pose: PoseCandidates
@@ -151,7 +164,7 @@ def kind_of(aff: Affordance) -> Kind:
 
 def box_agent(label: str, half: Sequence[float]) -> AgentShape:
     """A box agent of the density of water."""
-    mass = 1000.0 * 8.0 * half[0] * half[1] * half[2]
+    mass = WATER_DENSITY * math.prod(2.0 * v for v in half)
     size = " ".join(f"{v:.4f}" for v in half)
     return AgentShape(f'type="box" size="{size}"', math.sqrt(sum(v * v for v in half)), half[2], mass, label)
 
@@ -172,7 +185,7 @@ def side_offset(plan: str, amount: float) -> tuple[float, float]:
 
 def clearance(shape: AgentShape) -> float:
     """Gap (m) between the agent and the object's box at the start of a plan."""
-    return max(0.01, 2.0 * shape.radius)
+    return max(GAP, 2.0 * shape.radius)
 
 
 def tipping(c: CandidateInteraction) -> str:
@@ -187,7 +200,7 @@ def judge_unregistered(c: CandidateInteraction) -> tuple[bool, str]:
     why = tipping(c)
     if why:
         return False, why
-    if c.summary.frac_on_ground >= 0.5:
+    if c.summary.frac_on_ground >= MOST:
         return False, "most agents ended on the ground"
     return True, "the object stayed upright and the agents did not end on the ground"
 
@@ -210,8 +223,7 @@ def rest_window(aff: Affordance, agent_half_z: float) -> tuple[float, float]:
     return lo + agent_half_z, hi + agent_half_z
 
 
-_REST_BODY = '''    """Fraction of agents resting as intended ({what}), minus 0.5; -1 if the object tipped
-    or the pose is outside the {name} size envelope ({envelope})."""
+_REST_BODY = '''    """Fraction of agents resting as intended ({what}), minus {most}; -1 if the object tipped."""
     e = object_half_extents
     h = e[:, None, :]
     footprint = (np.abs(agent_pos[:, :, 0]) < h[:, :, 0]) & (np.abs(agent_pos[:, :, 1]) < h[:, :, 1])
@@ -221,8 +233,7 @@ _REST_BODY = '''    """Fraction of agents resting as intended ({what}), minus 0.
     upright = cos_tilt > {cos_agent:.4f}
     resting = footprint & height & upright & (contacts_object > 0) & (contacts_ground == 0)
     frac = np.mean(resting, axis=1)
-    ok = (object_tilt < {max_tilt:.4f}){object_cond}
-    return np.where(ok, frac - 0.5, -1.0)
+    return np.where(object_tilt < {max_tilt:.4f}, frac - {most}, -1.0)
 '''
 
 
@@ -231,13 +242,10 @@ def rest_scoring(aff: Affordance, shape: AgentShape, lo: str, hi: str, agent_deg
     """Scoring of one agent that must come to rest on the object: its bottom between the task-frame z
     expressions ``lo`` and ``hi`` (``h`` broadcast over agents), tilted less than ``agent_deg``, the object less
     than ``object_deg``; ``what`` says where in words."""
-    envelope = aff.envelope.doc()
-    body = _REST_BODY.format(what=what, name=aff.name, envelope=envelope, half_z=shape.half_z, lo=lo, hi=hi,
-                             cos_agent=math.cos(math.radians(agent_deg)), max_tilt=math.radians(object_deg),
-                             object_cond=aff.envelope.source())
+    body = _REST_BODY.format(what=what, half_z=shape.half_z, lo=lo, hi=hi, most=MOST,
+                             cos_agent=math.cos(math.radians(agent_deg)), max_tilt=math.radians(object_deg))
     return ScoringCode(description=f"Success when the {shape.label} rests {what}, touching the object and not "
-                                   f"the ground, the object does not tip and its pose has the size of a "
-                                   f"{aff.name} ({envelope}).",
+                                   "the ground, and the object does not tip.",
                        source=SCORING_HEADER + body)
 
 

@@ -18,8 +18,11 @@ from typing import cast
 
 import rail_mj.core.profile as profile
 from rail_mj.affordances.kinds.base import (
+    MAX_OBJECT_TILT_DEG,
+    MOST,
     SCORING_HEADER,
     SIDES,
+    WATER_DENSITY,
     AgentShape,
     Kind,
     clearance,
@@ -45,9 +48,9 @@ class Droplets:
     """Sizing of a container's droplet agents: radius = ``scale`` × the middle OBB dim, clipped to
     [``min_radius``, ``max_radius``] m; at the default scale the 3x3x3 grid spans ~30% of that dim."""
 
-    scale: float = 0.045
-    min_radius: float = 0.004
-    max_radius: float = 0.05
+    scale: float = 0.045  # the grid spans ~30% of the opening: a pour narrower than it, as from a jug
+    min_radius: float = 0.004  # a drop of water 8 mm across, the largest a falling drop holds together
+    max_radius: float = 0.05  # an item 10 cm across, a fruit: the largest a basket is filled with
 
 
 @dataclass(frozen=True)
@@ -75,15 +78,15 @@ _OFFSET = 0.3
 #: holds them near its floor, even a goblet's bowl on its stem (about a third of the height below the rim).
 MIN_DEPTH = 0.2
 
-#: Largest fraction of the droplets inside that may lie open to one side: a cavity walls its droplets all round.
-MAX_OPEN = 0.5
+#: Largest fraction of the droplets inside that may lie open to one side: a cavity walls most of its droplets
+#: all round.
+MAX_OPEN = MOST
 
-#: Fraction of droplets resting on the object that shows a pour landed on it (a leak test's evidence).
-_LANDED = 0.5
+#: Droplets in a grid of this many per side (the paper's 3 x 3 x 3 droplets).
+_GRID = 3
 
 _BODY = '''    """Fraction of droplets inside the box below the rim and off the ground, minus {min_frac}; -1 if tipped,
-    if a droplet leaked through to the ground under the object, or if the pose is outside the {name} size
-    envelope ({envelope})."""
+    or if a droplet leaked through to the ground under the object."""
     e = object_half_extents
     h = e[:, None, :]
     inside = (np.abs(agent_pos[:, :, 0]) < h[:, :, 0]) & (np.abs(agent_pos[:, :, 1]) < h[:, :, 1])
@@ -93,7 +96,7 @@ _BODY = '''    """Fraction of droplets inside the box below the rim and off the 
     rel = agent_pos - object_pos[:, None, :]  # the object may have slid under the droplets' impacts
     under = (rel[:, :, 0] / h[:, :, 0]) ** 2 + (rel[:, :, 1] / h[:, :, 1]) ** 2 < {beneath!r}
     leaked = np.any(under & (contacts_ground > 0), axis=1)
-    ok = (object_tilt < {max_tilt:.4f}) & ~leaked{object_cond}
+    ok = (object_tilt < {max_tilt:.4f}) & ~leaked
     return np.where(ok, frac - {min_frac}, -1.0)
 '''
 
@@ -107,8 +110,8 @@ def _leaked(c: CandidateInteraction) -> bool:
     spills over the rim by a handle lands beside the body.
     """
     s = c.summary
-    landed = s.frac_touching_object >= _LANDED or (c.plan == "above" and s.frac_on_ground < 0.5)
-    return landed and s.frac_through_object > 0 and s.frac_through_object >= 0.5 * s.frac_on_ground
+    landed = s.frac_touching_object >= MOST or (c.plan == "above" and s.frac_on_ground < MOST)
+    return landed and s.frac_through_object > 0 and s.frac_through_object >= MOST * s.frac_on_ground
 
 
 #: A liquid holder's spill level stands at least this fraction of the pose's height: an upright vessel's is its rim
@@ -147,15 +150,15 @@ class Container(Kind):
     def agent(self, aff: Affordance, dims: Sequence[float]) -> AgentShape:
         d = cast(ContainerParams, aff.params).droplets
         r = max(d.min_radius, min(d.max_radius, d.scale * dims[1]))
-        mass = 1000.0 * 4.0 / 3.0 * math.pi * r**3  # water
+        mass = WATER_DENSITY * 4.0 / 3.0 * math.pi * r**3  # a sphere of water
         # rolling friction lets droplets that miss come to rest instead of rolling on the ground forever
         return AgentShape(f'type="sphere" size="{r:.4f}" condim="6" friction="1 0.005 0.0005"', r, r, mass,
                           "droplet")
 
     def layout(self, shape: AgentShape) -> AgentLayout:
-        """A 3×3×3 grid with a gap of 0.4 diameters; droplets pile up."""
-        s = round(2.4 * shape.radius, 5)
-        return AgentLayout(nx=3, ny=3, nz=3, sx=s, sy=s, sz=s, collide_agents=True)
+        """A 3×3×3 grid, 0.4 droplet diameters apart (they fall as a loose pour, not a block); droplets pile up."""
+        s = round(2.4 * shape.radius, 5)  # centres 1.2 diameters apart
+        return AgentLayout(nx=_GRID, ny=_GRID, nz=_GRID, sx=s, sy=s, sz=s, collide_agents=True)
 
     def plans(self, shape: AgentShape) -> list[MotionPlan]:
         plans = [MotionPlan(name="above", description="Hold the droplet grid centred above the opening, just over "
@@ -172,24 +175,22 @@ class Container(Kind):
         # poured at the opening: over a saucepan's pan, not its box's centre by the handle, where the droplets
         # bounce off the rim and fall beside the body
         return [via((ox, oy, 1), (0, 0, spread_z + clearance(shape)), "opening"),
-                via((ox, oy, 1), (0, 0, spread_z + 0.002), "opening")]
+                via((ox, oy, 1), (0, 0, spread_z + 0.002), "opening")]  # released 2 mm over the rim
 
     def scoring(self, aff: Affordance, shape: AgentShape) -> ScoringCode:
-        envelope = aff.envelope.doc()
-        # a vessel's height/width upper bound is its rim's, which stage 7 sees (a saucepan's handle rises above it)
-        body = _BODY.format(min_frac=0.5, max_tilt=math.radians(15), name=aff.name, envelope=envelope,
-                            object_cond=aff.envelope.source(rim_aspect=True), beneath=profile.BENEATH_MIDDLE)
+        body = _BODY.format(min_frac=MOST, max_tilt=math.radians(MAX_OBJECT_TILT_DEG),
+                            beneath=profile.BENEATH_MIDDLE)
         return ScoringCode(description="Success when more than half the droplets rest inside the object's box "
                                        "below the rim and off the ground, none leaks through to the ground under "
-                                       f"the object, the object is upright and its pose has "
-                                       f"the size of a {aff.name} ({envelope}).",
+                                       "the object, and the object is upright.",
                            source=SCORING_HEADER + body)
 
     def accept(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float]) -> tuple[bool, str]:
         s = c.summary
         if c.via_poses[0][2] < h[2]:
             return False, "the droplets did not come from above the opening"
-        if s.frac_inside_bbox < 0.5 or s.mean_height >= 1.0 or s.frac_on_ground > 0.2:
+        # a fifth on the ground: spray over the rim of a full vessel, not a pour that missed it
+        if s.frac_inside_bbox < MOST or s.mean_height >= 1.0 or s.frac_on_ground > 0.2:
             return False, (f"only {s.frac_inside_bbox:.0%} of droplets rest inside below the rim "
                            f"({s.frac_on_ground:.0%} on the ground)")
         depth = (1.0 - s.mean_height) / 2.0

@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from rail_mj.affordances.kinds.base import AgentShape, register_kind, rest_scoring
+from rail_mj.affordances.kinds.base import MAX_OBJECT_TILT_DEG, WATER_DENSITY, AgentShape, register_kind, rest_scoring
 from rail_mj.affordances.kinds.lowering import Lowering
 from rail_mj.affordances.row import Affordance
 from rail_mj.core.profile import CandidateInteraction, PoseCandidates, ScoringCode
@@ -22,17 +22,22 @@ class Dish(Lowering):
                                "released at contact.")
     expected_outcome = ("The disc rests level on the {name}, touching it and not the ground, the {name} is low and "
                         "does not tip over.")
-    offset = 0.4
+    offset = 0.4  # the food placed 40% out from the centre: inside a plate's well, which a rim bounds
     target = "the dish"
 
     def agent(self, aff: Affordance, dims: Sequence[float]) -> AgentShape:
+        # a portion half the dish across (radius a quarter of it), from a 4 cm biscuit to a 24 cm pizza
         a = min(0.12, max(0.02, 0.25 * dims[1]))
+        # a tenth of its radius thick, 1-3 cm: a slice of bread to a steak
         c = min(0.015, max(0.005, 0.1 * a))
-        mass = 800.0 * math.pi * a * a * 2 * c
+        mass = WATER_DENSITY * math.pi * a * a * 2 * c  # food is mostly water
         return AgentShape(f'type="cylinder" size="{a:.4f} {c:.4f}"', math.hypot(a, c), c, mass, "food")
 
     def scoring(self, aff: Affordance, shape: AgentShape) -> ScoringCode:
-        return rest_scoring(aff, shape, "-h[:, :, 2] - 0.005", "h[:, :, 2] + 0.01", 15, 15, "level on the dish")
+        # the food's bottom within the dish's box, give or take its own thickness
+        c = shape.half_z
+        return rest_scoring(aff, shape, f"-h[:, :, 2] - {c:.4f}", f"h[:, :, 2] + {2 * c:.4f}", self.max_agent_tilt,
+                            MAX_OBJECT_TILT_DEG, "level on the dish")
 
     def window(self, aff: Affordance) -> tuple[float, float]:
         # food resting low inside a plate's rim is the point: any height on the object will do

@@ -10,7 +10,17 @@ from abc import abstractmethod
 from collections.abc import Sequence
 from typing import ClassVar
 
-from rail_mj.affordances.kinds.base import SIDES, AgentShape, Kind, clearance, rest_accept, side_offset, via
+from rail_mj.affordances.kinds.base import (
+    GAP,
+    LEVEL_DEG,
+    SIDES,
+    AgentShape,
+    Kind,
+    clearance,
+    rest_accept,
+    side_offset,
+    via,
+)
 from rail_mj.affordances.row import Affordance
 from rail_mj.core.profile import AgentLayout, CandidateInteraction, MotionPlan, ViaPose
 
@@ -25,7 +35,7 @@ class Lowering(Kind):
     #: What the agent is lowered onto, in the plans' words.
     target: ClassVar[str]
     #: The agent's largest tilt (deg) at rest that still counts as level.
-    max_agent_tilt: ClassVar[float] = 15
+    max_agent_tilt: ClassVar[float] = LEVEL_DEG
 
     def plans(self, shape: AgentShape) -> list[MotionPlan]:
         label = shape.label
@@ -43,7 +53,7 @@ class Lowering(Kind):
     def via_poses(self, plan: str, shape: AgentShape, layout: AgentLayout) -> list[ViaPose]:
         ox, oy = side_offset(plan, self.offset)
         return [via((ox, oy, 1), (0, 0, shape.radius + clearance(shape))),
-                via((ox, oy, -1), (0, 0, shape.half_z + 0.005))]
+                via((ox, oy, -1), (0, 0, shape.half_z + GAP / 2))]  # down to just over the bottom
 
     @abstractmethod
     def window(self, aff: Affordance) -> tuple[float, float]:

@@ -5,6 +5,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from rail_mj.affordances.kinds.base import (
+    GAP,
+    MAX_OBJECT_TILT_DEG,
+    MOST,
     SIDES,
     AgentShape,
     Kind,
@@ -36,7 +39,9 @@ class Storage(Kind):
                         "and the {name} does not tip over.")
 
     def agent(self, aff: Affordance, dims: Sequence[float]) -> AgentShape:
-        return box_agent("item", (min(0.1, 0.2 * dims[2]),) * 3)  # never taller than the thinnest side allows
+        # a book or a jar, 20 cm at most, and a fifth of the thinnest side (never taller than a shelf allows)
+        side = min(0.1, 0.2 * dims[2])
+        return box_agent("item", (side, side, side))
 
     def plans(self, shape: AgentShape) -> list[MotionPlan]:
         plans = [MotionPlan(name=side, description=f"Start at the {side} of the object at mid height; push the "
@@ -51,20 +56,21 @@ class Storage(Kind):
 
     def via_poses(self, plan: str, shape: AgentShape, layout: AgentLayout) -> list[ViaPose]:
         ux, uy = side_offset(plan, 1.0)
-        rz, dz = {"front_high": (1.0, -shape.radius - 0.01), "front_low": (-1.0, shape.radius + 0.01)}.get(
+        rz, dz = {"front_high": (1.0, -shape.radius - GAP), "front_low": (-1.0, shape.radius + GAP)}.get(
             plan, (_MID_Z, 0.0))
         out = shape.radius + clearance(shape)
         return [via((ux, uy, rz), (ux * out, uy * out, dz)), via((0, 0, rz), (0, 0, dz))]
 
     def scoring(self, aff: Affordance, shape: AgentShape) -> ScoringCode:
-        return rest_scoring(aff, shape, "-h[:, :, 2]", "h[:, :, 2] - " + f"{2 * shape.half_z:.4f}", 20, 10,
-                            "inside, on a board")
+        # a pushed item may come to rest leaning on a board's lip or the back wall, 20 deg at most
+        return rest_scoring(aff, shape, "-h[:, :, 2]", "h[:, :, 2] - " + f"{2 * shape.half_z:.4f}", 20,
+                            MAX_OBJECT_TILT_DEG, "inside, on a board")
 
     def accept(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float]) -> tuple[bool, str]:
         hx, hy, hz = h
         start, s = c.via_poses[0], c.summary
         if abs(start[2]) >= hz or (abs(start[0]) <= hx and abs(start[1]) <= hy):
             return False, "the item did not come in horizontally from a side"
-        if s.frac_inside_bbox < 0.5 or s.frac_touching_object < 1.0 or s.frac_on_ground > 0.0:
+        if s.frac_inside_bbox < MOST or s.frac_touching_object < 1.0 or s.frac_on_ground > 0.0:
             return False, "the item does not rest inside on the object"
         return True, "the item pushed in from the side rests inside on the object"

@@ -6,20 +6,20 @@ upturned tub meets a wall at the edge."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import cast
 
 from rail_mj.affordances.kinds.base import (
+    GAP,
+    MAX_OBJECT_TILT_DEG,
     SIDES,
     AgentShape,
     box_agent,
     clearance,
     register_kind,
-    rest_bounds,
     rest_scoring,
-    rest_window,
-    rest_words,
     side_offset,
     via,
 )
@@ -36,7 +36,7 @@ class SurfaceParams(KindParams):
 
     legroom: bool = False  # used from beside it, so a person's feet go under its top's edge
 
-_HALF_Z = 0.015  # the book's half height, m
+_HALF_Z = 0.015  # the book's half height, m: a 3 cm book
 #: How many of the five lowering plans must succeed: a top at least half a metre across holds the box placed
 #: off centre too, a small pedestal foot or a stretcher only at one place.
 _MIN_PLANS = 4
@@ -59,13 +59,14 @@ class Surface(Lowering):
     agent_description = "One flat box standing for a book or a dish placed on the object."
     interaction_description = ("The box is lowered onto the object from above at its centre and at offsets to each "
                                "side; released at the first contact.")
-    expected_outcome = ("The box rests level on top of the {name} 0.4–1.1 m above the ground, not touching the "
-                        "ground, and the {name} does not tip over.")
-    offset = 0.75
+    expected_outcome = ("The box rests level on top of the {name}, not touching the ground, and the {name} does "
+                        "not tip over.")
+    offset = 0.75  # three quarters out to the edge: where a place setting goes, not over it
     target = "the top"
-    max_agent_tilt = 10
+    max_agent_tilt = 10  # a glass stands on a top within 10 deg of level, a book slides at 15 (LEVEL_DEG)
 
     def agent(self, aff: Affordance, dims: Sequence[float]) -> AgentShape:
+        # a book or a dish, a quarter of the top across, from a coaster's 8 cm to a tray's 30 cm
         return box_agent("book", (min(0.15, max(0.04, 0.12 * dims[1])),) * 2 + (_HALF_Z,))
 
     def plans(self, shape: AgentShape) -> list[MotionPlan]:
@@ -82,16 +83,17 @@ class Surface(Lowering):
         ux, uy = side_offset(plan.removeprefix("under_"), 1.0)
         out, z = shape.radius + clearance(shape), shape.half_z + _SLIDE_LIFT
         # down beside the object's box from where the whole box clears the floor, then in
-        return [via((ux, uy, -1), (ux * out, uy * out, shape.radius + 0.01)),
+        return [via((ux, uy, -1), (ux * out, uy * out, shape.radius + GAP)),
                 via((ux, uy, -1), (ux * out, uy * out, z)), via((0, 0, -1), (0, 0, z))]
 
     def scoring(self, aff: Affordance, shape: AgentShape) -> ScoringCode:
-        lo, hi = rest_bounds(aff)
-        # on top: never below the box's middle either (in a tall object a board at table height is no top)
-        return rest_scoring(aff, shape, f"np.maximum({lo}, 0.0)", hi, 10, 10, f"level on top {rest_words(aff)}")
+        # on top: above the box's middle (in a tall object a board halfway up is no top); how high the top
+        # stands is the height's prior, not the physics'
+        return rest_scoring(aff, shape, "0.0", "np.inf", self.max_agent_tilt, MAX_OBJECT_TILT_DEG, "level on top")
 
     def window(self, aff: Affordance) -> tuple[float, float]:
-        return rest_window(aff, _HALF_Z)
+        # a top is where the box rests at the top of the pose's box (the free-space rule below), at any height
+        return -math.inf, math.inf
 
     def accept(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float]) -> tuple[bool, str]:
         if c.plan in _SLIDES:  # evidence of room under the top; where it comes to rest is no placement
