@@ -27,8 +27,9 @@ import numpy as np
 from scipy.spatial import ConvexHull
 
 from rail_mj.core.errors import ConfigError
+from rail_mj.mjcf import OWNER_GROUND, OWNER_OBJECT
 
-__all__ = ["WINDOW", "REST_SPEED", "MAX_TIP", "MIN_RETAINED", "EndState", "Judgement", "judge", "footprint",
+__all__ = ["WINDOW", "REST_SPEED", "MAX_TIP", "MIN_RETAINED", "Support", "EndState", "Judgement", "judge", "footprint",
            "observe"]
 
 #: How long the item must rest where it ended, s (the issue's definition of "rests").
@@ -154,8 +155,6 @@ def observe(model: mujoco.MjModel, data: mujoco.MjData, *, item_body: int, objec
 
     ``geom_owner`` holds the rail_mj.mjcf owner codes (agent 0, object, ground); ``item_quat0``: the item's
     orientation when it was released; ``item_before``: its centre ``window`` seconds ago."""
-    from rail_mj.mjcf import OWNER_GROUND, OWNER_OBJECT
-
     rot = data.xmat[object_body].reshape(3, 3)
     world = np.vstack([np.asarray(h, dtype=float) @ rot.T + data.xpos[object_body] for h in object_hulls])
     item_geoms = np.flatnonzero(model.body_rootid[model.geom_bodyid] == item_body)
