@@ -103,3 +103,38 @@ def test_a_plan_on_a_scan_turned_half_a_turn_is_carried_out_on_the_real_object_t
     straight = StablePose(pos=np.array([-robot.object_xy[0], -robot.object_xy[1], 0.0]), quat=np.array([1.0, 0, 0, 0]),
                           probability=1.0, half_extents=half)
     assert np.allclose(plan_in_true_frame(via, straight, scan_base_world - true_origin), via)
+
+
+def test_a_task_that_cannot_run_stops_the_run_with_its_error_and_keeps_the_finished_rows(tmp_path, monkeypatch):
+    from rail_mj.core.errors import ConfigError
+
+    def fake(task, **kw):
+        if task.name == "bad":
+            raise ConfigError("object 'wardrobe' is out of the arm's reach")
+        return _row(task.name, True, None, 1.0)
+
+    monkeypatch.setattr("rail_mj.robot.experiment.run_task", fake)
+    tasks = (Task("good", "demo:cup", 0, "put the water in the cup"),
+             Task("bad", "demo:cup", 1, "put water in the cup"))
+    with pytest.raises(ConfigError, match="wardrobe"):
+        run_experiment(tasks=tasks, scan=False, json_path=tmp_path / "summary.json", progress=None)
+    assert [json.loads(x)["task"] for x in (tmp_path / "summary.jsonl").read_text().splitlines()] == ["good"]
+
+
+def test_the_experiment_meets_the_issue_24_task_counts():
+    assert len(TASKS) >= 36
+    assert sum(t.real for t in TASKS) >= 8
+    assert sum(t.decline for t in TASKS) >= 8
+    assert sum(len(t.beside) >= 2 for t in TASKS) >= 4
+
+
+def test_summary_counts_declines_choices_and_the_judge():
+    rows = [_row("a", True, True, 12.0), _row("b", False, True, 10.0)]
+    rows[0].update(expect="execute", plan_success=True, agree_judge=True, n_objects=3, right_choice=True,
+                   real=True)
+    rows[1].update(expect="decline", declined=True, executed=False, peak_force=0.0, plan_success=None,
+                   agree_judge=None, n_objects=1, right_choice=True)
+    s = summarize(rows, scan=True, scan_note=None)
+    assert s["success_rate"] == 1.0 and s["n_positive"] == 1 and s["decline_rate"] == 1.0
+    assert s["n_declines"] == 1 and s["n_tables"] == 1 and s["right_choice_rate"] == 1.0 and s["n_real"] == 1
+    assert s["judge_plan_agreement"] == 1.0

@@ -12,8 +12,10 @@ from rail_mj.robot.executor import (
     drive,
     execute,
 )
+from rail_mj.robot.judge import EndState, Judgement, judge
 from rail_mj.robot.model import fetch_panda, load_panda_spec, panda_dir
 from rail_mj.robot.request import parse_request
+from rail_mj.robot.run import ObjectSpec, run_request
 from rail_mj.robot.scene import build_scene
 
 __all__ = [
@@ -30,4 +32,9 @@ __all__ = [
     "panda_dir",
     "Request",
     "parse_request",
+    "ObjectSpec",
+    "run_request",
+    "EndState",
+    "Judgement",
+    "judge",
 ]

@@ -65,6 +65,8 @@ class RobotConfig(BaseModel):
     table_height: float = Field(default=0.1, gt=0, description="table top above the floor, m")
     table_half_size: tuple[float, float] = (0.3, 0.45)
     object_xy: tuple[float, float] = Field(default=(0.55, 0.0), description="where the object's task frame sits, m")
+    table_xy: tuple[float, float] | None = Field(default=None,
+                                                 description="the table's centre, m; None: under the object")
     clearance: float = Field(default=0.08, ge=0, description="approach height above the object top, m")
     agent_size: tuple[float, float] = Field(default=(0.03, 0.045), description="graspable agent size range, m")
     grip_gap: float = Field(default=0.015, ge=0,

@@ -19,7 +19,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Literal
 
 import mujoco
 import numpy as np
@@ -31,7 +31,17 @@ from rail_mj.imagination.batch import Placement, assemble_outcomes
 from rail_mj.mjcf import count_contacts
 from rail_mj.robot.arm import HOME_QPOS
 from rail_mj.robot.control import RobotConfig, contact_force, impedance_torque
-from rail_mj.robot.scene import GRASP_QUAT, RobotScene, build_scene, graspable_scale, hand_z, home_grip, side_grasps
+from rail_mj.robot.judge import WINDOW, Judgement, judge, observe
+from rail_mj.robot.scene import (
+    GRASP_QUAT,
+    Neighbour,
+    RobotScene,
+    build_scene,
+    graspable_scale,
+    hand_z,
+    home_grip,
+    side_grasps,
+)
 from rail_mj.robot.video import VIDEO_FPS, video_camera, video_renderer, write_video
 from rail_mj.scoring import compile_scoring
 
@@ -79,6 +89,7 @@ class ExecutionResult:
     agent_scale: float  # factor applied to the agent fragment
     timings: dict[str, float] = field(default_factory=dict)
     ik_blocked: int = 0  # path samples where IK kept the hand off an obstacle the plan would have it touch
+    judgement: Judgement | None = None  # the independent judge's (rail_mj.robot.judge), when a preposition was given
 
     def to_dict(self) -> dict:
         """JSON-ready summary (no arrays of the outcomes)."""
@@ -96,6 +107,7 @@ class ExecutionResult:
             "agent_scale": self.agent_scale,
             "ik_blocked": self.ik_blocked,
             "timings": self.timings,
+            "judge": self.judgement.to_dict() if self.judgement is not None else None,
         }
 
 
@@ -312,13 +324,19 @@ def _resolve_scoring(scoring: ScoringFunction | str | None) -> ScoringFunction |
 
 def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: np.ndarray,
             scoring: ScoringFunction | str | None, *, config: RobotConfig | None = None,
-            render: Path | None = None, affordance: str | None = None) -> ExecutionResult:
+            render: Path | None = None, affordance: str | None = None, others: tuple[Neighbour, ...] = (),
+            preposition: Literal["in", "on"] | None = None, figure: bool = False, water: bool = False
+            ) -> ExecutionResult:
     """Carry the agent along ``trajectory`` ((K, 7) via-poses of its centre, task frame), release, judge.
 
     ``render`` records the execution: an mp4 when it ends in .mp4, else a folder of PNG frames
     (:func:`rail_mj.render.files.write_frames`), seen by one fixed camera that keeps the arm and the agent in view,
     each frame captioned (:func:`caption_lines`: the object, ``affordance``, the verdict, the peak force
     against the limit, and the phase and hand force at that frame).
+
+    ``others`` stand fixed on the table beside the object. With ``preposition`` the end state is also judged by
+    :func:`rail_mj.robot.judge.judge` (``figure``: the agent has a pelvis; ``water``: its droplets are counted),
+    after the item has rested :data:`rail_mj.robot.judge.WINDOW` more seconds.
     """
     cfg = config or RobotConfig()
     traj = np.asarray(trajectory, dtype=float)
@@ -338,7 +356,7 @@ def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: 
     for grasp in [GRASP_QUAT, *side_grasps(traj[:, :3], quats[-1])]:
         t0 = time.perf_counter()
         scene = build_scene(cfg, obj=obj, pose=pose, agent_fragment=agent_fragment, agent_scale=scale,
-                            visual=True if render is not None else None, grasp=grasp)
+                            visual=True if render is not None else None, grasp=grasp, others=others)
         timings["build"] += time.perf_counter() - t0
         t0 = time.perf_counter()
         path = [(scene.task_origin + p, q) for p, q in zip(traj[:, :3], quats)]
@@ -371,7 +389,10 @@ def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: 
             agent_pos=outcomes.agent_pos[0, 0] if outcomes else nan3,
             agent_quat=outcomes.agent_quat[0, 0] if outcomes else np.full(4, np.nan),
             object_tilt=float(outcomes.object_tilt[0]) if outcomes else float("nan"),
-            outcomes=outcomes, ik_residual=plan.worst, agent_scale=scale, timings=timings, ik_blocked=plan.blocked)
+            outcomes=outcomes, ik_residual=plan.worst, agent_scale=scale, timings=timings, ik_blocked=plan.blocked,
+            judgement=verdict)
+
+    verdict: Judgement | None = None
 
     if plan.message:
         return result(False, float("nan"), False, plan.message, None, None)
@@ -400,6 +421,7 @@ def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: 
     # release: the weld lets go, the fingers open, the hand withdraws: straight up from above, and back the way
     # it pushed from the side (lifting there would catch what hangs over the item)
     data.eq_active[scene.weld] = 0
+    item_quat0 = data.xquat[scene.agent_body].copy()
     sim.held = False
     # the free agent gets back the imagination's contact softness; soft pads were for the grasp
     scene.model.geom_solref[scene.agent_geoms] = scene.agent_solref
@@ -418,6 +440,15 @@ def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: 
                     np.linalg.norm(data.qvel[scene.object_dof:scene.object_dof + 3]))
         if speed < cfg.settle_speed and data.time > 0.5:
             break
+    if preposition is not None:
+        # the judge's window: the item must rest where it ended for WINDOW more seconds
+        before = data.xpos[scene.agent_body].copy()
+        for _ in range(int(np.ceil(WINDOW / cfg.dt))):
+            sim.crossed(sim.step(pos, quat, np.zeros(3)), "settle", -1, "none")
+        verdict = judge(observe(scene.model, data, item_body=scene.agent_body, object_body=scene.object_body,
+                                object_hulls=obj.hulls, object_quat0=obj_quat0, item_quat0=item_quat0,
+                                item_before=before, geom_owner=scene.geom_owner, table_z=cfg.table_height,
+                                preposition=preposition, figure=figure, water=water))
     timings["simulate"] = time.perf_counter() - t0
     timings["sim_time"] = float(data.time)
 

