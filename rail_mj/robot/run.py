@@ -109,8 +109,8 @@ def plan_in_true_frame(via_poses: np.ndarray, scan_pose: StablePose, scan_base: 
 
 def _verdict(result) -> dict[str, Any]:
     best = result.best_plan
-    return {"functional": bool(result.functional), "probability": float(result.probability), "dims_fit": result.dims_fit,
-            "error": result.error, "plan": best.name if best is not None else None,
+    return {"functional": bool(result.functional), "probability": float(result.probability),
+            "dims_fit": result.dims_fit, "error": result.error, "plan": best.name if best is not None else None,
             "score": float(best.score) if best is not None and np.isfinite(best.score) else None,
             "reason": (result.analyzer_reasons or [""])[-1][:300],
             "seconds": float(sum(v for k, v in result.timings.items() if k != "load"))}
@@ -120,7 +120,8 @@ def decline_text(name: str, affordance: str, verdict: dict[str, Any]) -> str:
     """Why one object does not afford the request as it stands: its probability and the analyser's reason (or the
     error)."""
     why = verdict.get("error") or verdict.get("reason") or "no imagined plan succeeded"
-    return f"as it stands, {name!r} does not afford {affordance!r} (probability {verdict['probability']:.2f} < 0.5): {why}"
+    odds = f"probability {verdict['probability']:.2f} < 0.5"
+    return f"as it stands, {name!r} does not afford {affordance!r} ({odds}): {why}"
 
 
 def _rank(candidate: dict[str, Any]) -> tuple[float, float]:
