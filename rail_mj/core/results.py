@@ -7,7 +7,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from rail_mj.core.types import Basin, StablePose
 
-__all__ = ["BasinInfo", "PoseInfo", "PlanInfo", "AffordanceResult"]
+__all__ = ["BasinInfo", "PoseInfo", "PlanInfo", "PoseProbability", "AffordanceResult"]
 
 
 class BasinInfo(BaseModel):
@@ -77,6 +77,24 @@ class PlanInfo(BaseModel):
     score: float
 
 
+class PoseProbability(BaseModel):
+    """How probable it is that one imagined stable pose affords the use: prior × physics
+    (:mod:`rail_mj.pipeline.verdicts`)."""
+
+    model_config = ConfigDict(frozen=True)
+
+    index: int = Field(description="index into the object's stable poses")
+    prior: float = Field(ge=0, le=1, description="size prior of the object x pose prior of this pose's box")
+    prior_factors: str = Field(default="", description="each size's plausibility in words")
+    physics: float = Field(ge=0, le=1, description="fraction of the worlds (nominal + perturbed) in which the "
+                                                   "best plan succeeded")
+    probability: float = Field(ge=0, le=1, description="prior x physics")
+    best_plan: str | None = Field(default=None, description="the plan that succeeded in the most worlds")
+    successes: int = Field(default=0, ge=0, description="worlds in which the best plan succeeded")
+    worlds: int = Field(default=1, ge=1, description="worlds each plan was imagined in (1 + perturbations)")
+    blew_up: list[str] = Field(default_factory=list, description="rollouts of this pose that blew up (failures)")
+
+
 class AffordanceResult(BaseModel):
     """The verdict for one object and one requested affordance."""
 
@@ -90,6 +108,10 @@ class AffordanceResult(BaseModel):
         default=None, description="the Affordance Analyzer's dimension check; None when the case failed before it"
     )
     functional: bool = False
+    probability: float = Field(default=0.0, ge=0, le=1, description="the most probable pose's probability; "
+                                                                    "functional is probability >= 0.5")
+    pose_verdicts: list[PoseProbability] = Field(default_factory=list,
+                                                 description="per imagined pose: prior, physics, probability")
     functional_pose: PoseInfo | None = None
     best_plan: PlanInfo | None = None
     pose_without_analyzer: PoseInfo | None = Field(

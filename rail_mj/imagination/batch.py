@@ -19,7 +19,7 @@ from rail_mj.core.errors import ImaginationError
 from rail_mj.core.geometry import follow_task_frame, quat_angle, quat_to_angvel, slerp, task_origin, tilt, to_task_frame
 from rail_mj.core.types import AgentSetup, Outcomes, RailObject, StablePose
 from rail_mj.imagination.config import ImaginationConfig
-from rail_mj.imagination.perturb import Perturbation, PerturbationSet, scaled_pose
+from rail_mj.imagination.perturb import Perturbation, PerturbationSet, scaled_pose, world_trajectory
 from rail_mj.mjcf import Scene
 
 __all__ = [
@@ -255,16 +255,9 @@ def drive_table(rows: Sequence[np.ndarray], cfg: ImaginationConfig) -> DriveTabl
 
 
 def _world_rows(rows: list[np.ndarray], poses: Sequence[StablePose], n_plans: int, w: Perturbation) -> list[np.ndarray]:
-    """World ``w``'s via-poses of every rollout (pose-major): the task frame scaled with the object, the plan
-    shifted sideways by its fraction of each pose's half extents."""
-    out = []
-    for k, pose in enumerate(poses):
-        shift = np.array([w.offset[0] * pose.half_extents[0], w.offset[1] * pose.half_extents[1], 0.0]) * w.scale
-        for j in range(n_plans):
-            via = np.array(rows[j if len(rows) == n_plans else k * n_plans + j], dtype=np.float64)
-            via[:, :3] = via[:, :3] * w.scale + shift
-            out.append(via)
-    return out
+    """World ``w``'s via-poses of every rollout, pose-major (:func:`~rail_mj.imagination.perturb.world_trajectory`)."""
+    return [world_trajectory(rows[j if len(rows) == n_plans else k * n_plans + j], np.asarray(pose.half_extents), w)
+            for k, pose in enumerate(poses) for j in range(n_plans)]
 
 
 def prepare(

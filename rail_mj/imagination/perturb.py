@@ -24,7 +24,8 @@ from rail_mj.core.types import AgentSetup, Basin, RailObject, StablePose
 from rail_mj.imagination.config import PERTURBATIONS_RANGE, ImaginationConfig
 from rail_mj.mjcf import OBJECT_BODY, Scene, ScenePhysics, compose_scene
 
-__all__ = ["Perturbation", "PerturbationSet", "draw", "scaled_object", "scaled_pose", "world_models"]
+__all__ = ["Perturbation", "PerturbationSet", "draw", "scaled_object", "scaled_pose", "world_models",
+           "world_trajectory"]
 
 
 @dataclass(frozen=True)
@@ -109,6 +110,15 @@ def scaled_pose(pose: StablePose, s: float) -> StablePose:
         half_extents=np.asarray(pose.half_extents, dtype=np.float64) * s,
         basin=None if basin is None else Basin(rim=basin.rim * s, opening=np.asarray(basin.opening) * s,
                                                length=basin.length * s))
+
+
+def world_trajectory(via: np.ndarray, half_extents: np.ndarray, w: Perturbation) -> np.ndarray:
+    """World ``w``'s (K, 7) via-poses of a plan made for a pose of half extents ``half_extents`` (nominal): the task
+    frame scaled with the object, the plan shifted sideways by its fraction of the pose's half extents x, y."""
+    out = np.array(via, dtype=np.float64)
+    shift = np.array([w.offset[0] * half_extents[0], w.offset[1] * half_extents[1], 0.0]) * w.scale
+    out[:, :3] = out[:, :3] * w.scale + shift
+    return out
 
 
 def _agents_edit(w: Perturbation):

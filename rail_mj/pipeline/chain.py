@@ -13,7 +13,7 @@ import time
 from collections.abc import Callable, Iterable, Sequence
 from contextlib import closing
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -21,13 +21,14 @@ from rail_mj import llm
 from rail_mj.affordances import load_files, request_scale
 from rail_mj.core.errors import ConfigError, RailError
 from rail_mj.core.results import AffordanceResult, PlanInfo, PoseInfo
-from rail_mj.core.types import RailObject, StablePoses
-from rail_mj.imagination import imagine, pose_plan, resolve_backend, rollout_index
+from rail_mj.core.types import RailObject, StablePose, StablePoses
+from rail_mj.imagination import draw, imagine, pose_plan, resolve_backend, rollout_index
 from rail_mj.imagination.inputs import agent_setup, trajectory_array
 from rail_mj.llm.schemas import ImaginationProfile
 from rail_mj.mesh import load_object, mesh_notes
 from rail_mj.pipeline.config import ObjectInput, PoseMode, RunConfig
 from rail_mj.pipeline.parallel import ObjectTask, run_tasks
+from rail_mj.pipeline.verdicts import FUNCTIONAL, most_probable, pose_probabilities, world_outcomes
 from rail_mj.scoring import ScoringFunction, compile_scoring
 from rail_mj.stable_poses import find_stable_poses, pose_from_up
 
@@ -155,13 +156,15 @@ class Pipeline:
         trajectories = [trajectory_array(profile.trajectories.trajectories, poses[i].half_extents, poses[i].basin)
                         for i in kept]
         t = time.perf_counter()
-        outcomes = imagine(obj, [poses[i] for i in kept], agents, trajectories, backend=self.backend,
-                           config=self.config.imagination)
+        perturbations = draw(self.config.imagination)
+        every = imagine(obj, [poses[i] for i in kept], agents, trajectories, backend=self.backend,
+                        config=self.config.imagination, perturbations=perturbations)
         timings["imagination"] = time.perf_counter() - t
 
         t = time.perf_counter()
-        scores = self.scorer(profile.scoring.source)(outcomes)
+        every_score = self.scorer(profile.scoring.source)(every)
         timings["scoring"] = time.perf_counter() - t
+        outcomes, scores = world_outcomes(every, every_score, perturbations.n_worlds)[0]  # the nominal world
         n_plans = len(profile.plans.plans)
         grid = np.full((len(poses), n_plans), -1.0)
         grid[kept] = scores.reshape(len(kept), n_plans)
@@ -176,27 +179,36 @@ class Pipeline:
 
         t = time.perf_counter()
         verdict = self._analyse(profile, poses, kept, outcomes, scores, trajectories)
+        pose_list = cast(Sequence[StablePose], poses)  # StablePoses reads as a sequence of StablePose
+        result.pose_verdicts = pose_probabilities(
+            profile.affordance, profile.scale, obj.obb_dims, profile.plans.plans, pose_list, kept, every, every_score,
+            trajectories, perturbations, verdict, llm_veto=self.provider_name != "offline")
         timings["functional_pose_analyzer"] = time.perf_counter() - t
         result.timings = timings
         if verdict is None:
             result.analyzer_reasons = ["no plan scored above 0 in any stable pose"]
+        else:
+            result.analyzer_reasons = ([f"pose {v.pose_index}: {v.reason}" for v in verdict.poses]
+                                       + [verdict.reason])
+        best = most_probable(result.pose_verdicts, pose_list, None if verdict is None else verdict.best_pose)
+        if best is None:
             return result
-        result.analyzer_reasons = [f"pose {v.pose_index}: {v.reason}" for v in verdict.poses] + [verdict.reason]
-        if verdict.best_pose is None or verdict.best_plan is None:
+        result.probability = best.probability
+        if best.probability < FUNCTIONAL or best.best_plan is None:
             return result
-        plan_idx = result.plans.index(verdict.best_plan)
-        b = rollout_index(kept.index(verdict.best_pose), plan_idx, n_plans)
+        plan_idx = result.plans.index(best.best_plan)
+        b = rollout_index(kept.index(best.index), plan_idx, n_plans)
         plan = profile.plans.plans[plan_idx]
         result.functional = True
-        result.functional_pose = pose_infos[verdict.best_pose]
+        result.functional_pose = pose_infos[best.index]
         result.best_plan = PlanInfo(
             index=plan_idx,
             name=plan.name,
             description=plan.description,
-            via_poses=trajectories[kept.index(verdict.best_pose)][plan_idx].tolist(),
+            via_poses=trajectories[kept.index(best.index)][plan_idx].tolist(),
             score=float(scores[b]),
         )
-        result.evidence_pose = verdict.best_pose
+        result.evidence_pose = best.index
         result.evidence_agent_pos = outcomes.agent_pos[b].tolist()
         return result
 
