@@ -271,20 +271,19 @@ def prepare(
     """Every (stable pose, plan) rollout of ``obj``, pose-major; see :func:`rail_mj.imagination.imagine`.
 
     With ``perturbations`` (:mod:`rail_mj.imagination.perturb`) the batch holds every world's rollouts,
-    world-major: the first ``poses × plans`` rollouts are the nominal world's, in the order they have without.
+    world-major: rollouts ``w * poses * plans`` on are world ``w``'s, pose-major as without.
     """
     poses = list(poses)
     if not poses:
         raise ImaginationError("imagine needs at least one stable pose; got none")
     rows, n_plans = plan_rows(trajectories, len(poses))
-    if perturbations is None or perturbations.n_worlds == 1:
+    if perturbations is None:
         table = drive_table(rows, cfg)
         return RolloutBatch(obj=obj, agents=agents, placement=Placement.of(poses, n_plans, len(rows)), table=table)
-    parts, all_rows = [Placement.of(poses, n_plans, len(rows))], list(rows)
-    for w in perturbations.worlds[1:]:
-        world_poses = [scaled_pose(p, w.scale) for p in poses]
-        world_rows = _world_rows(rows, poses, n_plans, w)
-        parts.append(Placement.of(world_poses, n_plans, len(world_rows)))
+    parts, all_rows = [], []
+    for w in perturbations.worlds:
+        world_rows = list(rows) if w.nominal else _world_rows(rows, poses, n_plans, w)
+        parts.append(Placement.of([scaled_pose(p, w.scale) for p in poses], n_plans, len(world_rows)))
         all_rows += world_rows
     return RolloutBatch(obj=obj, agents=agents, placement=Placement.concat(parts, perturbations.worlds),
                         table=drive_table(all_rows, cfg), perturbations=perturbations)

@@ -24,7 +24,7 @@ PERTURBATIONS_RANGE = (0, 32)
 SEED_RANGE = (0, 2**32 - 1)
 #: Perturbation amplitudes are fractions: 0 turns one off, 0.5 (half again or half as much) is no longer "the same"
 #: object.
-_AMPLITUDE_RANGE = (0.0, 0.5)
+_AMPLITUDE_RANGE = (0, 0.5)
 _RANGES = {"perturbations": PERTURBATIONS_RANGE, "seed": SEED_RANGE,
            **{name: _AMPLITUDE_RANGE for name in ("perturb_scale", "perturb_friction", "perturb_agent_mass",
                                                   "perturb_agent_size", "perturb_offset")}}
@@ -40,7 +40,7 @@ def _check_ranges(data: dict[str, Any]) -> None:
               and (isinstance(v, int) or name not in ("perturbations", "seed")) and lo <= v <= hi)
         if not ok:
             kind = "a whole number" if name in ("perturbations", "seed") else "a number"
-            raise ConfigError(f"ImaginationConfig.{name} must be {kind} in [{lo:g}, {hi:g}]; got {v!r}")
+            raise ConfigError(f"ImaginationConfig.{name} must be {kind} in [{lo}, {hi}]; got {v!r}")
 
 
 def _amplitude(default: float, description: str) -> Any:

@@ -35,7 +35,7 @@ class NativeBackend(Backend):
         table, placement, offsets = batch.table, batch.placement, batch.world_offsets
         n_worlds, n_agents = placement.batch, scene.n_agents
         sim = mujoco.batch.Batch(scene.model, n_worlds, nthread=cfg.nthread, persistent=True)
-        if batch.perturbations.n_worlds > 1:
+        if any(not w.nominal for w in batch.perturbations.worlds):
             models = world_models(scene, batch.obj, batch.agents, cfg.physics, batch.perturbations)
             sim.set_models([models[w] for w in placement.worlds])
         qpos, qvel = sim.bind("qpos"), sim.bind("qvel")

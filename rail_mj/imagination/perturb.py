@@ -50,13 +50,13 @@ class Perturbation:
 
 @dataclass(frozen=True)
 class PerturbationSet:
-    """The worlds of one object's imagination: world 0 nominal, then the perturbed ones."""
+    """The worlds of one object's imagination (:func:`draw`: world 0 nominal, then the perturbed ones)."""
 
     worlds: tuple[Perturbation, ...] = (Perturbation(),)
 
     def __post_init__(self) -> None:
-        if not self.worlds or not self.worlds[0].nominal:
-            raise ConfigError("a perturbation set starts with the nominal world, Perturbation()")
+        if not self.worlds:
+            raise ConfigError("a perturbation set holds at least one world")
 
     @property
     def n_worlds(self) -> int:
@@ -65,6 +65,11 @@ class PerturbationSet:
     @property
     def scales(self) -> np.ndarray:
         return np.array([w.scale for w in self.worlds])
+
+    @property
+    def perturbed(self) -> PerturbationSet | None:
+        """The worlds after the first (the perturbed ones of :func:`draw`); None when there are none."""
+        return PerturbationSet(self.worlds[1:]) if len(self.worlds) > 1 else None
 
 
 def _stratified(rng: np.random.Generator, k: int, amplitude: float) -> np.ndarray:
@@ -149,9 +154,9 @@ def _agents_edit(w: Perturbation):
 
 def world_models(base: Scene, obj: RailObject, agents: AgentSetup, physics: ScenePhysics,
                  perturbations: PerturbationSet, hull_boxes: int = 0) -> list[mujoco.MjModel]:
-    """One compiled model per world, ``base.model`` for the nominal one: the same MjData layout throughout."""
-    models = [base.model]
-    for w in perturbations.worlds[1:]:
+    """One compiled model per world, ``base.model`` for a nominal one: the same MjData layout throughout."""
+    models = []
+    for w in perturbations.worlds:
         if w.nominal:
             models.append(base.model)
             continue

@@ -28,7 +28,13 @@ from rail_mj.llm.schemas import ImaginationProfile
 from rail_mj.mesh import load_object, mesh_notes
 from rail_mj.pipeline.config import ObjectInput, PoseMode, RunConfig
 from rail_mj.pipeline.parallel import ObjectTask, run_tasks
-from rail_mj.pipeline.verdicts import FUNCTIONAL, most_probable, pose_probabilities, world_outcomes
+from rail_mj.pipeline.verdicts import (
+    FUNCTIONAL,
+    candidate_slots,
+    most_probable,
+    pose_probabilities,
+    world_outcomes,
+)
 from rail_mj.scoring import ScoringFunction, compile_scoring
 from rail_mj.stable_poses import find_stable_poses, pose_from_up
 
@@ -156,15 +162,14 @@ class Pipeline:
         trajectories = [trajectory_array(profile.trajectories.trajectories, poses[i].half_extents, poses[i].basin)
                         for i in kept]
         t = time.perf_counter()
-        perturbations = draw(self.config.imagination)
-        every = imagine(obj, [poses[i] for i in kept], agents, trajectories, backend=self.backend,
-                        config=self.config.imagination, perturbations=perturbations)
+        outcomes = imagine(obj, [poses[i] for i in kept], agents, trajectories, backend=self.backend,
+                           config=self.config.imagination)
         timings["imagination"] = time.perf_counter() - t
 
         t = time.perf_counter()
-        every_score = self.scorer(profile.scoring.source)(every)
+        scorer = self.scorer(profile.scoring.source)
+        outcomes, scores = world_outcomes(outcomes, scorer(outcomes), 1)[0]  # a blown-up rollout scores -1
         timings["scoring"] = time.perf_counter() - t
-        outcomes, scores = world_outcomes(every, every_score, perturbations.n_worlds)[0]  # the nominal world
         n_plans = len(profile.plans.plans)
         grid = np.full((len(poses), n_plans), -1.0)
         grid[kept] = scores.reshape(len(kept), n_plans)
@@ -177,12 +182,24 @@ class Pipeline:
         if scores[best_b] > 0:
             result.pose_without_analyzer = pose_infos[kept[pose_plan(best_b, n_plans)[0]]]
 
+        # the perturbed worlds: every plan again in each pose with a candidate, all in one batched call
+        t = time.perf_counter()
+        perturbations = draw(self.config.imagination)
+        slots = candidate_slots(scores, len(kept), n_plans)
+        perturbed = None
+        if slots and perturbations.perturbed is not None:
+            again = imagine(obj, [poses[kept[k]] for k in slots], agents, [trajectories[k] for k in slots],
+                            backend=self.backend, config=self.config.imagination,
+                            perturbations=perturbations.perturbed)
+            perturbed = (again, scorer(again), slots)
+        timings["perturbed_worlds"] = time.perf_counter() - t
+
         t = time.perf_counter()
         verdict = self._analyse(profile, poses, kept, outcomes, scores, trajectories)
         pose_list = cast(Sequence[StablePose], poses)  # StablePoses reads as a sequence of StablePose
         result.pose_verdicts = pose_probabilities(
-            profile.affordance, profile.scale, obj.obb_dims, profile.plans.plans, pose_list, kept, every, every_score,
-            trajectories, perturbations, verdict, llm_veto=self.provider_name != "offline")
+            profile.affordance, profile.scale, obj.obb_dims, profile.plans.plans, pose_list, kept, (outcomes, scores),
+            trajectories, perturbations, perturbed, verdict, llm_veto=self.provider_name != "offline")
         timings["functional_pose_analyzer"] = time.perf_counter() - t
         result.timings = timings
         if verdict is None:
