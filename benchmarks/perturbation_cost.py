@@ -21,7 +21,7 @@ AFFORDANCES = ("cup", "bowl", "basket", "table", "chair")
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     ap.add_argument("--dataset", type=Path, default=Path("/work/guard/real_data"))
     ap.add_argument("--k", type=int, nargs="+", default=[0, 4])
     ap.add_argument("--objects", type=int, default=4)
