@@ -15,6 +15,7 @@ from rail_mj.eval.calibration import brier, calibration, draw_reliability, relia
 from rail_mj.imagination import ImaginationConfig, PerturbationSet, draw, get_backend, imagine, prepare
 from rail_mj.imagination.batch import outcomes_from_states
 from rail_mj.imagination.perturb import world_models
+from rail_mj.mjcf import OWNER_OBJECT
 from rail_mj.pipeline.verdicts import pose_probabilities
 from rail_mj.render.explain import explain, format_explanation
 from rail_mj.stable_poses import pose_from_up
@@ -70,14 +71,17 @@ def test_draws_cover_each_range_and_repeat_with_the_seed():
 def test_perturbed_worlds_differ_from_each_other_in_the_batch(cup, poses, drops, perturbed):
     ps, out = perturbed
     scene = get_backend("native", FAST).scene(cup, drops)
-    models = world_models(scene, cup, drops, FAST.physics, ps)
+    models = world_models(scene, ps)
     assert len(models) == K + 1 and models[0] is scene.model
+    agent = scene.geom_owner >= 0
     for w, m in zip(ps.worlds[1:], models[1:], strict=True):
-        ext = np.ptp(m.mesh_vert, axis=0) / np.ptp(scene.model.mesh_vert, axis=0)
-        np.testing.assert_allclose(ext, w.scale, rtol=1e-6)
+        np.testing.assert_allclose(m.mesh_vert, scene.model.mesh_vert * w.scale, rtol=1e-6)
         np.testing.assert_allclose(m.geom_friction[:, 0], scene.model.geom_friction[:, 0] * w.friction)
-        agent = scene.geom_owner >= 0
         np.testing.assert_allclose(m.geom_size[agent], scene.model.geom_size[agent] * w.agent_size)
+        bodies = np.unique(m.geom_bodyid[agent])
+        np.testing.assert_allclose(m.body_mass[bodies], scene.model.body_mass[bodies] * w.agent_mass)
+        body = m.geom_bodyid[scene.geom_owner == OWNER_OBJECT][0]  # the object: same density, scaled
+        assert m.body_mass[body] == pytest.approx(scene.model.body_mass[body] * w.scale**3)
     assert out.batch == (K + 1) * 2 * 2 and list(out.world) == [w for w in range(K + 1) for _ in range(4)]
     finals = out.agent_pos.reshape(K + 1, 4, -1)
     for a in range(K + 1):

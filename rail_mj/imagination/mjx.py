@@ -169,13 +169,11 @@ class MjxBackend(Backend):
 
     def world_fields(self, scene: Scene, m: mjx.Model, batch: RolloutBatch) -> dict:
         """The model fields that differ between the batch's worlds, stacked (W, ...): the jit's per-world inputs
-        (each world's model is compiled from its perturbed spec; the rest of the model is shared)."""
+        (:func:`~rail_mj.imagination.perturb.world_models`; the rest of the model is shared)."""
         if all(w.nominal for w in batch.perturbations.worlds):
             return {}
-        physics = replace(self.config.physics, speculative=False)
-        models = [m if w is scene.model else self.put_model(replace(scene, model=w)) for w in
-                  world_models(scene, batch.obj, batch.agents, physics, batch.perturbations,
-                               hull_bucket(len(batch.obj.hulls)))]
+        models = [m if w is scene.model else self.put_model(replace(scene, model=w))
+                  for w in world_models(scene, batch.perturbations)]
         fields = {}
         for f in dataclasses.fields(m):
             if f.name == "_impl":  # implementation details; a perturbation changes none the rollout reads

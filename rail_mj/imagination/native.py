@@ -36,7 +36,7 @@ class NativeBackend(Backend):
         n_worlds, n_agents = placement.batch, scene.n_agents
         sim = mujoco.batch.Batch(scene.model, n_worlds, nthread=cfg.nthread, persistent=True)
         if any(not w.nominal for w in batch.perturbations.worlds):
-            models = world_models(scene, batch.obj, batch.agents, cfg.physics, batch.perturbations)
+            models = world_models(scene, batch.perturbations)
             sim.set_models([models[w] for w in placement.worlds])
         qpos, qvel = sim.bind("qpos"), sim.bind("qvel")
         qfrc = sim.bind("qfrc_constraint")

@@ -7,24 +7,26 @@ spacing scales with them), and shift every plan sideways by a fraction of the po
 drawn stratified over its range (each of K equal slices of the range holds one draw), so a few worlds cover it.
 
 The draws depend on the seed only, the same for every object, so two objects differ only in themselves; with every
-amplitude 0 the perturbed worlds equal the nominal one. Backends build one compiled model per world
-(:func:`world_models`) and step them in the same batched call.
+amplitude 0 the perturbed worlds equal the nominal one. Backends make one model per world (:func:`world_models`:
+the nominal scene's model with these fields edited, so every world keeps its MjData layout) and step them in one
+batched call.
 """
 
 from __future__ import annotations
 
+import copy
 import dataclasses
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
 from rail_mj.core.errors import ConfigError
-from rail_mj.core.types import AgentSetup, Basin, RailObject, StablePose
+from rail_mj.core.types import Basin, StablePose
 from rail_mj.imagination.config import PERTURBATIONS_RANGE, ImaginationConfig
-from rail_mj.mjcf import OBJECT_BODY, Scene, ScenePhysics, compose_scene
+from rail_mj.mjcf import OWNER_OBJECT, Scene
 
-__all__ = ["Perturbation", "PerturbationSet", "draw", "scaled_object", "scaled_pose", "world_models",
+__all__ = ["Perturbation", "PerturbationSet", "draw", "scaled_pose", "world_model", "world_models",
            "world_trajectory"]
 
 
@@ -96,15 +98,6 @@ def draw(config: ImaginationConfig) -> PerturbationSet:
         for i in range(k))))
 
 
-def scaled_object(obj: RailObject, s: float) -> RailObject:
-    """``obj`` scaled ``s`` times about its mesh-frame origin, at the same density (its mesh, used only by the ray
-    probe, stays; the probe scales its rays instead)."""
-    if s == 1.0:
-        return obj
-    return replace(obj, hulls=tuple(np.asarray(h, dtype=np.float64) * s for h in obj.hulls),
-                   obb_dims=np.asarray(obj.obb_dims) * s, com=np.asarray(obj.com) * s, mass=obj.mass * s**3)
-
-
 def scaled_pose(pose: StablePose, s: float) -> StablePose:
     """``pose`` of the object scaled ``s`` times: the world scaled about its origin (the ground stays at z = 0)."""
     if s == 1.0:
@@ -126,44 +119,42 @@ def world_trajectory(via: np.ndarray, half_extents: np.ndarray, w: Perturbation)
     return out
 
 
-def _agents_edit(w: Perturbation):
-    """The spec edit of world ``w``'s agents: sizes and positions in their body × agent_size, mass × agent_mass,
-    sliding friction × friction (the ground's and the object's come through the scene physics)."""
-
-    def edit(spec: mujoco.MjSpec) -> None:
-        for body in spec.worldbody.bodies:
-            if body.name == OBJECT_BODY:
-                continue
-            for g in body.find_all(mujoco.mjtObj.mjOBJ_GEOM):
-                assert isinstance(g, mujoco.MjsGeom)
-                g.size = np.asarray(g.size) * w.agent_size  # pyright: ignore[reportAttributeAccessIssue]
-                g.pos = np.asarray(g.pos) * w.agent_size  # pyright: ignore[reportAttributeAccessIssue]
-                fromto = np.asarray(g.fromto)
-                if np.all(np.isfinite(fromto)):
-                    g.fromto = fromto * w.agent_size  # pyright: ignore[reportAttributeAccessIssue]
-                if np.isfinite(g.mass):
-                    g.mass = g.mass * w.agent_mass
-                else:
-                    g.density = g.density * w.agent_mass
-                friction = np.asarray(g.friction, dtype=np.float64).copy()
-                friction[0] *= w.friction
-                g.friction = friction  # pyright: ignore[reportAttributeAccessIssue]
-
-    return edit
+def _scale_bodies(m: mujoco.MjModel, bodies: np.ndarray, geoms: np.ndarray, length: float, mass: float) -> None:
+    """Scale ``bodies`` (their ``geoms``, the geoms' meshes and bounding volumes) by ``length`` about each body's
+    frame, and their mass by ``mass`` (inertia by mass x length squared)."""
+    m.geom_pos[geoms] *= length
+    m.geom_size[geoms] *= length
+    m.geom_rbound[geoms] *= length
+    m.geom_aabb[geoms] *= length  # centre and half sizes, in the geom frame
+    for mesh in {int(i) for i in m.geom_dataid[geoms[m.geom_type[geoms] == mujoco.mjtGeom.mjGEOM_MESH]]}:
+        verts = slice(m.mesh_vertadr[mesh], m.mesh_vertadr[mesh] + m.mesh_vertnum[mesh])
+        m.mesh_vert[verts] *= length
+        m.bvh_aabb[m.mesh_bvhadr[mesh] : m.mesh_bvhadr[mesh] + m.mesh_bvhnum[mesh]] *= length
+    for b in bodies:
+        m.bvh_aabb[m.body_bvhadr[b] : m.body_bvhadr[b] + m.body_bvhnum[b]] *= length
+    m.body_ipos[bodies] *= length
+    m.body_mass[bodies] *= mass
+    m.body_inertia[bodies] *= mass * length**2
 
 
-def world_models(base: Scene, obj: RailObject, agents: AgentSetup, physics: ScenePhysics,
-                 perturbations: PerturbationSet, hull_boxes: int = 0) -> list[mujoco.MjModel]:
-    """One compiled model per world, ``base.model`` for a nominal one: the same MjData layout throughout."""
-    models = []
-    for w in perturbations.worlds:
-        if w.nominal:
-            models.append(base.model)
-            continue
-        scene = compose_scene(scaled_object(obj, w.scale), agents,
-                              replace(physics, friction=physics.friction * w.friction), hull_boxes=hull_boxes,
-                              edit=_agents_edit(w), surface=False)
-        scene.model.opt.jacobian = base.model.opt.jacobian
-        models.append(scene.model)
-    return models
+def world_model(base: Scene, w: Perturbation) -> mujoco.MjModel:
+    """``base``'s model in world ``w``: a copy with the object scaled about its frame (mass x scale^3 at the same
+    density), every geom's sliding friction x friction, each agent's size (its geoms about its frame) x agent_size
+    and its mass x agent_mass. Edited in place of a recompile, so the MjData layout stays the batch's (a recompiled
+    scaled hull may triangulate its flat faces otherwise)."""
+    m = copy.copy(base.model)
+    if w.nominal:
+        return m
+    owner = base.geom_owner
+    obj_geoms = np.nonzero(owner == OWNER_OBJECT)[0]
+    _scale_bodies(m, np.unique(m.geom_bodyid[obj_geoms]), obj_geoms, w.scale, w.scale**3)
+    agent_geoms = np.nonzero(owner >= 0)[0]
+    _scale_bodies(m, np.unique(m.geom_bodyid[agent_geoms]), agent_geoms, w.agent_size, w.agent_mass)
+    m.geom_friction[:, 0] *= w.friction
+    mujoco.mj_setConst(m, mujoco.MjData(m))
+    return m
 
+
+def world_models(base: Scene, perturbations: PerturbationSet) -> list[mujoco.MjModel]:
+    """One model per world (:func:`world_model`), ``base.model`` itself for a nominal one."""
+    return [base.model if w.nominal else world_model(base, w) for w in perturbations.worlds]

@@ -22,7 +22,7 @@ Filtering agent pairs this way removes them before compile at no accuracy cost
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import mujoco
@@ -363,15 +363,12 @@ def compose_scene(
     hull_boxes: int = 0,
     joint_damping: float = 0.0,
     rolling_friction: float = 0.0,
-    edit: Callable[[mujoco.MjSpec], None] | None = None,
-    surface: bool = True,
 ) -> Scene:
     """The compiled one-world scene: ground, the free object at the origin, free agents; one compile.
 
     ``hull_boxes`` > 0 gives the box bucket scene; its object keeps the inertia of the hull meshes, so box and
     mesh scenes weigh the same. ``joint_damping`` and ``rolling_friction`` > 0 damp the object's free joint
-    and give its geoms rolling friction (round objects come to rest in a stable-pose drop). ``edit`` changes the
-    spec before it compiles (a perturbed world's agents); ``surface=False`` skips the ray-probe surface model.
+    and give its geoms rolling friction (round objects come to rest in a stable-pose drop).
     """
     spec = _spec(obj, object_pos=(0.0, 0.0, 0.0), object_quat=(1.0, 0.0, 0.0, 0.0), object_free=True, agents=agents,
                  agents_pos=(0.0, 0.0, 0.0), agents_quat=(1.0, 0.0, 0.0, 0.0), physics=physics, ground=True,
@@ -387,8 +384,6 @@ def compose_scene(
         for g in body.geoms:
             g.condim = 6
             g.friction = [physics.friction, rolling_friction, rolling_friction]
-    if edit is not None:
-        edit(spec)
     try:
         model = spec.compile()
     except ValueError as exc:
@@ -405,7 +400,7 @@ def compose_scene(
     jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, OBJECT_JOINT)
     return Scene(model=model, n_agents=n_agents, object_qpos=int(model.jnt_qposadr[jid]),
                  object_dof=int(model.jnt_dofadr[jid]), agent_qpos=agent_qpos, agent_dof=agent_dof, geom_owner=owner,
-                 surface=None if agents is None or not surface else surface_model(obj))
+                 surface=None if agents is None else surface_model(obj))
 
 
 def surface_model(obj: RailObject) -> mujoco.MjModel:
