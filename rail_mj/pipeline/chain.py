@@ -1,4 +1,4 @@
-"""The pipeline: object → stable poses → profile → one batched imagination → scores → functional pose.
+"""The pipeline: object → stable poses → profile → batched imagination → scores → pose probabilities → functional pose.
 
 ``classify`` is the library API for batch affordance classification; the
 ``Pipeline`` class keeps what is reused across objects (provider, profiles,

@@ -9,7 +9,8 @@ For each imagined stable pose of an object, with ``W = 1 + K`` worlds (the nomin
 A pose succeeds in a world when the Functional Pose Analyzer's rules accept it there
 (:func:`rail_mj.llm.offline.judge_pose`: the kind's rules on each candidate, a rollout that scored above 0
 and did not blow up, then the pose's rules on its candidates together, which may need several plans: a seat's
-centre and area, a table top's two placements). Its best plan is the plan accepted in the most worlds. A rollout
+centre and area, a table top's two placements). Its best plan is the plan accepted in the most worlds (ties: stage
+7's plan for the pose, then the better nominal score). A rollout
 that blew up (``Outcomes.unstable``: a non-finite state or a MuJoCo instability warning) is a failure and is named.
 The nominal world imagines every pose and plan; the K perturbed worlds, one more batched call, imagine again
 every plan of the poses with a candidate there (a plan scored above 0), since a pose without one has no success
@@ -139,6 +140,7 @@ def pose_probabilities(
             count(_accepted(aff, plans, poses_w, sub, out_w, scores_w, trajectories_w))
             for k, lines in _blown(out_w, names, f"world {w} ({world.doc()})").items():
                 blew_up[slots[k]] += lines
+    stage7_plans = {v.pose_index: v.plan for v in stage7.poses} if stage7 is not None else {}
     vetoed = ({v.pose_index for v in stage7.poses if not v.accept} if llm_veto and stage7 is not None else set())
     out = []
     for k, i in enumerate(kept):
@@ -150,7 +152,10 @@ def pose_probabilities(
                 [float(v) for v in pose.half_extents], None if pose.basin is None else pose.basin.rim)
             prior, doc = p.value, p.doc()
         successes = 0 if i in vetoed else int(worlds_ok[k])
-        best = max(wins[k], key=lambda name: (wins[k][name], -names.index(name))) if successes else None
+        # ties: stage 7's plan for the pose, then the better nominal score
+        chosen, row = stage7_plans.get(i), scores0[k * len(names) : (k + 1) * len(names)]
+        best = (max(wins[k], key=lambda name: (wins[k][name], name == chosen, float(row[names.index(name)])))
+                if successes else None)
         physics = successes / perturbations.n_worlds
         out.append(PoseProbability(
             index=i, prior=_unit(prior), prior_factors=doc, physics=_unit(physics),
