@@ -70,7 +70,6 @@ def draw_reliability(block: dict, path: Path) -> Path:
         d.text((xy(t, 0)[0] - 8, xy(t, 0)[1] + 8), f"{t:.1f}", fill="black")
         d.line([xy(0, t), (xy(0, t)[0] - 5, xy(0, t)[1])], fill="black")
         d.text((xy(0, t)[0] - 32, xy(0, t)[1] - 6), f"{t:.1f}", fill="black")
-    d.line([xy(0, 0), xy(1, 1)], fill=(150, 150, 150), width=1)  # perfect calibration
     total = max(1, sum(b["n"] for b in block["bins"]))
     points = []
     for b in block["bins"]:
@@ -82,6 +81,7 @@ def draw_reliability(block: dict, path: Path) -> Path:
                     outline=(60, 60, 160))
         points.append(xy(b["mean_probability"], b["positive_fraction"]))
         d.text((xy(b["lo"], 0)[0] + 2, xy(0, 0)[1] - 14), str(b["n"]), fill="black")
+    d.line([xy(0, 0), xy(1, 1)], fill=(110, 110, 110), width=1)  # perfect calibration, over the bars
     if len(points) > 1:
         d.line(points, fill=(200, 30, 30), width=2)
     for x, y in points:
