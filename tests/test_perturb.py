@@ -145,6 +145,7 @@ def test_probability_is_finite_and_a_blown_up_rollout_is_a_named_failure(poses, 
     scores = np.where(np.arange(out.batch) % 4 < 2, 0.5, -1.0)  # the upright cup's pours succeed, not the other's
     clean = _probabilities(ps, out, scores, poses)
     assert [v.physics for v in clean] == [1.0, 0.0] and clean[0].probability == 1.0 and not clean[0].blew_up
+    assert [v.imagined for v in clean] == [K + 1, K + 1]
     unstable = np.zeros(out.batch, dtype=bool)
     unstable[4:6] = True  # world 1, upright pose, both plans
     scores[8] = np.nan  # world 2, upright pose, plan 0: a scoring NaN is no success either
@@ -170,6 +171,9 @@ def test_explanation_prints_each_factor_and_the_rollouts_that_blew_up(cup, poses
             "(plan 'above' in 3 of 4 worlds) = 0.38") in text
     assert "blew up (a failure): plan 'above' blew up in world 2" in text
     assert "verdict: not functional, probability 0.38" in text
+    alone = v.model_copy(update={"physics": 0.0, "probability": 0.0, "best_plan": None, "successes": 0, "imagined": 1})
+    assert "no plan succeeded in the nominal world, so the perturbed ones were not imagined" in format_explanation(
+        explain(r.model_copy(update={"pose_verdicts": [alone]})))
 
 
 def test_brier_score_and_reliability_on_synthetic_labels(tmp_path):

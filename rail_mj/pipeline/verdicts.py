@@ -116,6 +116,7 @@ def pose_probabilities(
     worlds_ok = np.zeros(len(kept), dtype=np.int64)
     blew_up: list[list[str]] = [[] for _ in kept]
     slot = {i: k for k, i in enumerate(kept)}
+    again = set() if perturbed is None else set(perturbed[2])
 
     def count(accepted: dict[int, set[str]]) -> None:
         for i, plans_ok in accepted.items():
@@ -160,7 +161,7 @@ def pose_probabilities(
         out.append(PoseProbability(
             index=i, prior=_unit(prior), prior_factors=doc, physics=_unit(physics),
             probability=_unit(prior * physics), best_plan=best, successes=successes,
-            worlds=perturbations.n_worlds, blew_up=blew_up[k],
+            worlds=perturbations.n_worlds, imagined=perturbations.n_worlds if k in again else 1, blew_up=blew_up[k],
         ))
     return out
 

@@ -76,8 +76,12 @@ def _envelope(affordance: str, half: list[float], rim: float | None) -> str:
 
 def _factors(v: PoseProbability) -> str:
     """``prior 0.72 (height ...) x physics 0.80 (plan 'above' in 4 of 5 worlds) = 0.58``."""
-    plan = f"plan {v.best_plan!r} in {v.successes} of {v.worlds} worlds" if v.best_plan else \
-        f"no plan succeeded in any of {v.worlds} worlds"
+    if v.best_plan:
+        plan = f"plan {v.best_plan!r} in {v.successes} of {v.worlds} worlds"
+    elif v.imagined < v.worlds:
+        plan = "no plan succeeded in the nominal world, so the perturbed ones were not imagined"
+    else:
+        plan = f"no plan succeeded in any of {v.worlds} worlds"
     return (f"prior {v.prior:.2f} ({v.prior_factors}) x physics {v.physics:.2f} ({plan}) = {v.probability:.2f}")
 
 
