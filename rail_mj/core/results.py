@@ -7,7 +7,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from rail_mj.core.types import Basin, StablePose
 
-__all__ = ["BasinInfo", "PoseInfo", "PlanInfo", "AffordanceResult"]
+__all__ = ["BasinInfo", "PoseInfo", "PlanInfo", "PoseProbability", "AffordanceResult"]
 
 
 class BasinInfo(BaseModel):
@@ -77,6 +77,26 @@ class PlanInfo(BaseModel):
     score: float
 
 
+class PoseProbability(BaseModel):
+    """How probable it is that one imagined stable pose affords the use: prior × physics
+    (:mod:`rail_mj.pipeline.verdicts`)."""
+
+    model_config = ConfigDict(frozen=True)
+
+    index: int = Field(description="index into the object's stable poses")
+    prior: float = Field(ge=0, le=1, description="size prior of the object x pose prior of this pose's box")
+    prior_factors: str = Field(default="", description="each size's plausibility in words")
+    physics: float = Field(ge=0, le=1, description="fraction of the worlds (nominal + perturbed) in which the "
+                                                   "best plan succeeded")
+    probability: float = Field(ge=0, le=1, description="prior x physics")
+    best_plan: str | None = Field(default=None, description="the plan that succeeded in the most worlds")
+    successes: int = Field(default=0, ge=0, description="worlds in which the best plan succeeded")
+    worlds: int = Field(default=1, ge=1, description="worlds of the object (1 + perturbations): physics' denominator")
+    imagined: int = Field(default=1, ge=1, description="worlds this pose was imagined in: all of them with a "
+                                                       "candidate in the nominal world, else the nominal one alone")
+    blew_up: list[str] = Field(default_factory=list, description="rollouts of this pose that blew up (failures)")
+
+
 class AffordanceResult(BaseModel):
     """The verdict for one object and one requested affordance."""
 
@@ -92,12 +112,14 @@ class AffordanceResult(BaseModel):
     functional: bool = Field(default=False, description="probability >= 0.5: the use is more likely than not")
     probability: float = Field(
         default=0.0, ge=0.0, le=1.0, allow_inf_nan=False,
-        description="how likely the object affords the use, in [0, 1]: the size prior (stage 1, OBB) times the "
-                    "functional pose's envelope prior times its physics (1 when stage 7 accepts the pose, else 0); "
-                    "the size prior alone when it is negligible (< 0.01) and nothing was imagined",
+        description="how likely the object affords the use, in [0, 1]: the most probable pose's size prior x pose "
+                    "prior x physics (rail_mj.pipeline.verdicts); the OBB's prior alone when it is negligible "
+                    "(< 0.01) and nothing was imagined",
     )
     prior: str = Field(default="", description="the prior's factors in words (each size, its typical range and "
-                                               "width, its plausibility), for the most probable accepted pose")
+                                               "width, its plausibility), for the most probable pose")
+    pose_verdicts: list[PoseProbability] = Field(default_factory=list,
+                                                 description="per imagined pose: prior, physics, probability")
     functional_pose: PoseInfo | None = None
     best_plan: PlanInfo | None = None
     pose_without_analyzer: PoseInfo | None = Field(

@@ -165,6 +165,10 @@ class Outcomes:
     # (B, N) int, the most consecutive of the enclosure probe's horizontal directions in which a ray from the agent's
     # centre leaves without meeting the object (0: walled all round); None where no probe ran (e.g. the robot)
     agent_open_sector: np.ndarray | None = None
+    # (B,) int, the perturbed world of each rollout (rail_mj.imagination.perturb; 0: nominal); None: all nominal
+    world: np.ndarray | None = None
+    # (B,) bool, the rollout blew up: a non-finite state or a MuJoCo instability warning; None: none checked
+    unstable: np.ndarray | None = None
 
     @property
     def batch(self) -> int:

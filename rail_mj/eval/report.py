@@ -9,19 +9,35 @@ from rail_mj.core.errors import RailError
 from rail_mj.core.results import AffordanceResult
 from rail_mj.core.runfiles import atomic_write_text
 from rail_mj.dataset.labels import read_labels
+from rail_mj.eval.calibration import calibration, draw_reliability
 from rail_mj.eval.summary import RULES, _tables, _timing_table
 from rail_mj.render.captions import nothing_to_draw
 from rail_mj.render.images import render_result
 
-__all__ = ["write_report"]
+__all__ = ["RELIABILITY_PNG", "write_report"]
+
+#: The reliability diagram, next to report.md.
+RELIABILITY_PNG = "reliability.png"
+
+
+def _calibration_table(block: dict) -> str:
+    """The reliability bins with cases as a table: cases, mean probability and fraction functional per bin."""
+    rows = "".join(
+        f"| {b['lo']:.1f}-{b['hi']:.1f} | {b['n']} | {b['mean_probability']:.2f} | {b['positive_fraction']:.2f} |\n"
+        for b in block["bins"] if b["n"]
+    )
+    return ("| probability | cases | mean probability | fraction functional |\n|---|---|---|---|\n" + rows)
 
 
 def write_report(out: Path, summary: dict, lines: Sequence[dict], root: Path, *, render: bool) -> None:
     """report.md: the tables, timings, the rules, and each misclassified case with a picture."""
     wrong = [ln for ln in lines if not ln["correct"]]
+    block = summary.get("calibration") or calibration(lines)
+    draw_reliability(block, out / RELIABILITY_PNG)
     parts = [
         "# rail_mj evaluation\n",
         _tables(summary),
+        "\n## Calibration\n\n" + _calibration_table(block) + f"\n![reliability diagram]({RELIABILITY_PNG})\n",
         "\n## Timing\n\n" + _timing_table(summary),
         "\n## Rules\n\n" + RULES.strip() + "\n",
         f"\n## Misclassified cases ({len(wrong)})\n",

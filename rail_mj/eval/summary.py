@@ -16,6 +16,7 @@ import numpy as np
 from rail_mj.core.results import AffordanceResult, PoseInfo
 from rail_mj.dataset.ground_truth import DEFECTS
 from rail_mj.dataset.labels import LabelRecord
+from rail_mj.eval.calibration import calibration
 
 __all__ = [
     "POSE_TOLERANCE_DEG",
@@ -137,6 +138,7 @@ def summarize(lines: Sequence[dict], config: dict | None = None) -> dict:
             "all_non_functional": all(all(v) for v in defects.values()) if defects else None,
             "per_class": {c: _rate(v) for c, v in sorted(defects.items())},
         },
+        "calibration": calibration(lines),
         "timing": {
             stage: {"total_s": float(np.sum(v)), "mean_s": float(np.mean(v))} for stage, v in sorted(timing.items())
         },
@@ -164,11 +166,15 @@ def _tables(summary: dict) -> str:
         f"| rail_mj, without analyzer (best score) | {_pct(fp['without_analyzer'])} |\n"
         f"| dimensions only (most probable pose) | {_pct(summary['baseline_dims']['functional_pose']['overall'])} |\n"
     )
+    cal = summary.get("calibration") or {}
+    score = "–" if cal.get("brier") is None else f"{cal['brier']:.4f}"
     return (
         f"Table 1 — affordance classification accuracy (%), {summary['n_cases']} cases, "
         f"{summary['n_errors']} errors\n\n{t1}\n"
         f"Table 2 — functional pose accuracy (%) over {fp['n_positive']} positive cases "
-        f"(correct when the labelled functional up is within {fp['tolerance_deg']:.0f}° of world up)\n\n{t2}"
+        f"(correct when the labelled functional up is within {fp['tolerance_deg']:.0f}° of world up)\n\n{t2}\n"
+        f"Calibration — Brier score of `probability` against the labels: {score} over {cal.get('n', 0)} cases "
+        "(0 is perfect, always 0.5 scores 0.25)\n"
     )
 
 

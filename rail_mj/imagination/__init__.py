@@ -21,12 +21,16 @@ from rail_mj.core.types import AgentSetup, Outcomes, RailObject, StablePose, Sta
 from rail_mj.imagination.backend import Backend, Progress
 from rail_mj.imagination.batch import Placement, RolloutBatch, pose_plan, prepare, rollout_index
 from rail_mj.imagination.config import ImaginationConfig
+from rail_mj.imagination.perturb import Perturbation, PerturbationSet, draw
 from rail_mj.imagination.registry import BACKENDS, get_backend, resolve_backend
 
 __all__ = [
     "BACKENDS",
     "Backend",
     "ImaginationConfig",
+    "Perturbation",
+    "PerturbationSet",
+    "draw",
     "Placement",
     "RolloutBatch",
     "get_backend",
@@ -47,6 +51,7 @@ def imagine(
     backend: str | Backend = "auto",
     config: ImaginationConfig | None = None,
     progress: Progress | None = None,
+    perturbations: PerturbationSet | None = None,
 ) -> Outcomes:
     """Simulate every (stable pose, plan) pair, pose-major, and return their outcomes.
 
@@ -54,6 +59,8 @@ def imagine(
     frame, shared by all poses; or ``trajectories[p][i]`` per pose (via-poses that scale with each pose's
     half extents). Agents start at ``via[0] + offsets``. ``backend`` is a name (``auto``, ``native``, ``mjx``)
     or a :class:`Backend`, which brings its own config. ``progress(done, total)`` is called with simulated steps.
+    ``perturbations`` (:func:`rail_mj.imagination.perturb.draw`) adds its perturbed worlds to the same batch,
+    world-major after the nominal rollouts (``Outcomes.world``); None: the nominal world alone.
     """
     if isinstance(backend, Backend):
         if config is not None and config != backend.config:
@@ -65,5 +72,5 @@ def imagine(
     else:
         engine = get_backend(backend, config)
     # StablePoses reads as a sequence of StablePose (len, iteration, indexing)
-    return engine.run(prepare(obj, cast(Sequence[StablePose], poses), agents, trajectories, engine.config),
-                      progress=progress)
+    return engine.run(prepare(obj, cast(Sequence[StablePose], poses), agents, trajectories, engine.config,
+                              perturbations), progress=progress)

@@ -19,6 +19,7 @@ from rail_mj.core.errors import ImaginationError
 from rail_mj.core.geometry import follow_task_frame, quat_angle, quat_to_angvel, slerp, task_origin, tilt, to_task_frame
 from rail_mj.core.types import AgentSetup, Outcomes, RailObject, StablePose
 from rail_mj.imagination.config import ImaginationConfig
+from rail_mj.imagination.perturb import Perturbation, PerturbationSet, scaled_pose, world_trajectory
 from rail_mj.mjcf import Scene
 
 __all__ = [
@@ -98,10 +99,42 @@ class Placement:
     object_quat: np.ndarray  # (B, 4) wxyz
     origin: np.ndarray  # (B, 3) world position of the task-frame origin
     half_extents: np.ndarray  # (B, 3)
+    world: np.ndarray | None = None  # (B,) int, the rollout's world (rail_mj.imagination.perturb); None: all nominal
+    scale: np.ndarray | None = None  # (B,) the world's mesh scale; None: all 1
+    agent_scale: np.ndarray | None = None  # (B,) the world's agent size factor (grid spacing too); None: all 1
 
     @property
     def batch(self) -> int:
         return int(self.pose_index.shape[0])
+
+    @property
+    def worlds(self) -> np.ndarray:
+        """(B,) the world of each rollout (0: nominal)."""
+        return np.zeros(self.batch, dtype=np.int64) if self.world is None else self.world
+
+    @property
+    def scales(self) -> np.ndarray:
+        """(B,) the mesh scale of each rollout's world."""
+        return np.ones(self.batch) if self.scale is None else self.scale
+
+    @staticmethod
+    def concat(parts: Sequence[Placement], worlds: Sequence[Perturbation]) -> Placement:
+        """One placement of ``parts[w]`` run in world ``worlds[w]``, world-major; rows are offset part by part."""
+        rows, start = [], 0
+        for p in parts:
+            rows.append(p.row + start)
+            start += int(p.row.max()) + 1
+        n = [p.batch for p in parts]
+
+        def cat(name: str) -> np.ndarray:
+            return np.concatenate([getattr(p, name) for p in parts])
+
+        return Placement(
+            pose_index=cat("pose_index"), plan_index=cat("plan_index"), row=np.concatenate(rows),
+            object_pos=cat("object_pos"), object_quat=cat("object_quat"), origin=cat("origin"),
+            half_extents=cat("half_extents"), world=np.repeat(np.arange(len(parts)), n),
+            scale=np.repeat([w.scale for w in worlds], n), agent_scale=np.repeat([w.agent_size for w in worlds], n),
+        )
 
     @staticmethod
     def of(poses: Sequence[StablePose], n_plans: int, n_rows: int) -> Placement:
@@ -129,11 +162,19 @@ class RolloutBatch:
     agents: AgentSetup
     placement: Placement
     table: DriveTable
+    perturbations: PerturbationSet = PerturbationSet()
 
     @property
     def offsets(self) -> np.ndarray:
         """(N, 3) agent positions relative to the layout centre."""
         return np.asarray(self.agents.offsets, dtype=np.float64)
+
+    @property
+    def world_offsets(self) -> np.ndarray:
+        """(B, N, 3) agent positions relative to the layout centre in each rollout's world (the grid scales with
+        the agents' size)."""
+        s = np.ones(self.placement.batch) if self.placement.agent_scale is None else self.placement.agent_scale
+        return self.offsets[None] * s[:, None, None]
 
     def initial_qpos(self, scene: Scene) -> np.ndarray:
         """(B, nq): the object in its stable pose, the agents at their plan's first via-pose."""
@@ -141,7 +182,7 @@ class RolloutBatch:
         qpos = np.tile(scene.model.qpos0, (p.batch, 1))
         qpos[:, scene.object_qpos : scene.object_qpos + 3] = p.object_pos
         qpos[:, scene.object_qpos + 3 : scene.object_qpos + 7] = p.object_quat
-        start_pos = p.origin[:, None, :] + self.table.pos[row, 0][:, None, :] + self.offsets[None]
+        start_pos = p.origin[:, None, :] + self.table.pos[row, 0][:, None, :] + self.world_offsets
         for i, adr in enumerate(scene.agent_qpos):
             qpos[:, adr : adr + 3] = start_pos[:, i]
             qpos[:, adr + 3 : adr + 7] = self.table.quat[row, 0]
@@ -213,20 +254,39 @@ def drive_table(rows: Sequence[np.ndarray], cfg: ImaginationConfig) -> DriveTabl
     return DriveTable(pos=pos, quat=quat, linvel=linvel, angvel=angvel, n_drive=n_drive)
 
 
+def _world_rows(rows: list[np.ndarray], poses: Sequence[StablePose], n_plans: int, w: Perturbation) -> list[np.ndarray]:
+    """World ``w``'s via-poses of every rollout, pose-major (:func:`~rail_mj.imagination.perturb.world_trajectory`)."""
+    return [world_trajectory(rows[j if len(rows) == n_plans else k * n_plans + j], np.asarray(pose.half_extents), w)
+            for k, pose in enumerate(poses) for j in range(n_plans)]
+
+
 def prepare(
     obj: RailObject,
     poses: Sequence[StablePose],
     agents: AgentSetup,
     trajectories: Sequence[np.ndarray] | Sequence[Sequence[np.ndarray]],
     cfg: ImaginationConfig,
+    perturbations: PerturbationSet | None = None,
 ) -> RolloutBatch:
-    """Every (stable pose, plan) rollout of ``obj``, pose-major; see :func:`rail_mj.imagination.imagine`."""
+    """Every (stable pose, plan) rollout of ``obj``, pose-major; see :func:`rail_mj.imagination.imagine`.
+
+    With ``perturbations`` (:mod:`rail_mj.imagination.perturb`) the batch holds every world's rollouts,
+    world-major: rollouts ``w * poses * plans`` on are world ``w``'s, pose-major as without.
+    """
     poses = list(poses)
     if not poses:
         raise ImaginationError("imagine needs at least one stable pose; got none")
     rows, n_plans = plan_rows(trajectories, len(poses))
-    table = drive_table(rows, cfg)
-    return RolloutBatch(obj=obj, agents=agents, placement=Placement.of(poses, n_plans, len(rows)), table=table)
+    if perturbations is None:
+        table = drive_table(rows, cfg)
+        return RolloutBatch(obj=obj, agents=agents, placement=Placement.of(poses, n_plans, len(rows)), table=table)
+    parts, all_rows = [], []
+    for w in perturbations.worlds:
+        world_rows = list(rows) if w.nominal else _world_rows(rows, poses, n_plans, w)
+        parts.append(Placement.of([scaled_pose(p, w.scale) for p in poses], n_plans, len(world_rows)))
+        all_rows += world_rows
+    return RolloutBatch(obj=obj, agents=agents, placement=Placement.concat(parts, perturbations.worlds),
+                        table=drive_table(all_rows, cfg), perturbations=perturbations)
 
 
 def assemble_outcomes(
@@ -241,6 +301,7 @@ def assemble_outcomes(
     released_early: np.ndarray,
     settled: np.ndarray,
     open_sector: np.ndarray | None = None,
+    unstable: np.ndarray | None = None,
 ) -> Outcomes:
     """Final world poses → task-frame Outcomes.
 
@@ -266,6 +327,8 @@ def assemble_outcomes(
         object_half_extents=placement.half_extents.copy(),
         settled=settled.astype(bool),
         agent_open_sector=None if open_sector is None else open_sector.astype(np.int64),
+        world=None if placement.world is None else placement.world.astype(np.int64),
+        unstable=None if unstable is None else unstable.astype(bool),
     )
 
 
@@ -277,8 +340,26 @@ def outcomes_from_states(
     contacts: np.ndarray,
     released_early: np.ndarray,
     settled: np.ndarray,
+    unstable: np.ndarray | None = None,
 ) -> Outcomes:
-    """Final world states (B, nq)/(B, nv) of ``scene`` → task-frame Outcomes."""
+    """Final world states (B, nq)/(B, nv) of ``scene`` → task-frame Outcomes.
+
+    A rollout whose state is not finite, or that ``unstable`` (B,) marks (a MuJoCo instability warning), blew
+    up: its state is replaced by its placement (agents where the plan starts) so that nothing downstream meets
+    a NaN, and ``Outcomes.unstable`` names it, a failure whatever it scores.
+    """
+    finite = np.all(np.isfinite(qpos), axis=1) & np.all(np.isfinite(qvel), axis=1)
+    bad = ~finite if unstable is None else (~finite | unstable)
+    if not finite.all():
+        qpos, qvel = qpos.copy(), qvel.copy()
+        qpos[~finite] = np.nan_to_num(qpos[~finite], nan=0.0, posinf=0.0, neginf=0.0)
+        o = scene.object_qpos
+        qpos[~finite, o : o + 3] = placement.object_pos[~finite]
+        qpos[~finite, o + 3 : o + 7] = placement.object_quat[~finite]
+        for a in scene.agent_qpos:
+            qpos[~finite, a : a + 3] = placement.origin[~finite]
+            qpos[~finite, a + 3 : a + 7] = (1.0, 0.0, 0.0, 0.0)
+        qvel[~finite] = 0.0
     o = scene.object_qpos
     return assemble_outcomes(
         placement,
@@ -289,8 +370,9 @@ def outcomes_from_states(
         agent_vel=np.stack([qvel[:, d : d + 3] for d in scene.agent_dof], axis=1),
         contacts=contacts,
         released_early=released_early,
-        settled=settled,
-        open_sector=open_sectors(scene, qpos),
+        settled=settled & ~bad,
+        open_sector=open_sectors(scene, qpos, placement.scales),
+        unstable=bad,
     )
 
 
@@ -305,7 +387,7 @@ def _longest_run(escaped: np.ndarray) -> np.ndarray:
     return np.minimum(best, n)
 
 
-def open_sectors(scene: Scene, qpos: np.ndarray) -> np.ndarray:
+def open_sectors(scene: Scene, qpos: np.ndarray, scale: np.ndarray | None = None) -> np.ndarray:
     """The enclosure probe on final states (B, nq): for each agent, the most consecutive of
     :data:`PROBE_DIRECTIONS` horizontal directions from its centre that leave without meeting the object (B, N).
 
@@ -313,7 +395,8 @@ def open_sectors(scene: Scene, qpos: np.ndarray) -> np.ndarray:
     at the front, a whole sector is free. Rays meet the object's own surface (:attr:`Scene.surface`): its hulls
     fill out thin parts, and an upturned desk's hull-thickened top walls droplets in that its open front lets
     go. A direction is free only when all :data:`_SUB_RAYS` rays across its sector are, so a slot narrower
-    than their spread at the wall (a basket's, between its slats) is no way out.
+    than their spread at the wall (a basket's, between its slats) is no way out. ``scale`` (B,): the mesh scale
+    of each state's world (the surface is the nominal one; rays start at the point scaled back to it).
     """
     out = np.zeros((qpos.shape[0], scene.n_agents), dtype=np.int64)
     if scene.surface is None:  # a scene without agents: nothing to probe
@@ -331,7 +414,7 @@ def open_sectors(scene: Scene, qpos: np.ndarray) -> np.ndarray:
         vecs = np.ascontiguousarray((_SUB_VEC @ to_object.T).ravel())
         escaped = np.zeros((scene.n_agents, n_rays), dtype=bool)
         for i, a in enumerate(scene.agent_qpos):
-            p = to_object @ (qpos[b, a : a + 3] - qpos[b, o : o + 3])
+            p = to_object @ (qpos[b, a : a + 3] - qpos[b, o : o + 3]) / (1.0 if scale is None else scale[b])
             mujoco.mj_multiRay(scene.surface, data, p, vecs, None, True, -1, geomid, dist, None, n_rays, 100.0)
             escaped[i] = geomid < 0
         out[b] = _longest_run(

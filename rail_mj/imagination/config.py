@@ -3,17 +3,49 @@
 from __future__ import annotations
 
 import os
+from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field
 
 from rail_mj.core.errors import ConfigError
 from rail_mj.mjcf import FRICTION, SOLREF_TIMECONST_FACTOR, ScenePhysics
 
-__all__ = ["THREADS_ENV", "ImaginationConfig"]
+__all__ = ["THREADS_ENV", "PERTURBATIONS_RANGE", "SEED_RANGE", "ImaginationConfig"]
 
 #: MuJoCo batch threads of this process when a config does not name ``nthread`` (0 or unset: all CPUs).
 #: rail_mj.pipeline.parallel sets it in its workers so that workers x threads = cores; outcomes do not depend on it.
 THREADS_ENV = "RAIL_MJ_THREADS"
+
+
+#: Perturbed worlds per (pose, plan): 0 (the nominal world alone) to 32 (the batch grows 33-fold; past that the
+#: imagination, not the hulls, dominates an object's time).
+PERTURBATIONS_RANGE = (0, 32)
+#: Seeds of the perturbation draws: numpy's SeedSequence takes any non-negative integer; 32 bits keep them portable.
+SEED_RANGE = (0, 2**32 - 1)
+#: Perturbation amplitudes are fractions: 0 turns one off, 0.5 (half again or half as much) is no longer "the same"
+#: object.
+_AMPLITUDE_RANGE = (0, 0.5)
+_RANGES = {"perturbations": PERTURBATIONS_RANGE, "seed": SEED_RANGE,
+           **{name: _AMPLITUDE_RANGE for name in ("perturb_scale", "perturb_friction", "perturb_agent_mass",
+                                                  "perturb_agent_size", "perturb_offset")}}
+
+
+def _check_ranges(data: dict[str, Any]) -> None:
+    """ConfigError naming the valid range for a perturbation setting outside it."""
+    for name, (lo, hi) in _RANGES.items():
+        if name not in data:
+            continue
+        v = data[name]
+        ok = (not isinstance(v, bool) and isinstance(v, (int, float))
+              and (isinstance(v, int) or name not in ("perturbations", "seed")) and lo <= v <= hi)
+        if not ok:
+            kind = "a whole number" if name in ("perturbations", "seed") else "a number"
+            raise ConfigError(f"ImaginationConfig.{name} must be {kind} in [{lo}, {hi}]; got {v!r}")
+
+
+def _amplitude(default: float, description: str) -> Any:
+    """A perturbation amplitude's field: a fraction in :data:`_AMPLITUDE_RANGE`."""
+    return Field(default=default, ge=_AMPLITUDE_RANGE[0], le=_AMPLITUDE_RANGE[1], description=description)
 
 
 def _env_threads() -> int:
@@ -49,6 +81,27 @@ class ImaginationConfig(BaseModel):
         default=True,
         description="speculative contacts (native): fast small droplets do not tunnel through thin bottoms"
     )
+    perturbations: int = Field(
+        default=4, ge=PERTURBATIONS_RANGE[0], le=PERTURBATIONS_RANGE[1],
+        description="perturbed worlds per (pose, plan), run in the same batch as the nominal one "
+                    "(rail_mj.imagination.perturb); 0: the nominal world alone")
+    seed: int = Field(default=0, ge=SEED_RANGE[0], le=SEED_RANGE[1], description="seed of the perturbation draws")
+    # the issue's mesh-scale uncertainty: a scan or a CAD model's units are good to about 10%
+    perturb_scale: float = _amplitude(0.10, "mesh scale varies by +-this fraction")
+    # sliding friction of dry household materials on each other spans about +-30% with surface condition
+    perturb_friction: float = _amplitude(0.30, "friction varies by +-this fraction")
+    # what is put on or in an object (a person, an apple, a doll) varies in weight by about +-20% within its kind
+    perturb_agent_mass: float = _amplitude(0.20, "agent mass varies by +-this fraction")
+    # and in size by about +-10% (body heights within one standard deviation of the mean are +-4-6%; fruit +-10%)
+    perturb_agent_size: float = _amplitude(0.10, "agent size varies by +-this fraction")
+    # a plan aims within about 5% of the object's half extents (a robot's placement error on a 20 cm object: 5 mm)
+    perturb_offset: float = _amplitude(0.05, "plans shift sideways by +-this fraction of the pose's half extents")
+
+    def __init__(self, **data: Any) -> None:
+        # a bad perturbation setting is the project's ConfigError with its range (model_validate, e.g. a run
+        # config's nested dict, reports the same range as pydantic's ValidationError)
+        _check_ranges(data)
+        super().__init__(**data)
 
     @property
     def physics(self) -> ScenePhysics:

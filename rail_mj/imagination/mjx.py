@@ -12,6 +12,7 @@ the versions those fields were verified on when it is built.
 
 from __future__ import annotations
 
+import dataclasses
 import importlib.metadata
 from dataclasses import dataclass, replace
 
@@ -26,6 +27,7 @@ from rail_mj.core.types import AgentSetup, Outcomes, RailObject
 from rail_mj.imagination.backend import Backend, Progress
 from rail_mj.imagination.batch import RolloutBatch, outcomes_from_states
 from rail_mj.imagination.config import ImaginationConfig
+from rail_mj.imagination.perturb import world_models
 from rail_mj.mjcf import Scene, count_contacts
 
 __all__ = ["MjxBackend", "hull_bucket", "HULL_BUCKETS", "SUPPORTED_MJX"]
@@ -83,17 +85,19 @@ def _at_rest(qvel, layout: _Layout, radius, settle_speed):
     return jnp.all(jnp.linalg.norm(lin, axis=-1) + jnp.linalg.norm(ang, axis=-1) * radius < settle_speed)
 
 
-def _rollout(m, layout: _Layout, qpos0, pose_table, vel_table, n_drive, limit, radius, settle_speed):
-    """Batched rollout; pose_table (B, S, N, 7) and vel_table (B, S, 6) are per-world drive rows."""
+def _rollout(m, fields, world, layout: _Layout, qpos0, pose_table, vel_table, n_drive, limit, radius, settle_speed):
+    """Batched rollout; pose_table (B, S, N, 7) and vel_table (B, S, 6) are per-world drive rows; ``fields`` the
+    model fields that differ between perturbed worlds, (W, ...) each, and ``world`` (B,) each rollout's world."""
     n_worlds, n_agents = qpos0.shape[0], len(layout.agent_qpos)
     data0 = jax.vmap(lambda q: mjx.make_data(m).replace(qpos=q))(qpos0)
     last = pose_table.shape[1] - 1
 
-    def one(d, k, driven, nd, pose_t, vel_t):
+    def one(d, k, driven, nd, pose_t, vel_t, w):
         idx = jnp.minimum(k, last)
-        return _world_step(m, layout, d, k, driven, nd, pose_t[idx], vel_t[idx])
+        mw = m.replace(**{name: jax.tree.map(lambda x: x[w], v) for name, v in fields.items()})
+        return _world_step(mw, layout, d, k, driven, nd, pose_t[idx], vel_t[idx])
 
-    step_all = jax.vmap(one, in_axes=(0, None, 0, 0, 0, 0))
+    step_all = jax.vmap(one, in_axes=(0, None, 0, 0, 0, 0, 0))
     rest_all = jax.vmap(lambda qv: _at_rest(qv, layout, radius, settle_speed))
 
     def cond(carry):
@@ -102,7 +106,7 @@ def _rollout(m, layout: _Layout, qpos0, pose_table, vel_table, n_drive, limit, r
 
     def body(carry):
         k, d, driven, early, settled, quiet = carry
-        d, driven, new_early = step_all(d, k, driven, n_drive, pose_table, vel_table)
+        d, driven, new_early = step_all(d, k, driven, n_drive, pose_table, vel_table, world)
         k = k + 1
         check = (k % layout.check_every == 0) & (k >= n_drive) & (k <= limit)
         rest = rest_all(d.qvel)
@@ -143,9 +147,10 @@ class MjxBackend(Backend):
         """Traces (= compiles) of the rollout by this backend so far."""
         return self._compiles
 
-    def _traced_rollout(self, m, layout: _Layout, qpos0, pose_table, vel_table, n_drive, limit, radius, settle_speed):
+    def _traced_rollout(self, m, fields, world, layout: _Layout, qpos0, pose_table, vel_table, n_drive, limit, radius,
+                        settle_speed):
         self._compiles += 1  # runs only while tracing, i.e. once per compile
-        return _rollout(m, layout, qpos0, pose_table, vel_table, n_drive, limit, radius, settle_speed)
+        return _rollout(m, fields, world, layout, qpos0, pose_table, vel_table, n_drive, limit, radius, settle_speed)
 
     def scene(self, obj: RailObject, agents: AgentSetup) -> Scene:
         """The box scene of obj's bucket, weighing what the hull-mesh scene weighs."""
@@ -162,17 +167,36 @@ class MjxBackend(Backend):
         # heightfield, and left as is it would make every new object a new jit key
         return m.replace(_impl=m._impl.replace(geom_rbound_hfield=np.zeros_like(m._impl.geom_rbound_hfield)))
 
+    def world_fields(self, scene: Scene, m: mjx.Model, batch: RolloutBatch) -> dict:
+        """The model fields that differ between the batch's worlds, stacked (W, ...): the jit's per-world inputs
+        (:func:`~rail_mj.imagination.perturb.world_models`; the rest of the model is shared)."""
+        if all(w.nominal for w in batch.perturbations.worlds):
+            return {}
+        models = [m if w is scene.model else self.put_model(replace(scene, model=w))
+                  for w in world_models(scene, batch.perturbations)]
+        fields = {}
+        for f in dataclasses.fields(m):
+            if f.name == "_impl":  # implementation details; a perturbation changes none the rollout reads
+                continue
+            values = [getattr(w, f.name) for w in models]
+            leaves = [jax.tree.leaves(v) for v in values]
+            if all(isinstance(x, jax.Array) for x in leaves[0]) and any(
+                    not all(np.array_equal(np.asarray(a), np.asarray(b)) for a, b in zip(leaves[0], other))
+                    for other in leaves[1:]):
+                fields[f.name] = jax.tree.map(lambda *xs: jnp.stack(xs), *values)
+        return fields
+
     def run(self, batch: RolloutBatch, *, progress: Progress | None = None) -> Outcomes:
         """Same contract as the native backend, run as one jit-compiled JAX computation."""
         cfg = self.config
         scene = self.scene(batch.obj, batch.agents)
-        placement, offsets = batch.placement, batch.offsets
+        placement, offsets = batch.placement, batch.world_offsets
         table = batch.table.padded(_pad_steps(int(batch.table.n_drive.max())))
         plan = placement.row
         pose_table = np.concatenate(
             [
-                (placement.origin[:, None, None, :] + table.pos[plan][:, :, None, :] + offsets[None, None]),
-                np.broadcast_to(table.quat[plan][:, :, None, :], (len(plan), table.steps, len(offsets), 4)),
+                (placement.origin[:, None, None, :] + table.pos[plan][:, :, None, :] + offsets[:, None]),
+                np.broadcast_to(table.quat[plan][:, :, None, :], (len(plan), table.steps, offsets.shape[1], 4)),
             ],
             axis=-1,
         )
@@ -185,8 +209,10 @@ class MjxBackend(Backend):
             free_dofs=tuple(int(a) for a in scene.free_dofs),
             check_every=cfg.check_every,
         )
+        m = self.put_model(scene)
         qpos, qvel, geom, dist, early, settled = self._rollout(
-            self.put_model(scene), layout, jnp.asarray(batch.initial_qpos(scene)), jnp.asarray(pose_table),
+            m, self.world_fields(scene, m, batch), jnp.asarray(placement.worlds, dtype=jnp.int32), layout,
+            jnp.asarray(batch.initial_qpos(scene)), jnp.asarray(pose_table),
             jnp.asarray(vel_table), jnp.asarray(n_drive, dtype=jnp.int32), jnp.asarray(limit, dtype=jnp.int32),
             jnp.asarray(scene.free_radius), jnp.float32(cfg.settle_speed),
         )

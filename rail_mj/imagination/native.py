@@ -9,12 +9,15 @@ import numpy as np
 from rail_mj.core.types import AgentSetup, Outcomes, RailObject
 from rail_mj.imagination.backend import Backend, Progress
 from rail_mj.imagination.batch import RolloutBatch, outcomes_from_states
+from rail_mj.imagination.perturb import world_models
 from rail_mj.mjcf import Scene, count_contacts
 
 __all__ = ["NativeBackend"]
 
 #: a generalized constraint force above this on an agent's dofs means it touches something
 _CONTACT_FORCE = 1e-9
+#: MuJoCo's warnings that a simulation blew up (it resets such a world to qpos0 and goes on)
+_BLOW_UPS = (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQPOS)
 
 
 class NativeBackend(Backend):
@@ -29,9 +32,12 @@ class NativeBackend(Backend):
         """Drive, release and settle every rollout."""
         cfg = self.config
         scene = self.scene(batch.obj, batch.agents)
-        table, placement, offsets = batch.table, batch.placement, batch.offsets
+        table, placement, offsets = batch.table, batch.placement, batch.world_offsets
         n_worlds, n_agents = placement.batch, scene.n_agents
         sim = mujoco.batch.Batch(scene.model, n_worlds, nthread=cfg.nthread, persistent=True)
+        if any(not w.nominal for w in batch.perturbations.worlds):
+            models = world_models(scene, batch.perturbations)
+            sim.set_models([models[w] for w in placement.worlds])
         qpos, qvel = sim.bind("qpos"), sim.bind("qvel")
         qfrc = sim.bind("qfrc_constraint")
         sim.reset(stage=mujoco.mjtStage.mjSTAGE_NONE)  # pyright: ignore[reportArgumentType]  # it takes int(stage)
@@ -51,7 +57,7 @@ class NativeBackend(Backend):
             rows, agents = np.nonzero(driven & (k < n_drive)[:, None])
             p = plan[rows]
             qpos[rows[:, None], qcols[agents]] = np.concatenate(
-                [placement.origin[rows] + table.pos[p, k] + offsets[agents], table.quat[p, k]], axis=1
+                [placement.origin[rows] + table.pos[p, k] + offsets[rows, agents], table.quat[p, k]], axis=1
             )
             qvel[rows[:, None], vcols[agents]] = np.concatenate([table.linvel[p, k], table.angvel[p, k]], axis=1)
             sim.step()
@@ -77,8 +83,11 @@ class NativeBackend(Backend):
                 progress(int(min(steps.max(), total)), total)
 
         contacts = np.zeros((n_worlds, n_agents, 3), dtype=np.int64)
+        unstable = np.zeros(n_worlds, dtype=bool)
         data = mujoco.MjData(scene.model)
         for b in range(n_worlds):
             sim.get_data(b, data)
             contacts[b] = count_contacts(scene.geom_owner, data.contact.geom[: data.ncon], n_agents)
-        return outcomes_from_states(scene, placement, np.array(qpos), np.array(qvel), contacts, released_early, settled)
+            unstable[b] = any(data.warning[w].number > 0 for w in _BLOW_UPS)
+        return outcomes_from_states(scene, placement, np.array(qpos), np.array(qvel), contacts, released_early, settled,
+                                    unstable)

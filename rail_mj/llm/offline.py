@@ -20,7 +20,7 @@ from rail_mj.affordances import normalize as normalize_affordance
 from rail_mj.affordances.names import parse_words
 from rail_mj.affordances.prior import FUNCTIONAL
 from rail_mj.core.errors import ConfigError, UnknownAffordanceError
-from rail_mj.core.profile import AgentLayout, CandidateInteraction, PlanTrajectory, ScoringCode
+from rail_mj.core.profile import AgentLayout, CandidateInteraction, PlanTrajectory, PoseCandidates, ScoringCode
 from rail_mj.llm.schemas import (
     AffordanceAnalysis,
     AgentModel,
@@ -50,6 +50,8 @@ __all__ = [
     "offline_trajectories",
     "offline_scoring",
     "offline_functional_poses",
+    "judge_pose",
+    "rules_row",
     "offline_request",
     "ANSWERS",
     "answer",
@@ -136,6 +138,38 @@ def offline_scoring(task: TaskDescription) -> ScoringCode:
     return kind.scoring(aff, shape)
 
 
+def rules_row(affordance: str, scale: float = 1.0) -> Affordance | None:
+    """The registry row whose kind's rules judge ``affordance`` at the agent ``scale``; None outside the registry
+    (the generic rules judge it)."""
+    try:
+        return get(affordance).scaled(scale)
+    except UnknownAffordanceError:
+        return None
+
+
+def judge_pose(aff: Affordance | None, pose: PoseCandidates) -> tuple[list[CandidateInteraction], list[str]]:
+    """Stage 7's rules on one pose: its candidates that its kind's rules accept (each, then the pose's together),
+    and the reasons; ``aff`` None: the generic rules of an affordance outside the registry."""
+    kind = kinds.kind_of(aff) if aff is not None else None
+    accepted: list[CandidateInteraction] = []
+    reasons: list[str] = []
+    h = list(pose.half_extents)
+    for c in pose.candidates:
+        ok, why = (kind.judge(aff, c, h, None if pose.basin is None else pose.basin.rim)
+                   if kind is not None and aff is not None
+                   else kinds.judge_unregistered(c))
+        reasons.append(f"{c.plan}: {why}")
+        if ok:
+            accepted.append(c)
+    if not pose.candidates:
+        reasons.append("no plan succeeded")
+    if kind is not None and aff is not None and accepted:
+        accepted, why_not = kind.accept_pose(aff, accepted, pose)
+        if why_not:
+            reasons.append(why_not)
+    return accepted, reasons
+
+
 def offline_functional_poses(request: FunctionalPoseRequest) -> FunctionalPoseVerdict:
     """Stage 7 by rules: accept a pose when one of its candidates passes its kind's rules; best = the pose
     accepted with the most plans, then the top score, then the most probable.
@@ -143,32 +177,15 @@ def offline_functional_poses(request: FunctionalPoseRequest) -> FunctionalPoseVe
     Affordances outside the registry get the generic rules (object not tipped,
     agents not mostly on the ground).
     """
-    try:
-        aff: Affordance | None = get(request.affordance).scaled(request.scale)
-    except UnknownAffordanceError:
-        aff = None
+    aff = rules_row(request.affordance, request.scale)
     kind = kinds.kind_of(aff) if aff is not None else None
     verdicts: list[PoseVerdict] = []
     # best = (kind's rank, accepted plans, top score, probability, pose, plan): the pose that works from the most
     # approaches, after what the kind ranks first (for dishes: a rim rises around the food)
     best: tuple[int, int, float, float, int, str] | None = None
     for pose in request.poses:
-        accepted: list[CandidateInteraction] = []
-        reasons: list[str] = []
         h = list(pose.half_extents)
-        for c in pose.candidates:
-            ok, why = (kind.judge(aff, c, h, None if pose.basin is None else pose.basin.rim)
-                       if kind is not None and aff is not None
-                       else kinds.judge_unregistered(c))
-            reasons.append(f"{c.plan}: {why}")
-            if ok:
-                accepted.append(c)
-        if not pose.candidates:
-            reasons.append("no plan succeeded")
-        if kind is not None and aff is not None and accepted:
-            accepted, why_not = kind.accept_pose(aff, accepted, pose)
-            if why_not:
-                reasons.append(why_not)
+        accepted, reasons = judge_pose(aff, pose)
         top = max(accepted, key=lambda c: c.score) if accepted else None
         verdicts.append(PoseVerdict(pose_index=pose.pose_index, accept=top is not None, reason="; ".join(reasons),
                                     plan=top.plan if top else None))

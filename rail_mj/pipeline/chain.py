@@ -1,4 +1,4 @@
-"""The pipeline: object → stable poses → profile → one batched imagination → scores → functional pose.
+"""The pipeline: object → stable poses → profile → batched imagination → scores → pose probabilities → functional pose.
 
 ``classify`` is the library API for batch affordance classification; the
 ``Pipeline`` class keeps what is reused across objects (provider, profiles,
@@ -13,7 +13,7 @@ import time
 from collections.abc import Callable, Iterable, Sequence
 from contextlib import closing
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -23,12 +23,18 @@ from rail_mj.affordances.prior import FUNCTIONAL, NEGLIGIBLE, Prior
 from rail_mj.core.errors import ConfigError, RailError, UnknownAffordanceError
 from rail_mj.core.results import AffordanceResult, PlanInfo, PoseInfo
 from rail_mj.core.types import RailObject, StablePose, StablePoses
-from rail_mj.imagination import imagine, pose_plan, resolve_backend, rollout_index
+from rail_mj.imagination import draw, imagine, pose_plan, resolve_backend, rollout_index
 from rail_mj.imagination.inputs import agent_setup, trajectory_array
 from rail_mj.llm.schemas import ImaginationProfile
 from rail_mj.mesh import load_object, mesh_notes
 from rail_mj.pipeline.config import ObjectInput, PoseMode, RunConfig
 from rail_mj.pipeline.parallel import ObjectTask, run_tasks
+from rail_mj.pipeline.verdicts import (
+    candidate_slots,
+    most_probable,
+    pose_probabilities,
+    world_outcomes,
+)
 from rail_mj.scoring import ScoringFunction, compile_scoring
 from rail_mj.stable_poses import find_stable_poses, pose_from_up
 
@@ -50,10 +56,6 @@ def _check_names(affordances: Sequence[str]) -> None:
                 f"affordance names must be non-empty text, got {a!r}; the offline library knows: {known} "
                 "(an LLM provider also imagines other named uses)"
             )
-
-
-def _rim(pose: StablePose) -> float | None:
-    return None if pose.basin is None else float(pose.basin.rim)
 
 
 def as_placed_pose(obj: RailObject) -> StablePoses:
@@ -154,11 +156,10 @@ class Pipeline:
         analysis = profile.analysis
         kept = [i for i, p in enumerate(poses) if p.probability >= self.config.min_pose_probability] or [0]
         pose_infos = [PoseInfo.from_pose(i, poses[i]) for i in range(len(poses))]
-        # this object's priors (stage 1's answer is shared by every object of a profile's size bin): its OBB's in
-        # its most plausible orientation (stage 1's check), and the pose-free part of every pose's
+        # this object's stage-1 prior (stage 1's answer is shared by every object of a profile's size bin): its
+        # OBB's in its most plausible orientation; the poses' priors are rail_mj.pipeline.verdicts'
         row = self._row(profile.affordance)
         dims = row.dims_prior(obj.obb_dims) if row is not None else Prior()
-        size = row.size_prior(obj.obb_dims) if row is not None else Prior()
         result = AffordanceResult(
             object=obj.name,
             affordance=profile.affordance,
@@ -191,7 +192,8 @@ class Pipeline:
         timings["imagination"] = time.perf_counter() - t
 
         t = time.perf_counter()
-        scores = self.scorer(profile.scoring.source)(outcomes)
+        scorer = self.scorer(profile.scoring.source)
+        outcomes, scores = world_outcomes(outcomes, scorer(outcomes), 1)[0]  # a blown-up rollout scores -1
         timings["scoring"] = time.perf_counter() - t
         n_plans = len(profile.plans.plans)
         grid = np.full((len(poses), n_plans), -1.0)
@@ -205,40 +207,51 @@ class Pipeline:
         if scores[best_b] > 0:
             result.pose_without_analyzer = pose_infos[kept[pose_plan(best_b, n_plans)[0]]]
 
+        # the perturbed worlds: every plan again in each pose with a candidate, all in one batched call
+        t = time.perf_counter()
+        perturbations = draw(self.config.imagination)
+        slots = candidate_slots(scores, len(kept), n_plans)
+        perturbed = None
+        if slots and perturbations.perturbed is not None:
+            again = imagine(obj, [poses[kept[k]] for k in slots], agents, [trajectories[k] for k in slots],
+                            backend=self.backend, config=self.config.imagination,
+                            perturbations=perturbations.perturbed)
+            perturbed = (again, scorer(again), slots)
+        timings["perturbed_worlds"] = time.perf_counter() - t
+
         t = time.perf_counter()
         verdict = self._analyse(profile, poses, kept, outcomes, scores, trajectories)
+        pose_list = cast(Sequence[StablePose], poses)  # StablePoses reads as a sequence of StablePose
+        result.pose_verdicts = pose_probabilities(
+            profile.affordance, profile.scale, obj.obb_dims, profile.plans.plans, pose_list, kept, (outcomes, scores),
+            trajectories, perturbations, perturbed, verdict, llm_veto=self.provider_name != "offline")
         timings["functional_pose_analyzer"] = time.perf_counter() - t
         result.timings = timings
         if verdict is None:
             result.analyzer_reasons = ["no plan scored above 0 in any stable pose"]
+        else:
+            result.analyzer_reasons = ([f"pose {v.pose_index}: {v.reason}" for v in verdict.poses]
+                                       + [verdict.reason])
+        best = most_probable(result.pose_verdicts, pose_list, None if verdict is None else verdict.best_pose)
+        if best is None:
             return result
-        result.analyzer_reasons = [f"pose {v.pose_index}: {v.reason}" for v in verdict.poses] + [verdict.reason]
-        # The interim verdict (issue 22): probability = size prior x pose prior x physics, the physics 1 for a
-        # pose stage 7 accepts and 0 otherwise; the functional pose is the most probable accepted one (ties: stage
-        # 7's own choice first, then the most probable pose); functional when it is at least prior.FUNCTIONAL.
-        accepted = [(size * row.pose_prior(poses[v.pose_index].half_extents, _rim(poses[v.pose_index]))
-                     if row is not None else size, v) for v in verdict.poses if v.accept and v.plan is not None]
-        if not accepted:
+        result.probability = best.probability
+        result.prior = best.prior_factors
+        if best.probability < FUNCTIONAL or best.best_plan is None:
             return result
-        prior, best = max(accepted, key=lambda a: (a[0].value, a[1].pose_index == verdict.best_pose,
-                                                   -a[1].pose_index))
-        result.probability = prior.value
-        result.prior = prior.doc()
-        if prior.value < FUNCTIONAL or best.plan is None:
-            return result
-        plan_idx = result.plans.index(best.plan)
-        b = rollout_index(kept.index(best.pose_index), plan_idx, n_plans)
+        plan_idx = result.plans.index(best.best_plan)
+        b = rollout_index(kept.index(best.index), plan_idx, n_plans)
         plan = profile.plans.plans[plan_idx]
         result.functional = True
-        result.functional_pose = pose_infos[best.pose_index]
+        result.functional_pose = pose_infos[best.index]
         result.best_plan = PlanInfo(
             index=plan_idx,
             name=plan.name,
             description=plan.description,
-            via_poses=trajectories[kept.index(best.pose_index)][plan_idx].tolist(),
+            via_poses=trajectories[kept.index(best.index)][plan_idx].tolist(),
             score=float(scores[b]),
         )
-        result.evidence_pose = best.pose_index
+        result.evidence_pose = best.index
         result.evidence_agent_pos = outcomes.agent_pos[b].tolist()
         return result
 

@@ -14,7 +14,7 @@ from pydantic import BaseModel, Field
 
 from rail_mj.affordances.names import get
 from rail_mj.core.errors import UnknownAffordanceError
-from rail_mj.core.results import AffordanceResult
+from rail_mj.core.results import AffordanceResult, PoseProbability
 
 __all__ = ["PoseExplanation", "Explanation", "explain", "format_explanation", "up_axis"]
 
@@ -38,6 +38,8 @@ class PoseExplanation(BaseModel):
     scores: dict[str, float] = Field(description="plan -> score (> 0 succeeded; -1 also when not imagined)")
     analyzer: str = Field(description="the Functional Pose Analyzer's reasons for this pose, '' when none")
     functional: bool = Field(description="whether this is the functional pose")
+    factors: str = Field(default="", description="prior x physics = probability in words, '' when not imagined")
+    blew_up: list[str] = Field(default_factory=list, description="rollouts of this pose that blew up (failures)")
 
 
 class Explanation(BaseModel):
@@ -47,6 +49,7 @@ class Explanation(BaseModel):
     requested: str
     affordance: str
     verdict: str
+    probability: float = Field(default=0.0, description="the most probable pose's probability")
     dims_fit: bool | None
     probability: float = Field(default=0.0, description="the result's probability (prior x physics)")
     prior: str = Field(default="", description="the factors of the functional (or most probable accepted) "
@@ -74,6 +77,17 @@ def _envelope(affordance: str, half: list[float], rim: float | None) -> str:
     return aff.pose_prior(half, rim).doc()  # a vessel's aspect at its rim
 
 
+def _factors(v: PoseProbability) -> str:
+    """``prior 0.72 (height ...) x physics 0.80 (plan 'above' in 4 of 5 worlds) = 0.58``."""
+    if v.best_plan:
+        plan = f"plan {v.best_plan!r} in {v.successes} of {v.worlds} worlds"
+    elif v.imagined < v.worlds:
+        plan = "no plan succeeded in the nominal world, so the perturbed ones were not imagined"
+    else:
+        plan = f"no plan succeeded in any of {v.worlds} worlds"
+    return (f"prior {v.prior:.2f} ({v.prior_factors}) x physics {v.physics:.2f} ({plan}) = {v.probability:.2f}")
+
+
 def explain(r: AffordanceResult) -> Explanation:
     """The structured explanation of one result."""
     per_pose: dict[int, list[str]] = {}
@@ -85,6 +99,7 @@ def explain(r: AffordanceResult) -> Explanation:
         else:
             general.append(reason)
     best = r.functional_pose.index if r.functional_pose is not None else None
+    verdicts = {v.index: v for v in r.pose_verdicts}
     poses = []
     for p in r.stable_poses:
         row = r.scores[p.index] if p.index < len(r.scores) else []
@@ -96,6 +111,8 @@ def explain(r: AffordanceResult) -> Explanation:
             basin="none" if p.basin is None else f"water stands up to {p.basin.rim:.3f} m, {p.basin.length:.2f} m long",
             scores={name: round(s, 4) for name, s in zip(r.plans, row, strict=False)},
             analyzer="; ".join(per_pose.get(p.index, [])), functional=p.index == best,
+            factors=_factors(verdicts[p.index]) if p.index in verdicts else "",
+            blew_up=verdicts[p.index].blew_up if p.index in verdicts else [],
         ))
     if r.error:
         verdict = "failed"
@@ -128,6 +145,10 @@ def format_explanation(e: Explanation) -> str:
             lines.append("    scores: " + ", ".join(f"{k} {v:+.2f}" for k, v in p.scores.items()))
         if p.analyzer:
             lines.append(f"    analyser: {p.analyzer}")
+        if p.factors:
+            lines.append(f"    probability: {p.factors}")
+        for b in p.blew_up:
+            lines.append(f"    blew up (a failure): {b}")
     for reason in e.reasons:
         lines.append(f"  rule: {reason}")
     tail = f" in pose {e.functional_pose} with plan {e.best_plan!r}" if e.functional_pose is not None else ""

@@ -1,0 +1,177 @@
+"""Per-pose verdicts as probabilities: a size prior times what the physics says under perturbation.
+
+For each imagined stable pose of an object, with ``W = 1 + K`` worlds (the nominal one and K perturbed ones,
+:mod:`rail_mj.imagination.perturb`)::
+
+    physics(pose)     = #{worlds in which the pose succeeds} / W
+    probability(pose) = size_prior(object's OBB) * pose_prior(pose's box, its basin's rim) * physics(pose)
+
+A pose succeeds in a world when the Functional Pose Analyzer's rules accept it there
+(:func:`rail_mj.llm.offline.judge_pose`: the kind's rules on each candidate, a rollout that scored above 0
+and did not blow up, then the pose's rules on its candidates together, which may need several plans: a seat's
+centre and area, a table top's two placements). Its best plan is the plan accepted in the most worlds (ties: stage
+7's plan for the pose, then the better nominal score). A rollout
+that blew up (``Outcomes.unstable``: a non-finite state or a MuJoCo instability warning) is a failure and is named.
+The nominal world imagines every pose and plan; the K perturbed worlds, one more batched call, imagine again
+every plan of the poses with a candidate there (a plan scored above 0), since a pose without one has no success
+to confirm (its physics is 0). With an LLM provider, a pose its stage 7 rejected in the nominal world has
+physics 0: common sense vetoes what the rules would let through. The priors are :meth:`Affordance.size_prior`
+and :meth:`Affordance.pose_prior` (1 for an affordance outside the registry).
+
+The result's ``probability`` is the largest pose probability; the result is functional when it is at least
+:data:`rail_mj.affordances.prior.FUNCTIONAL`, and its functional pose is the most probable pose (ties: stage
+7's pick in the nominal world, then the pose that succeeds in more worlds, then the more probable stable
+pose). Every probability is finite and in [0, 1].
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from rail_mj.affordances import Affordance
+from rail_mj.core.profile import MotionPlan
+from rail_mj.core.results import PoseProbability
+from rail_mj.core.types import Outcomes, StablePose
+from rail_mj.imagination.perturb import PerturbationSet, scaled_pose, world_trajectory
+from rail_mj.imagination.summary import pose_candidates
+from rail_mj.llm.offline import judge_pose, rules_row
+from rail_mj.llm.schemas import FunctionalPoseVerdict
+
+__all__ = ["world_outcomes", "candidate_slots", "pose_probabilities", "most_probable"]
+
+
+def world_outcomes(outcomes: Outcomes, scores: np.ndarray, n_worlds: int) -> list[tuple[Outcomes, np.ndarray]]:
+    """The (outcomes, scores) of each world of a world-major batch; a blown-up rollout scores -1."""
+    unstable = np.zeros(outcomes.batch, dtype=bool) if outcomes.unstable is None else outcomes.unstable
+    scores = np.where(unstable | ~np.isfinite(scores), -1.0, scores)
+    per = outcomes.batch // n_worlds
+    out = []
+    for w in range(n_worlds):
+        sl = slice(w * per, (w + 1) * per)
+        fields: dict[str, Any] = {f.name: None if getattr(outcomes, f.name) is None else getattr(outcomes, f.name)[sl]
+                  for f in dataclasses.fields(outcomes)}
+        out.append((Outcomes(**fields), scores[sl]))
+    return out
+
+
+def candidate_slots(scores: np.ndarray, n_kept: int, n_plans: int) -> list[int]:
+    """The imagined poses (slots into ``kept``) with a candidate in the nominal world (a plan scored above 0):
+    the ones the perturbed worlds imagine again; a pose without one has no success to confirm."""
+    grid = np.asarray(scores, dtype=float).reshape(n_kept, n_plans)
+    return [k for k in range(n_kept) if np.any(grid[k] > 0)]
+
+
+def _accepted(aff: Affordance | None, plans: Sequence[MotionPlan], poses: Sequence[StablePose],
+              kept: Sequence[int], outcomes: Outcomes, scores: np.ndarray,
+              trajectories: Sequence[Sequence[np.ndarray]]) -> dict[int, set[str]]:
+    """Per stable pose with a candidate: the plans stage 7's rules accept in this world's rollouts."""
+    return {pc.pose_index: {c.plan for c in judge_pose(aff, pc)[0]}
+            for pc in pose_candidates(plans, poses, kept, outcomes, scores, trajectories)}
+
+
+def _blown(outcomes: Outcomes, names: Sequence[str], where: str) -> dict[int, list[str]]:
+    """Per pose slot of a world's (pose-major) rollouts: the plans that blew up, in words."""
+    out: dict[int, list[str]] = {}
+    if outcomes.unstable is not None:
+        for b in np.nonzero(outcomes.unstable)[0]:
+            k, j = divmod(int(b), len(names))
+            out.setdefault(k, []).append(f"plan {names[j]!r} blew up in {where}")
+    return out
+
+
+def pose_probabilities(
+    affordance: str,
+    scale: float,
+    obb_dims: Sequence[float] | np.ndarray,
+    plans: Sequence[MotionPlan],
+    poses: Sequence[StablePose],
+    kept: Sequence[int],
+    nominal: tuple[Outcomes, np.ndarray],
+    trajectories: Sequence[Sequence[np.ndarray]],
+    perturbations: PerturbationSet,
+    perturbed: tuple[Outcomes, np.ndarray, Sequence[int]] | None = None,
+    stage7: FunctionalPoseVerdict | None = None,
+    llm_veto: bool = False,
+) -> list[PoseProbability]:
+    """One :class:`PoseProbability` per imagined pose (``kept``, in that order).
+
+    ``nominal`` is the nominal world's (outcomes, scores) of every kept pose and plan (pose-major),
+    ``trajectories`` its via-poses per kept pose and plan; ``perturbations`` the object's worlds
+    (:func:`rail_mj.imagination.perturb.draw`, world 0 nominal); ``perturbed`` the (outcomes, scores, slots) of
+    its perturbed worlds (world-major, ``perturbations.perturbed``) for the pose slots into ``kept`` that were
+    imagined again (:func:`candidate_slots`); None without perturbed worlds. ``stage7`` is the nominal world's
+    verdict; ``llm_veto``: the poses it rejected get physics 0 (an LLM provider's common sense).
+    """
+    aff = rules_row(affordance, scale)
+    names = [p.name for p in plans]
+    wins: list[dict[str, int]] = [{} for _ in kept]
+    worlds_ok = np.zeros(len(kept), dtype=np.int64)
+    blew_up: list[list[str]] = [[] for _ in kept]
+    slot = {i: k for k, i in enumerate(kept)}
+    again = set() if perturbed is None else set(perturbed[2])
+
+    def count(accepted: dict[int, set[str]]) -> None:
+        for i, plans_ok in accepted.items():
+            if plans_ok:
+                worlds_ok[slot[i]] += 1
+                for name in plans_ok:
+                    wins[slot[i]][name] = wins[slot[i]].get(name, 0) + 1
+
+    out0, scores0 = world_outcomes(*nominal, 1)[0]
+    count(_accepted(aff, plans, poses, kept, out0, scores0, trajectories))
+    for k, lines in _blown(out0, names, "the nominal world").items():
+        blew_up[k] += lines
+    if perturbed is not None:
+        out_p, scores_p, slots = perturbed
+        sub = [kept[k] for k in slots]
+        rest = perturbations.worlds[1:]
+        for w, (out_w, scores_w) in enumerate(world_outcomes(out_p, scores_p, len(rest)), start=1):
+            world = perturbations.worlds[w]
+            poses_w = [scaled_pose(p, world.scale) for p in poses]
+            trajectories_w = [[world_trajectory(t, np.asarray(poses[kept[k]].half_extents), world)
+                               for t in trajectories[k]] for k in slots]
+            count(_accepted(aff, plans, poses_w, sub, out_w, scores_w, trajectories_w))
+            for k, lines in _blown(out_w, names, f"world {w} ({world.doc()})").items():
+                blew_up[slots[k]] += lines
+    stage7_plans = {v.pose_index: v.plan for v in stage7.poses} if stage7 is not None else {}
+    vetoed = ({v.pose_index for v in stage7.poses if not v.accept} if llm_veto and stage7 is not None else set())
+    out = []
+    for k, i in enumerate(kept):
+        pose = poses[i]
+        if aff is None:
+            prior, doc = 1.0, "outside the registry: no size prior"
+        else:
+            p = aff.size_prior([float(d) for d in obb_dims]) * aff.pose_prior(
+                [float(v) for v in pose.half_extents], None if pose.basin is None else pose.basin.rim)
+            prior, doc = p.value, p.doc()
+        successes = 0 if i in vetoed else int(worlds_ok[k])
+        # ties: stage 7's plan for the pose, then the better nominal score
+        chosen, row = stage7_plans.get(i), scores0[k * len(names) : (k + 1) * len(names)]
+        best = (max(wins[k], key=lambda name: (wins[k][name], name == chosen, float(row[names.index(name)])))
+                if successes else None)
+        physics = successes / perturbations.n_worlds
+        out.append(PoseProbability(
+            index=i, prior=_unit(prior), prior_factors=doc, physics=_unit(physics),
+            probability=_unit(prior * physics), best_plan=best, successes=successes,
+            worlds=perturbations.n_worlds, imagined=perturbations.n_worlds if k in again else 1, blew_up=blew_up[k],
+        ))
+    return out
+
+
+def _unit(x: float) -> float:
+    """``x`` as a probability: finite, in [0, 1] (a NaN is no evidence: 0)."""
+    return min(1.0, max(0.0, float(x))) if math.isfinite(x) else 0.0
+
+
+def most_probable(verdicts: Sequence[PoseProbability], poses: Sequence[StablePose],
+                  stage7_best: int | None) -> PoseProbability | None:
+    """The most probable pose (ties: stage 7's pick, more successful worlds, the more probable stable pose)."""
+    if not verdicts:
+        return None
+    return max(verdicts, key=lambda v: (v.probability, v.index == stage7_best, v.successes,
+                                        float(poses[v.index].probability)))
