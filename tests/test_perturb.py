@@ -16,7 +16,7 @@ from rail_mj.imagination import ImaginationConfig, PerturbationSet, draw, get_ba
 from rail_mj.imagination.batch import outcomes_from_states
 from rail_mj.imagination.perturb import world_models
 from rail_mj.mjcf import OWNER_OBJECT
-from rail_mj.pipeline.verdicts import pose_probabilities
+from rail_mj.pipeline.verdicts import candidate_slots, pose_probabilities
 from rail_mj.render.explain import explain, format_explanation
 from rail_mj.stable_poses import pose_from_up
 
@@ -216,3 +216,11 @@ def test_mjx_runs_the_perturbed_worlds_as_native_does(cup, poses, drops):
     fast = imagine(cup, poses, drops, _pour_plans(poses), backend="mjx", config=FAST, perturbations=ps)
     np.testing.assert_array_equal(_inside(fast), _inside(native))
     np.testing.assert_allclose(fast.agent_pos, native.agent_pos, atol=5e-3)
+
+
+def test_perturbed_worlds_imagine_again_only_poses_whose_verdict_they_can_change():
+    """A pose without a candidate has nothing to confirm; one whose prior is below 0.5 stays below it."""
+    scores = np.array([0.5, -1.0, -1.0, -1.0, 0.2, 0.1])  # 3 poses x 2 plans; pose 1 has no candidate
+    assert candidate_slots(scores, 3, 2) == [0, 2]
+    assert candidate_slots(scores, 3, 2, priors=[0.9, 0.9, 0.49]) == [0]
+    assert candidate_slots(scores, 3, 2, priors=[0.5, 0.0, 1.0]) == [0, 2]

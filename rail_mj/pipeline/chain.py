@@ -32,6 +32,7 @@ from rail_mj.pipeline.parallel import ObjectTask, run_tasks
 from rail_mj.pipeline.verdicts import (
     candidate_slots,
     most_probable,
+    pose_prior,
     pose_probabilities,
     world_outcomes,
 )
@@ -207,10 +208,12 @@ class Pipeline:
         if scores[best_b] > 0:
             result.pose_without_analyzer = pose_infos[kept[pose_plan(best_b, n_plans)[0]]]
 
-        # the perturbed worlds: every plan again in each pose with a candidate, all in one batched call
+        # the perturbed worlds: every plan again in each pose with a candidate whose prior lets it be functional,
+        # all in one batched call
         t = time.perf_counter()
         perturbations = draw(self.config.imagination)
-        slots = candidate_slots(scores, len(kept), n_plans)
+        priors = [pose_prior(row, obj.obb_dims, poses[i]).value for i in kept]
+        slots = candidate_slots(scores, len(kept), n_plans, priors)
         perturbed = None
         if slots and perturbations.perturbed is not None:
             again = imagine(obj, [poses[kept[k]] for k in slots], agents, [trajectories[k] for k in slots],

@@ -13,9 +13,12 @@ centre and area, a table top's two placements). Its best plan is the plan accept
 7's plan for the pose, then the better nominal score). A rollout
 that blew up (``Outcomes.unstable``: a non-finite state or a MuJoCo instability warning) is a failure and is named.
 The nominal world imagines every pose and plan; the K perturbed worlds, one more batched call, imagine again
-every plan of the poses with a candidate there (a plan scored above 0), since a pose without one has no success
-to confirm (its physics is 0). With an LLM provider, a pose its stage 7 rejected in the nominal world has
-physics 0: common sense vetoes what the rules would let through. The priors are :meth:`Affordance.size_prior`
+every plan of the poses with a candidate there (a plan scored above 0) whose prior is at least
+:data:`rail_mj.affordances.prior.FUNCTIONAL`: a pose without a candidate has no success to confirm (its
+physics is 0), and one with a smaller prior stays below it whatever its physics, so its verdict cannot change
+(its physics is the nominal world's, 0 or 1). ``W`` is the number of worlds a pose was imagined in. With an
+LLM provider, a pose its stage 7 rejected in the nominal world has physics 0: common sense vetoes what the
+rules would let through. The priors are :meth:`Affordance.size_prior`
 and :meth:`Affordance.pose_prior` (1 for an affordance outside the registry).
 
 The result's ``probability`` is the largest pose probability; the result is functional when it is at least
@@ -34,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from rail_mj.affordances import Affordance
+from rail_mj.affordances.prior import FUNCTIONAL, Prior
 from rail_mj.core.profile import MotionPlan
 from rail_mj.core.results import PoseProbability
 from rail_mj.core.types import Outcomes, StablePose
@@ -42,7 +46,7 @@ from rail_mj.imagination.summary import pose_candidates
 from rail_mj.llm.offline import judge_pose, rules_row
 from rail_mj.llm.schemas import FunctionalPoseVerdict
 
-__all__ = ["world_outcomes", "candidate_slots", "pose_probabilities", "most_probable"]
+__all__ = ["world_outcomes", "candidate_slots", "pose_prior", "pose_probabilities", "most_probable"]
 
 
 def world_outcomes(outcomes: Outcomes, scores: np.ndarray, n_worlds: int) -> list[tuple[Outcomes, np.ndarray]]:
@@ -59,11 +63,23 @@ def world_outcomes(outcomes: Outcomes, scores: np.ndarray, n_worlds: int) -> lis
     return out
 
 
-def candidate_slots(scores: np.ndarray, n_kept: int, n_plans: int) -> list[int]:
-    """The imagined poses (slots into ``kept``) with a candidate in the nominal world (a plan scored above 0):
-    the ones the perturbed worlds imagine again; a pose without one has no success to confirm."""
+def candidate_slots(scores: np.ndarray, n_kept: int, n_plans: int,
+                    priors: Sequence[float] | None = None) -> list[int]:
+    """The imagined poses (slots into ``kept``) with a candidate in the nominal world (a plan scored above 0) and,
+    given their ``priors``, a prior of at least FUNCTIONAL: the ones the perturbed worlds imagine again. A pose
+    without a candidate has no success to confirm; one with a smaller prior stays below FUNCTIONAL whatever
+    the physics."""
     grid = np.asarray(scores, dtype=float).reshape(n_kept, n_plans)
-    return [k for k in range(n_kept) if np.any(grid[k] > 0)]
+    return [k for k in range(n_kept) if np.any(grid[k] > 0) and (priors is None or priors[k] >= FUNCTIONAL)]
+
+
+def pose_prior(aff: Affordance | None, obb_dims: Sequence[float] | np.ndarray, pose: StablePose) -> Prior:
+    """One pose's prior: the size prior of the object's OBB times the pose's envelope prior (its basin's rim for
+    a vessel's aspect); no factor for an affordance outside the registry."""
+    if aff is None:
+        return Prior()
+    return aff.size_prior([float(d) for d in obb_dims]) * aff.pose_prior(
+        [float(v) for v in pose.half_extents], None if pose.basin is None else pose.basin.rim)
 
 
 def _accepted(aff: Affordance | None, plans: Sequence[MotionPlan], poses: Sequence[StablePose],
@@ -142,23 +158,19 @@ def pose_probabilities(
     vetoed = ({v.pose_index for v in stage7.poses if not v.accept} if llm_veto and stage7 is not None else set())
     out = []
     for k, i in enumerate(kept):
-        pose = poses[i]
-        if aff is None:
-            prior, doc = 1.0, "outside the registry: no size prior"
-        else:
-            p = aff.size_prior([float(d) for d in obb_dims]) * aff.pose_prior(
-                [float(v) for v in pose.half_extents], None if pose.basin is None else pose.basin.rim)
-            prior, doc = p.value, p.doc()
+        p = pose_prior(aff, obb_dims, poses[i])
+        prior, doc = p.value, (p.doc() if aff is not None else "outside the registry: no size prior")
         successes = 0 if i in vetoed else int(worlds_ok[k])
         # ties: stage 7's plan for the pose, then the better nominal score
         chosen, row = stage7_plans.get(i), scores0[k * len(names) : (k + 1) * len(names)]
         best = (max(wins[k], key=lambda name: (wins[k][name], name == chosen, float(row[names.index(name)])))
                 if successes else None)
-        physics = successes / perturbations.n_worlds
+        imagined = perturbations.n_worlds if k in again else 1
+        physics = successes / imagined
         out.append(PoseProbability(
             index=i, prior=_unit(prior), prior_factors=doc, physics=_unit(physics),
             probability=_unit(prior * physics), best_plan=best, successes=successes,
-            worlds=perturbations.n_worlds, imagined=perturbations.n_worlds if k in again else 1, blew_up=blew_up[k],
+            worlds=perturbations.n_worlds, imagined=imagined, blew_up=blew_up[k],
         ))
     return out
 
