@@ -85,4 +85,5 @@ def probe_outcomes(n_agents: int, n_plans: int, half_extents: Sequence[Sequence[
         object_half_extents=half.copy(),
         settled=~scattered,
         agent_open_sector=open_sector.astype(np.int64),
+        unstable=np.zeros(batch, dtype=bool),  # world stays None: a nominal batch, as imagine() returns one
     )
