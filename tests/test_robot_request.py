@@ -9,12 +9,13 @@ import pytest
 import trimesh
 
 from rail_mj.core.errors import ConfigError, MeshError, RailError, UnknownAffordanceError
+from rail_mj.core.results import AffordanceResult, PoseProbability
 from rail_mj.robot.__main__ import main
 from rail_mj.robot.control import RobotConfig
 from rail_mj.robot.demo import make_object
 from rail_mj.robot.judge import MAX_TIP, EndState, Support, judge
 from rail_mj.robot.request import parse_request
-from rail_mj.robot.run import decline_text, run_request
+from rail_mj.robot.run import decline_text, run_request, verdict_row
 from rail_mj.robot.table import GAP, layout, load_user_object
 
 # a bowl 16 cm across standing on the table top (z = 0.1), rim at 0.16
@@ -136,6 +137,19 @@ def test_decline_text_names_the_object_the_use_and_why():
     text = decline_text("plate", "cup", verdict)
     assert text == ("as it stands, 'plate' does not afford 'cup' (probability 0.12 < 0.5): no plan scored above 0 "
                     "in any stable pose")
+
+
+def test_a_decline_by_size_names_the_prior_not_the_accepted_physics():
+    prior = "width 0.449 (typical 0.125-0.4, width 10%): 0.35 -> prior 0.35"
+    pose = PoseProbability(index=0, prior=0.35, prior_factors=prior, physics=1.0, probability=0.35, successes=5,
+                           worlds=5, imagined=5)
+    r = AffordanceResult(object="basin", affordance="bowl", requested="bowl", probability=0.35, prior=prior,
+                         pose_verdicts=[pose], analyzer_reasons=["pose 0 works with the most plans (5)"])
+    text = decline_text("basin", "bowl", verdict_row(r))
+    assert "size is unusual" in text and "0.449" in text and "works with the most plans" not in text
+    failed = r.model_copy(update={"pose_verdicts": [pose.model_copy(update={"physics": 0.0, "probability": 0.0})],
+                                  "probability": 0.0, "analyzer_reasons": ["no plan scored above 0"]})
+    assert decline_text("basin", "bowl", verdict_row(failed)).endswith("no plan scored above 0")
 
 
 @pytest.mark.slow

@@ -30,7 +30,7 @@ from rail_mj.robot.request import parse_request
 from rail_mj.robot.scene import Neighbour
 from rail_mj.robot.table import Placed, layout, load_user_object, table_centre
 
-__all__ = ["ObjectSpec", "LIQUIDS", "scan_available", "plan_in_true_frame", "decline_text", "run_table",
+__all__ = ["ObjectSpec", "LIQUIDS", "scan_available", "plan_in_true_frame", "decline_text", "verdict_row", "run_table",
            "run_request"]
 
 #: Agents that are poured, not carried: the judge counts their droplets.
@@ -107,12 +107,21 @@ def plan_in_true_frame(via_poses: np.ndarray, scan_pose: StablePose, scan_base: 
     return np.hstack([pos, quat / np.linalg.norm(quat, axis=1, keepdims=True)])
 
 
-def _verdict(result) -> dict[str, Any]:
+def _reason(result) -> str:
+    """Why the verdict is what it is: the analyser's last reason, or, where the physics succeeded and the size prior
+    kept the probability below 0.5, that prior's factors."""
+    if not result.functional and result.prior and any(v.physics > 0 for v in result.pose_verdicts):
+        return f"the imagined use works, but its size is unusual for it: {result.prior}"
+    return (result.analyzer_reasons or [""])[-1]
+
+
+def verdict_row(result) -> dict[str, Any]:
+    """One object's verdict for a request as JSON: functional, probability, plan, score, the reason, seconds."""
     best = result.best_plan
     return {"functional": bool(result.functional), "probability": float(result.probability),
             "dims_fit": result.dims_fit, "error": result.error, "plan": best.name if best is not None else None,
             "score": float(best.score) if best is not None and np.isfinite(best.score) else None,
-            "reason": (result.analyzer_reasons or [""])[-1][:300],
+            "reason": _reason(result)[:300],
             "seconds": float(sum(v for k, v in result.timings.items() if k != "load"))}
 
 
@@ -151,7 +160,7 @@ def run_table(req: Request, placed: Sequence[Placed], *, scan: bool = True, conf
         t0 = time.perf_counter()
         true = imagine(p.obj)
         times["imagine_true"] = times.get("imagine_true", 0.0) + time.perf_counter() - t0
-        true_v: dict[str, Any] = _verdict(true)
+        true_v: dict[str, Any] = verdict_row(true)
         scan_v: dict[str, Any] | None = None
         plan_from, scan_base = true, None
         if scan:
@@ -166,7 +175,7 @@ def run_table(req: Request, placed: Sequence[Placed], *, scan: bool = True, conf
                 t0 = time.perf_counter()
                 scan_result = imagine(scanned)
                 times["imagine_scan"] = times.get("imagine_scan", 0.0) + time.perf_counter() - t0
-                scan_v = {**_verdict(scan_result), **info}
+                scan_v = {**verdict_row(scan_result), **info}
                 plan_from = scan_result
         verdict = scan_v if plan_from is not true and scan_v is not None else true_v
         entry.update(true=true_v, scan=scan_v, used="scan" if plan_from is not true else "true mesh",
