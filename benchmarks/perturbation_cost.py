@@ -1,6 +1,6 @@
 """Imagination seconds with K perturbed worlds vs the nominal world alone, on a few real meshes (cached hulls).
 
-    python benchmarks/perturbation_cost.py [--dataset /work/guard/real_data] [--k 0 4] [--objects 4] [--json]
+    python benchmarks/perturbation_cost.py [--dataset DIR] [--k 0 4] [--objects 4] [--json]
 
 Each object is loaded (hulls, stable poses) once; every affordance is then run with each K in turn in this process
 (one thread per batch is not forced: the machine's load shows in the figures, so compare the columns of one run).
@@ -13,6 +13,7 @@ import json
 from pathlib import Path
 
 from rail_mj.dataset.labels import read_labels
+from rail_mj.dataset.realset import real_data_dir
 from rail_mj.imagination import ImaginationConfig
 from rail_mj.pipeline import Pipeline
 from rail_mj.pipeline.config import ObjectInput, RunConfig
@@ -22,11 +23,14 @@ AFFORDANCES = ("cup", "bowl", "basket", "table", "chair")
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
-    ap.add_argument("--dataset", type=Path, default=Path("/work/guard/real_data"))
+    ap.add_argument("--dataset", type=Path, default=None,
+                    help="a folder with labels.jsonl (default: the real-mesh development set, $RAIL_MJ_REAL_DATA or "
+                         "the cache's, built there on first use)")
     ap.add_argument("--k", type=int, nargs="+", default=[0, 4])
     ap.add_argument("--objects", type=int, default=4)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
+    args.dataset = args.dataset or real_data_dir()
     labels = read_labels(args.dataset / "labels.jsonl")[: args.objects]
     pipes = {k: Pipeline(RunConfig(provider="offline", imagination=ImaginationConfig(perturbations=k)))
              for k in args.k}

@@ -21,12 +21,10 @@ from pathlib import Path
 
 from rail_mj.dataset.labels import LabelRecord, read_labels
 from rail_mj.dataset.procedural import generate
+from rail_mj.dataset.realset import real_data_dir
 from rail_mj.imagination import ImaginationConfig
 from rail_mj.pipeline import classify
 from rail_mj.pipeline.config import ObjectInput, RunConfig
-
-#: the README's real-mesh development set, where this machine keeps it
-DEFAULT_DATASET = "/work/guard/real_data"
 
 
 def _verdicts(root: Path, rows: list[LabelRecord], affordances: list[str], scale: float, cfg: RunConfig,
@@ -40,7 +38,8 @@ def _verdicts(root: Path, rows: list[LabelRecord], affordances: list[str], scale
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
-    ap.add_argument("--dataset", default=DEFAULT_DATASET, help="a folder with labels.jsonl, or 'procedural'")
+    ap.add_argument("--dataset", default=None, help="a folder with labels.jsonl, or 'procedural' (default: the "
+                    "real-mesh development set, $RAIL_MJ_REAL_DATA or the cache's, built there on first use)")
     ap.add_argument("--objects", type=int, default=None,
                     help="the first N objects of the set (procedural: N per class, default 1)")
     ap.add_argument("--affordances", default=None, help="comma-separated; default: every labelled one")
@@ -55,7 +54,7 @@ def main() -> None:
             generate(root, per_class=args.objects or 1, seed=0)
             rows = read_labels(root / "labels.jsonl")
         else:
-            root = Path(args.dataset)
+            root = Path(args.dataset) if args.dataset is not None else real_data_dir()
             rows = read_labels(root / "labels.jsonl")[: args.objects]
         affordances = (args.affordances.split(",") if args.affordances
                        else sorted({a for r in rows for a in r.affordances}))
@@ -70,7 +69,7 @@ def main() -> None:
     flips = {s: sorted(f"{m}::{a}" for m, a in cases if v[(m, a)] != base[(m, a)]) for s, v in scaled.items()}
     flipped = sorted({c for f in flips.values() for c in f})
     out = {
-        "dataset": str(args.dataset), "objects": len(rows), "cases": len(cases),
+        "dataset": str(args.dataset or real_data_dir()), "objects": len(rows), "cases": len(cases),
         "failed": len(base) - len(cases), "perturbations": imagination.perturbations,
         "flip_rate": len(flipped) / len(cases) if cases else None,
         "flips_per_scale": {str(s): len(f) for s, f in flips.items()}, "flipped": flipped,

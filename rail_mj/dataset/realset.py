@@ -58,6 +58,8 @@ from rail_mj.core.runfiles import fsync_dir, publish, staging_dir, write_synced
 from rail_mj.dataset.labels import LABELS_FILE, LabelRecord
 
 __all__ = [
+    "REAL_DATA_ENV",
+    "real_data_dir",
     "Wheel",
     "RealMesh",
     "WHEELS",
@@ -599,3 +601,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     positives = sum(any(r.affordances.values()) for r in records)
     print(f"wrote {len(records)} objects ({positives} afford at least one of the eight) to {args.out}")
     return EXIT_OK
+
+
+#: Where the real-mesh set is when it is not in the cache (a folder holding labels.jsonl).
+REAL_DATA_ENV = "RAIL_MJ_REAL_DATA"
+
+
+def real_data_dir() -> Path:
+    """The real-mesh set: ``$RAIL_MJ_REAL_DATA``, else ``cache_dir("real_data")``, built there on first use."""
+    user = os.environ.get(REAL_DATA_ENV)
+    folder = Path(user).expanduser() if user else cache_dir("real_data")
+    if not (folder / "labels.jsonl").is_file():
+        if user:
+            raise DatasetError(f"{REAL_DATA_ENV}={user} holds no labels.jsonl; build it with "
+                               f"`python -m rail_mj.dataset real --out {user}`")
+        build(folder)
+    return folder

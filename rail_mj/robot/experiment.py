@@ -33,10 +33,10 @@ import numpy as np
 import trimesh
 
 from rail_mj.affordances import PAPER_AFFORDANCES, request_scale
-from rail_mj.core.errors import ConfigError, DatasetError
-from rail_mj.core.paths import cache_dir
+from rail_mj.core.errors import ConfigError
 from rail_mj.core.runfiles import atomic_write_text
 from rail_mj.core.types import RailObject
+from rail_mj.dataset.realset import real_data_dir
 from rail_mj.mesh import load_mesh, object_from_mesh
 from rail_mj.robot.control import RobotConfig
 from rail_mj.robot.demo import make_object
@@ -44,11 +44,10 @@ from rail_mj.robot.request import parse_request
 from rail_mj.robot.run import plan_in_true_frame, run_table, scan_available
 from rail_mj.robot.table import layout
 
-__all__ = ["Item", "Task", "TASKS", "REAL_DATA_ENV", "real_data_dir", "task_object", "scan_available",
+__all__ = ["Item", "Task", "TASKS", "task_object", "scan_available",
            "plan_in_true_frame", "run_task", "run_experiment", "summarize", "format_table"]
 
 #: Environment variable naming a built real-mesh set (``python -m rail_mj.dataset real --out DIR``).
-REAL_DATA_ENV = "RAIL_MJ_REAL_DATA"
 
 
 @dataclass(frozen=True)
@@ -146,20 +145,6 @@ TASKS: tuple[Task, ...] = (
     Task("table_none_cup", "demo:cup", 7, "pour the water into the cup", flip=True, decline=True,
          beside=(_CAN, _CEREAL)),
 )
-
-
-def real_data_dir() -> Path:
-    """The real-mesh set: ``$RAIL_MJ_REAL_DATA``, else ``cache_dir("real_data")``, built there on first use."""
-    user = os.environ.get(REAL_DATA_ENV)
-    folder = Path(user).expanduser() if user else cache_dir("real_data")
-    if not (folder / "labels.jsonl").is_file():
-        if user:
-            raise DatasetError(f"{REAL_DATA_ENV}={user} holds no labels.jsonl; build it with "
-                               f"`python -m rail_mj.dataset real --out {user}`")
-        from rail_mj.dataset.realset import build
-
-        build(folder)
-    return folder
 
 
 def _real_mesh(stem: str) -> trimesh.Trimesh:
