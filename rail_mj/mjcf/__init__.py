@@ -33,6 +33,7 @@ from rail_mj.mjcf.scene import (
     agent_prefix,
     check_fragment,
     hull_geom_name,
+    parse_untrusted_xml,
 )
 
 __all__ = [
@@ -42,6 +43,7 @@ __all__ = [
     "GROUND_GEOM",
     "MAX_AGENT_RADIUS",
     "MAX_FRAGMENT_BYTES",
+    "parse_untrusted_xml",
     "MAX_FRAGMENT_ELEMENTS",
     "MAX_FRAGMENT_GEOMS",
     "MAX_FRAGMENT_VERTICES",

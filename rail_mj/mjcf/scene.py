@@ -24,6 +24,7 @@ __all__ = [
     "MAX_AGENT_RADIUS",
     "VALID_FRAGMENT_EXAMPLE",
     "MAX_FRAGMENT_BYTES",
+    "parse_untrusted_xml",
     "MAX_FRAGMENT_ELEMENTS",
     "MAX_FRAGMENT_GEOMS",
     "MAX_FRAGMENT_VERTICES",
@@ -137,19 +138,30 @@ def _check_element(el: ET.Element, parent: str) -> None:
         raise _reject(f"<{el.tag}> type {el.attrib['type']!r} is not allowed; allowed: {', '.join(types)}")
 
 
-def _scan_xml(xml: str) -> None:
-    """Check size caps, the element and attribute allow-list by looking at the raw XML, before MuJoCo parses it."""
+def parse_untrusted_xml(xml: str, root_tag: str) -> ET.Element:
+    """An untrusted XML document (an LLM's MJCF, a profile folder's URDF) parsed, once it is at most
+    MAX_FRAGMENT_BYTES, declares no DOCTYPE or ENTITY and its root is ``<root_tag>``; else a ValueError saying
+    which (the caller names the document and its own error type)."""
     size = len(xml.encode("utf-8"))
     if size > MAX_FRAGMENT_BYTES:
-        raise _reject(f"the document is {size} bytes, more than {MAX_FRAGMENT_BYTES}")
+        raise ValueError(f"the document is {size} bytes, more than {MAX_FRAGMENT_BYTES}")
     if "<!DOCTYPE" in xml or "<!ENTITY" in xml:
-        raise _reject("DOCTYPE/ENTITY declarations are not allowed")
+        raise ValueError("DOCTYPE/ENTITY declarations are not allowed")
     try:
         root = ET.fromstring(xml)
     except ET.ParseError as exc:
-        raise _reject(f"not well-formed XML ({exc})") from exc
-    if root.tag != "mujoco":
-        raise _reject(f"root element is <{root.tag}>, expected <mujoco>")
+        raise ValueError(f"not well-formed XML ({exc})") from exc
+    if root.tag != root_tag:
+        raise ValueError(f"the root element is <{root.tag}>, expected <{root_tag}>")
+    return root
+
+
+def _scan_xml(xml: str) -> None:
+    """Check size caps, the element and attribute allow-list by looking at the raw XML, before MuJoCo parses it."""
+    try:
+        root = parse_untrusted_xml(xml, "mujoco")
+    except ValueError as exc:
+        raise _reject(str(exc)) from exc
     bad = [k for k in root.attrib if k not in _ALLOWED["mujoco"][0]]
     if bad:
         raise _reject(f"<mujoco> attribute {bad[0]!r} is not allowed; allowed <mujoco> attributes: model")

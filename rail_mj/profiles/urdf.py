@@ -16,7 +16,7 @@ import mujoco
 import numpy as np
 
 from rail_mj.core.errors import FragmentError, ProfileFolderError
-from rail_mj.mjcf import MAX_FRAGMENT_BYTES, check_fragment
+from rail_mj.mjcf import check_fragment, parse_untrusted_xml
 
 __all__ = ["ALLOWED_URDF", "urdf_to_fragment", "fragment_to_urdf"]
 
@@ -48,17 +48,10 @@ _RGBA = (0.2, 0.5, 0.9, 1.0)  # the offline agents' blue
 
 def _scan(text: str, where: str) -> ET.Element:
     """The URDF tree, once every element is on the allow-list and every joint is fixed."""
-    size = len(text.encode("utf-8"))
-    if size > MAX_FRAGMENT_BYTES:
-        raise ProfileFolderError(f"{where}: {size} bytes, more than {MAX_FRAGMENT_BYTES}")
-    if "<!DOCTYPE" in text or "<!ENTITY" in text:
-        raise ProfileFolderError(f"{where}: DOCTYPE/ENTITY declarations are not allowed")
     try:
-        root = ET.fromstring(text)
-    except ET.ParseError as exc:
-        raise ProfileFolderError(f"{where}: not well-formed XML ({exc})") from None
-    if root.tag != "robot":
-        raise ProfileFolderError(f"{where}: the root element is <{root.tag}>, expected <robot>")
+        root = parse_untrusted_xml(text, "robot")
+    except ValueError as exc:
+        raise ProfileFolderError(f"{where}: {exc}") from None
     for parent in root.iter():
         for el in parent:
             if el.tag not in ALLOWED_URDF.get(parent.tag, ()):
