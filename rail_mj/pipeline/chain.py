@@ -18,13 +18,14 @@ from typing import Any, cast
 import numpy as np
 
 from rail_mj import llm, profiles
-from rail_mj.affordances import Affordance, get, load_files, request_scale
+from rail_mj.affordances import load_files, request_scale
 from rail_mj.affordances.prior import FUNCTIONAL, NEGLIGIBLE, Prior
 from rail_mj.core.errors import ConfigError, RailError, UnknownAffordanceError
 from rail_mj.core.results import AffordanceResult, PlanInfo, PoseInfo
 from rail_mj.core.types import RailObject, StablePose, StablePoses
 from rail_mj.imagination import draw, imagine, pose_plan, resolve_backend, rollout_index
 from rail_mj.imagination.inputs import agent_setup, trajectory_array
+from rail_mj.llm.offline import rules_row
 from rail_mj.llm.schemas import ImaginationProfile
 from rail_mj.mesh import load_object, mesh_notes
 from rail_mj.pipeline.config import ObjectInput, PoseMode, RunConfig
@@ -159,7 +160,7 @@ class Pipeline:
         pose_infos = [PoseInfo.from_pose(i, poses[i]) for i in range(len(poses))]
         # this object's stage-1 prior (stage 1's answer is shared by every object of a profile's size bin): its
         # OBB's in its most plausible orientation; the poses' priors are rail_mj.pipeline.verdicts'
-        row = self._row(profile.affordance)
+        row = rules_row(profile.affordance, profile.scale)
         dims = row.dims_prior(obj.obb_dims) if row is not None else Prior()
         result = AffordanceResult(
             object=obj.name,
@@ -257,13 +258,6 @@ class Pipeline:
         result.evidence_pose = best.index
         result.evidence_agent_pos = outcomes.agent_pos[b].tolist()
         return result
-
-    def _row(self, affordance: str) -> Affordance | None:
-        """The registry row of an imagined use at the run's agent scale; None for a use outside the registry."""
-        try:
-            return get(affordance).scaled(request_scale(self.config.agent, self.config.owner))
-        except UnknownAffordanceError:
-            return None
 
     def _analyse(self, profile, poses, kept, outcomes, scores, trajectories):
         """The Functional Pose Analyzer over the candidate functional interactions; None without one."""
