@@ -13,11 +13,12 @@ Ray with 2 CPUs, each into its own folder under ``--out``, with the offline prov
 
 For each mode it prints the wall time and the CPU seconds per case summed over every process that worked
 on the run: the driver (``python -m rail_mj.eval``'s process: planning, writing results.jsonl) and the
-workers (local worker processes and the CoACD children, counted by ``getrusage(RUSAGE_CHILDREN)`` once
-they are waited for; Ray's worker processes and its own daemons, raylet and GCS, which are not this
-process's waited children, by sampling their CPU times with psutil every 0.2 s from the run's start to
-its end, so up to 0.2 s of a process that exits in between is missed). Next to it, the driver's own CPU
-seconds per case: the serial part of a spread run.
+workers (local worker processes, the CoACD children and the scoring sandbox's processes, counted by
+``getrusage(RUSAGE_CHILDREN)`` once they are waited for; Ray's worker processes, their children and Ray's own
+daemons, raylet and GCS, which are not this process's waited children, by sampling their CPU times with
+psutil every 0.2 s from the run's start to its end: a child a Ray worker has waited for is counted in the
+worker's time, not again on its own, and up to 0.2 s of a process that exits unwaited in between is missed).
+Next to it, the driver's own CPU seconds per case: the serial part of a spread run.
 
 From those figures it projects N = 16, 64, 256 cores by Amdahl's law with the driver's share of the CPU
 time as the serial fraction f: speedup S(N) = 1 / (f + (1 - f) / N), throughput S(N) / (CPU s per case)
@@ -39,6 +40,7 @@ import sys
 import tempfile
 import threading
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 from rail_mj.affordances import PAPER_AFFORDANCES
@@ -46,6 +48,7 @@ from rail_mj.core.paths import CACHE_ENV
 from rail_mj.dataset.ground_truth import CLASSES
 from rail_mj.dataset.procedural import generate
 from rail_mj.eval import run as rail_eval
+from rail_mj.scoring.pool import close_workers
 
 CORES = (16, 64, 256)
 SAMPLE_S = 0.2  # how often the Ray processes' CPU times are read
@@ -58,51 +61,74 @@ def _rusage() -> tuple[float, float]:
     return own.ru_utime + own.ru_stime, kids.ru_utime + kids.ru_stime
 
 
+@dataclass
+class _Seen:
+    """One descendant process at its latest reading."""
+
+    parent: int
+    worker: bool  # a Ray worker (titled ray::<task>) or a process under one (its CoACD children)
+    own: float  # its own CPU seconds
+    waited: float  # CPU seconds of its children that it has waited for (the kernel adds each once, at its exit)
+
+
 class _TreeSampler:
-    """CPU seconds used by this process's descendants (Ray's processes) between start() and stop()."""
+    """CPU seconds used by this process's descendants (Ray's processes) between start() and stop().
+
+    Each process is counted once: a living process by its own time plus its waited-for children's; a process gone
+    by the end is counted by its last reading unless its parent is still there, whose waited-for time holds it
+    whole (a Ray worker's CoACD child: counting both would count it twice)."""
 
     def __init__(self) -> None:
         import psutil  # the [cluster] extra declares it: Ray's workers are not children this process waits for
 
         self._me = psutil.Process()
-        self._base: dict[int, float] = {}
-        self._last: dict[int, tuple[str, float]] = {}
+        self._base: dict[int, _Seen] = {}
+        self._last: dict[int, _Seen] = {}
         self._halt = threading.Event()
         self._thread = threading.Thread(target=self._loop, daemon=True)
 
-    def _read(self) -> dict[int, tuple[str, float]]:
+    def _read(self) -> dict[int, _Seen]:
         import psutil
 
-        seen = {}
+        raw: dict[int, tuple[int, bool, float, float]] = {}
         for p in self._me.children(recursive=True):
             try:
-                t, argv = p.cpu_times(), p.cmdline()
+                t, argv, parent = p.cpu_times(), p.cmdline(), p.ppid()
             except psutil.Error:
                 continue
-            # a Ray worker titles itself ray::<task> (ray::IDLE between tasks); its CoACD children, once waited
-            # for, are in its children_* times
-            kind = "worker" if argv and (argv[0].startswith("ray::") or "default_worker.py" in " ".join(argv)) \
-                else "daemon"
-            seen[p.pid] = (kind, t.user + t.system + t.children_user + t.children_system)
-        return seen
+            ray_worker = bool(argv) and (argv[0].startswith("ray::") or "default_worker.py" in " ".join(argv))
+            raw[p.pid] = (parent, ray_worker, t.user + t.system, t.children_user + t.children_system)
+
+        def under_worker(pid: int) -> bool:
+            while pid in raw:
+                if raw[pid][1]:
+                    return True
+                pid = raw[pid][0]
+            return False
+
+        return {pid: _Seen(parent, under_worker(pid), own, waited) for pid, (parent, _, own, waited) in raw.items()}
 
     def _loop(self) -> None:
         while not self._halt.wait(SAMPLE_S):
             self._last.update(self._read())
 
     def start(self) -> None:
-        self._base = {pid: cpu for pid, (_, cpu) in self._read().items()}
+        self._base = self._read()
         self._thread.start()
 
     def stop(self) -> tuple[float, float]:
-        """(CPU s of the Ray worker processes, CPU s of Ray's other processes) since start()."""
+        """(CPU s of the Ray worker processes and their children, CPU s of Ray's other processes) since start()."""
         self._halt.set()
         self._thread.join()
-        self._last.update(self._read())
+        alive = self._read()
+        self._last.update(alive)
         workers = other = 0.0
-        for pid, (kind, cpu) in self._last.items():
-            used = cpu - self._base.get(pid, 0.0)
-            if kind == "worker":
+        for pid, seen in self._last.items():
+            if pid not in alive and seen.parent in alive:
+                continue  # in its parent's waited-for time
+            base = self._base.get(pid)
+            used = seen.own + seen.waited - (base.own + base.waited if base else 0.0)
+            if seen.worker:
                 workers += used
             else:
                 other += used
@@ -119,6 +145,7 @@ def _run(dataset: Path, out: Path, affordances: list[str], cache: Path, **execut
         sampler.start()
     own0, kids0 = _rusage()
     summary = rail_eval.run_eval(cfg, out, progress=False, **execution)
+    close_workers()  # the scoring sandbox's processes, waited for here, so that getrusage counts them
     own1, kids1 = _rusage()
     if not summary["complete"]:
         sys.exit(f"{out}: the run is not complete")
