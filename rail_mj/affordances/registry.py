@@ -121,10 +121,9 @@ def _rows() -> tuple[Affordance, ...]:
                    "high, up to 0.77 m for a counter or bar chair (feet on a rung, a back behind), usually with a "
                    "backrest.",
                    (0.4, 1.3), (0.3, 0.9), paper=True,
-                   # a seat for one by the seat kind's second-sitter test, not by the box: arms and a back
-                   # make an armchair's box 0.9 m wide around a 0.5 m seat. Counter and bar chairs seat a person
-                   # at 0.6-0.77 m (24-30 in), with a back; a pelvis on an armchair's 0.79 m back is no sitter
-                   envelope=Envelope(rest=(0.36, 0.78)), params=SeatParams(perch=0.57)),
+                   # arms and a back make an armchair's box 0.9 m wide around a 0.5 m seat. Counter and bar chairs
+                   # seat a person at 0.6-0.77 m (24-30 in), their feet on a rung (the seat kind's body)
+                   envelope=Envelope(rest=(0.36, 0.78))),
         # sizes as a chair's: an armchair or a bar chair is a stool too
         Affordance("stool", "seat", "A stool lets one person sit on a level seat 0.38-0.85 m high, without a "
                    "backrest.", (0.3, 1.3), (0.25, 0.9), envelope=Envelope(rest=(0.36, 0.87))),

@@ -165,6 +165,13 @@ class Outcomes:
     # (B, N) int, the most consecutive of the enclosure probe's horizontal directions in which a ray from the agent's
     # centre leaves without meeting the object (0: walled all round); None where no probe ran (e.g. the robot)
     agent_open_sector: np.ndarray | None = None
+    # An articulated agent's segments (S of them, the root first; names in ``segment_names``), None for one-body
+    # agents: (B, N, S) height of each segment's origin above the ground, m; (B, N, S) cosine of the angle between
+    # its own z axis and the vertical; (B, N, S, 3) its contact points with (object, other agents, ground)
+    segment_height: np.ndarray | None = None
+    segment_up: np.ndarray | None = None
+    segment_contacts: np.ndarray | None = None
+    segment_names: tuple[str, ...] = ()
 
     @property
     def batch(self) -> int:

@@ -241,6 +241,7 @@ def assemble_outcomes(
     released_early: np.ndarray,
     settled: np.ndarray,
     open_sector: np.ndarray | None = None,
+    segments: tuple[tuple[str, ...], np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> Outcomes:
     """Final world poses → task-frame Outcomes.
 
@@ -266,6 +267,8 @@ def assemble_outcomes(
         object_half_extents=placement.half_extents.copy(),
         settled=settled.astype(bool),
         agent_open_sector=None if open_sector is None else open_sector.astype(np.int64),
+        **({} if segments is None else {"segment_names": segments[0], "segment_height": segments[1],
+                                        "segment_up": segments[2], "segment_contacts": segments[3]}),
     )
 
 
@@ -277,8 +280,10 @@ def outcomes_from_states(
     contacts: np.ndarray,
     released_early: np.ndarray,
     settled: np.ndarray,
+    segments: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> Outcomes:
-    """Final world states (B, nq)/(B, nv) of ``scene`` → task-frame Outcomes."""
+    """Final world states (B, nq)/(B, nv) of ``scene`` → task-frame Outcomes; ``segments`` stacks an articulated
+    agent's :func:`rail_mj.mjcf.segment_state` over the batch."""
     o = scene.object_qpos
     return assemble_outcomes(
         placement,
@@ -291,6 +296,7 @@ def outcomes_from_states(
         released_early=released_early,
         settled=settled,
         open_sector=open_sectors(scene, qpos),
+        segments=None if segments is None else (scene.segment_names, *segments),
     )
 
 

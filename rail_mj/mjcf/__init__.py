@@ -13,6 +13,7 @@ from rail_mj.mjcf.compose import (
     build_scene,
     compose_scene,
     count_contacts,
+    segment_state,
 )
 from rail_mj.mjcf.scene import (
     AGENT_BIT,
@@ -64,4 +65,5 @@ __all__ = [
     "add_object",
     "compose_scene",
     "count_contacts",
+    "segment_state",
 ]
