@@ -8,6 +8,8 @@ with the box "pelvis" the kinds had before (it has no segments to report and no 
 
 from __future__ import annotations
 
+from typing import cast
+
 import numpy as np
 import pytest
 import trimesh
@@ -31,7 +33,7 @@ DROPLET = ('<mujoco><worldbody><body name="drop"><geom type="sphere" size="0.006
 
 def _object(name: str, boxes: list[tuple[list[float], list[float]]], density: float = 500.0) -> RailObject:
     hulls = [trimesh.creation.box(bounds=[lo, hi]).vertices for lo, hi in boxes]
-    mesh = trimesh.util.concatenate([trimesh.convex.convex_hull(h) for h in hulls])
+    mesh = cast(trimesh.Trimesh, trimesh.util.concatenate([trimesh.convex.convex_hull(h) for h in hulls]))
     return RailObject(name=name, mesh=mesh, hulls=tuple(np.asarray(h) for h in hulls), mesh_hash=f"test-{name}",
                       obb_dims=np.sort(mesh.extents)[::-1], com=mesh.center_mass, mass=float(mesh.volume * density),
                       density=density)
@@ -61,8 +63,9 @@ def _bed() -> RailObject:
 def _bathtub() -> RailObject:
     """A bathtub 1.7 x 0.8 x 0.55 m, walls and floor 5 cm thick."""
     L, W, H, t = 0.85, 0.4, 0.55, 0.05
-    return _object("bathtub", [([-L, -W, 0.0], [L, W, t]), ([-L, -W, 0.0], [-L + t, W, H]), ([L - t, -W, 0.0], [L, W, H]),
-                               ([-L, -W, 0.0], [L, -W + t, H]), ([-L, W - t, 0.0], [L, W, H])])
+    return _object("bathtub", [([-L, -W, 0.0], [L, W, t]), ([-L, -W, 0.0], [-L + t, W, H]),
+                               ([L - t, -W, 0.0], [L, W, H]), ([-L, -W, 0.0], [L, -W + t, H]),
+                               ([-L, W - t, 0.0], [L, W, H])])
 
 
 def _judged(obj: RailObject, affordance: str) -> list[tuple[CandidateInteraction, bool, str]]:

@@ -171,7 +171,7 @@ class Outcomes:
     segment_height: np.ndarray | None = None
     segment_up: np.ndarray | None = None
     segment_contacts: np.ndarray | None = None
-    segment_names: tuple[str, ...] = ()
+    segment_names: tuple[str, ...] | None = None
 
     @property
     def batch(self) -> int:

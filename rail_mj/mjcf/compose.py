@@ -165,7 +165,7 @@ def _reach(m: mujoco.MjModel, body: int) -> float:
     """How far (m) the geoms of ``body`` and of the bodies it carries reach from its origin, at most."""
     own = np.linalg.norm(m.geom_pos[m.geom_bodyid == body], axis=1) + m.geom_rbound[m.geom_bodyid == body]
     children = np.nonzero((m.body_parentid == body) & (np.arange(m.nbody) != body))[0]
-    return max([0.0, *own.tolist(), *(float(np.linalg.norm(m.body_pos[c])) + _reach(m, c) for c in children)])
+    return max([0.0, *own.tolist(), *(float(np.linalg.norm(m.body_pos[c])) + _reach(m, int(c)) for c in children)])
 
 
 def count_contacts(geom_owner: np.ndarray, geom_pairs: np.ndarray, n_agents: int) -> np.ndarray:
@@ -462,7 +462,7 @@ def compose_scene(
                  object_dof=int(model.jnt_dofadr[jid]), agent_qpos=agent_qpos, agent_dof=agent_dof, geom_owner=owner,
                  surface=None if agents is None else surface_model(obj),
                  hinge_dofs=model.jnt_dofadr[hinges].astype(np.int64),
-                 hinge_radius=np.array([_reach(model, int(model.jnt_bodyid[j])) for j in hinges]),
+                 hinge_radius=np.array([_reach(model, int(model.jnt_bodyid[int(j)])) for j in hinges]),
                  agent_bodies=np.stack(bodies).astype(np.int64) if bodies else np.zeros((0, 1), dtype=np.int64))
 
 

@@ -78,7 +78,7 @@ _ALLOWED: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
     "mesh": (_MESH_ATTRS, ()),
     "material": (_MATERIAL_ATTRS, ()),
     "worldbody": ((), ("body",)),
-    "body": (("name", "childclass", *_POSE), ("body", "joint", "geom", "site", "inertial")),
+    "body": (("name", "childclass", *_POSE), ("body", "geom", "site", "inertial", "joint")),
     "joint": (_JOINT_ATTRS, ()),
     "geom": (_GEOM_ATTRS, ()),
     "site": (_SITE_ATTRS, ()),
@@ -168,7 +168,7 @@ def _scan_xml(xml: str) -> None:
             raise _reject(f"the document has more than {MAX_FRAGMENT_ELEMENTS} elements")
         for child in el:
             if child.tag == "joint" and id(el) in tops:  # the top body moves by the scene's free joint alone
-                raise _reject(f"<joint> is not allowed inside <body> (the scene adds a free joint itself to the top "
+                raise _reject("<joint> is not allowed inside <body> (the scene adds a free joint itself to the top "
                               "body; only nested bodies may have hinge joints)")
             _check_element(child, el.tag)
             queue.append((child, in_world or child.tag == "worldbody"))

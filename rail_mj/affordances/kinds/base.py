@@ -22,8 +22,8 @@ from typing import ClassVar, Literal, TypeVar
 
 from rail_mj.affordances.row import KIND_PARAMS, Affordance, KindParams
 from rail_mj.core.errors import ConfigError
-from rail_mj.mjcf.body import BodySize
 from rail_mj.core.profile import AgentLayout, CandidateInteraction, MotionPlan, PoseCandidates, ScoringCode, ViaPose
+from rail_mj.mjcf.body import BodySize
 
 __all__ = [
     "SIDES",
@@ -242,9 +242,9 @@ def rest_scoring(aff: Affordance, shape: AgentShape, lo: str, hi: str, agent_deg
                              cos_agent=math.cos(math.radians(agent_deg)), max_tilt=math.radians(object_deg),
                              object_cond=aff.envelope.source(),
                              ground_cond=" & (contacts_ground == 0)" if ground else "")
-    return ScoringCode(description=f"Success when the {shape.label} rests {what}, touching the object"
-                                   f"{' and not the ground' if ground else ''}, the object does not tip and its pose has the size of a "
-                                   f"{aff.name} ({envelope}).",
+    ground_words = " and not the ground" if ground else ""
+    return ScoringCode(description=f"Success when the {shape.label} rests {what}, touching the object{ground_words}, "
+                                   f"the object does not tip and its pose has the size of a {aff.name} ({envelope}).",
                        source=SCORING_HEADER + body)
 
 

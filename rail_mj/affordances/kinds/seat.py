@@ -1,7 +1,7 @@
 """``seat``: an articulated human body, hips and knees at 90°, lowered onto the object facing each way.
 
-Success: the body comes to rest carried by the object: its pelvis on the object at seat height, its thighs near
-level, its torso upright or leaning on a back, its feet on the floor or on the object (a rung), nothing but its
+Success: the body comes to rest carried by the object: its pelvis and thighs on the object (a seat pan bears the
+thighs; an edge or a rail bears the pelvis alone) at seat height, its thighs near level, its torso upright or leaning on a back, its feet on the floor or on the object (a rung), nothing but its
 shanks and feet on the ground, and the object not tipped. A seat for more than one (a bench) seats bodies side by
 side along its length, each of them so.
 """
@@ -22,7 +22,16 @@ from rail_mj.affordances.kinds.base import (
     rest_window,
     rest_words,
 )
-from rail_mj.affordances.kinds.body import HEADINGS, LEGS, ROOT, agents_segments, body_agent, heading_vias, level, upright
+from rail_mj.affordances.kinds.body import (
+    HEADINGS,
+    LEGS,
+    ROOT,
+    agents_segments,
+    body_agent,
+    heading_vias,
+    level,
+    upright,
+)
 from rail_mj.affordances.row import Affordance, KindParams
 from rail_mj.core.profile import AgentLayout, CandidateInteraction, MotionPlan, PoseCandidates, ScoringCode, ViaPose
 
@@ -66,9 +75,10 @@ class Seat(Kind):
                          "anthropometry, 1.75 m and 75 kg for a person) with hips and knees at 90°, its joints held "
                          "by posture springs.")
     interaction_description = ("The sitting body is lowered straight down onto the object facing each way, with its "
-                               "hips over the object's centre and a quarter of the way to its back; it is released at the first "
-                               "contact and left to settle. On a seat for more, it is lowered at two places side by "
-                               "side along its length, half a shoulder breadth either side of the centre.")
+                               "hips over the object's centre and a quarter of the way to its back; it is released at "
+                               "the first contact and left to settle. On a seat for more, it is lowered at two "
+                               "places side by side along its length, half a shoulder breadth either side of the "
+                               "centre.")
     expected_outcome = ("The body comes to rest sitting on the {name}: pelvis on it at seat height, thighs near level, "
                         "torso upright or leaning on a back, feet on the floor or on the {name}, and the {name} does "
                         "not tip over.")
@@ -84,8 +94,8 @@ class Seat(Kind):
                 for side, shift in _BESIDE]
 
     def plans(self, shape: AgentShape) -> list[MotionPlan]:
-        where = {0.0: "over the object's centre", -0.25: "a quarter of the way to the object's back (as seen facing that "
-                                                        "way)"}
+        where = {0.0: "over the object's centre",
+                 -0.25: "a quarter of the way to the object's back (as seen facing that way)"}
         return [MotionPlan(name=name, description=f"Start with the sitting {shape.label} above the object, facing "
                                                   f"{heading}, its hips {where[place]}"
                                                   + (f", half a shoulder breadth towards the object's "
@@ -118,6 +128,9 @@ class Seat(Kind):
                 return False, f"{who}the hips rest {pelvis.height:.2f} m above the ground; sitting: {lo:.2f}-{hi:.2f} m"
             if not pelvis.touching_object:
                 return False, f"{who}the pelvis does not rest on the object"
+            if not all(seg[t].touching_object for t in LEGS):
+                return False, (f"{who}the object does not carry the thighs: the pelvis rests on an edge or a rail, "
+                               "not a seat")
             grounded = [name for name, s in seg.items() if s.on_ground and name not in _ON_FLOOR]
             if grounded:
                 return False, f"{who}the {grounded[0]} touches the ground: the body fell"
