@@ -106,9 +106,10 @@ class BodySize:
     def torso_half(self) -> tuple[float, float, float]:
         """The torso box's half sizes standing (front-back, across, up; m): the chest as broad as the hips across
         (Fig. 4.1 gives the hips 0.191 H; a chest is as broad, the arms hang outside it and rest on armrests), from
-        the lumbar joint to the shoulders up, deep enough for its mass and the arms'."""
+        the lumbar joint to the shoulders up, deep enough for the thorax and abdomen's mass (the arms' rides on it,
+        their volume outside it)."""
         across, up = self.hip_breadth / 2, (self.trunk - self.lumbar) / 2
-        return (_M_THORAX_ABDOMEN + 2 * _M_ARM) * self.mass / (DENSITY * 8 * across * up), across, up
+        return _M_THORAX_ABDOMEN * self.mass / (DENSITY * 8 * across * up), across, up
 
     def below_root(self, posture: Posture) -> float:
         """How far (m) the body reaches below its root's origin (the hip joints) under the pelvis: the thighs'

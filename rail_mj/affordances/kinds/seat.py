@@ -53,6 +53,9 @@ _THIGH_DEG = 30
 _TORSO_DEG = 45
 #: The pelvis (the scoring's agent) within this of its posture (deg), the same relaxed limit.
 _PELVIS_DEG = 45
+#: The pelvis resting within this of upright (deg): a seat pan slopes 0-10° (ISO 9241-5), and 15° is the level
+#: every kind's resting agent keeps; on a steeper slope the sitter slides or perches on an edge.
+_SEAT_PAN_DEG = 15
 #: Of the body, only these may touch the ground: a sitter's feet stand on the floor.
 _ON_FLOOR = ("shank_l", "foot_l", "shank_r", "foot_r")
 _FEET = ("foot_l", "foot_r")
@@ -130,13 +133,13 @@ class Seat(Kind):
                 return False, f"{who}the hips rest {pelvis.height:.2f} m above the ground; sitting: {lo:.2f}-{hi:.2f} m"
             if not pelvis.touching_object:
                 return False, f"{who}the pelvis does not rest on the object"
-            if not all(seg[t].touching_object for t in LEGS):
+            if not any(seg[t].touching_object for t in LEGS):  # both level with the buttocks: either may bear
                 return False, (f"{who}the object does not carry the thighs: the pelvis rests on an edge or a rail, "
                                "not a seat")
             grounded = [name for name, s in seg.items() if s.on_ground and name not in _ON_FLOOR]
             if grounded:
                 return False, f"{who}the {grounded[0]} touches the ground: the body fell"
-            why = level(seg, LEGS, _THIGH_DEG) or upright(seg["torso"], _TORSO_DEG)
+            why = upright(pelvis, _SEAT_PAN_DEG) or level(seg, LEGS, _THIGH_DEG) or upright(seg["torso"], _TORSO_DEG)
             if why:
                 return False, f"{who}{why}"
             dangling = [f for f in _FEET if not (seg[f].on_ground or seg[f].touching_object or seg[f].height <= reach)]
