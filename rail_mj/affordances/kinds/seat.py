@@ -1,10 +1,10 @@
 """``seat``: an articulated human body, hips and knees at 90°, lowered onto the object facing each way.
 
-Success: the body comes to rest carried by the object: its pelvis and thighs on the object (a seat pan bears the
-thighs; an edge or a rail bears the pelvis alone) at seat height, its thighs near level, its torso upright or
-leaning on a back, its feet on the floor or on the object (a rung) or within a toe's reach of the floor, nothing but
-its shanks and feet on the ground, and the object not tipped. A seat for more than one (a bench) seats the body at
-two places side by side along its length, half a shoulder breadth either side of its centre.
+Success: the body comes to rest carried by the object: its pelvis level and on the object with its thighs (a seat
+pan bears the thighs; an edge or a rail bears the pelvis alone) at seat height, its thighs near level, its torso
+upright or leaning on a back, its feet on the floor or on the object (a rung) or within a relaxed toe's reach of the
+floor, nothing but its shanks and feet on the ground, and the object not tipped. A seat for more than one (a bench)
+seats the body at two places side by side along its length, half a shoulder breadth either side of its centre.
 """
 
 from __future__ import annotations
