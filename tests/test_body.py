@@ -16,7 +16,7 @@ import trimesh
 
 from rail_mj.affordances import get
 from rail_mj.affordances.kinds import kind_of
-from rail_mj.core.errors import FragmentError
+from rail_mj.core.errors import FragmentError, ImaginationError
 from rail_mj.core.profile import CandidateInteraction
 from rail_mj.core.types import AgentSetup, RailObject
 from rail_mj.imagination import imagine
@@ -152,3 +152,11 @@ def test_the_body_lies_in_a_bed_and_a_bathtub_holds_it_lying_down():
         carried = not any(s.on_ground for s in seg.values()) and seg["torso"].touching_object
         held += lying and inside and carried and c.summary.object_tilt_deg < 15
     assert held
+
+
+def test_mjx_refuses_the_body_and_names_the_native_backend():
+    obj = _stool()
+    pose = pose_from_up(obj, np.array([0.0, 0.0, 1.0]), 1.0)
+    body = AgentSetup(fragment=body_fragment("sit"), offsets=np.zeros((1, 3)))
+    with pytest.raises(ImaginationError, match="backend='native'"):
+        imagine(obj, [pose], body, [np.array([[0.0, 0.0, 1.5, 1, 0, 0, 0]])], backend="mjx")
