@@ -60,9 +60,9 @@ _SEAT_PAN_DEG = 15
 _ON_FLOOR = ("shank_l", "foot_l", "shank_r", "foot_r")
 _FEET = ("foot_l", "foot_r")
 #: A sitter's toes reach this far (units of the foot's length) below the ankle's standing height: the three
-#: quarters of the foot ahead of the ankle (Winter Fig. 4.1) hanging at the relaxed ankle's 20° of plantar flexion
-#: (its resting angle, midway in the AAOS range; tiptoe, 50°, is no sitting posture).
-_TOE_REACH = 0.75 * math.sin(math.radians(20))
+#: quarters of the foot ahead of the ankle (Winter Fig. 4.1) hanging at a relaxed foot's 30° of plantar flexion
+#: (the ankle's resting angle with the foot unloaded, within the AAOS 0-50° range; tiptoe, 50°, is no sitting).
+_TOE_REACH = 0.75 * math.sin(math.radians(30))
 #: Where the hip joints are put down along the heading (units of h): the box's centre, and a quarter of the way to
 #: its back (a sitter sits back towards a backrest; half-way, a seat 0.45 m deep puts the back inside the sitter).
 _PLACES = (("", 0.0), ("_back", -0.25))
