@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from typing import cast
 
+import mujoco
 import numpy as np
 import pytest
 import trimesh
@@ -21,9 +22,10 @@ from rail_mj.core.profile import CandidateInteraction
 from rail_mj.core.types import AgentSetup, RailObject
 from rail_mj.imagination import imagine
 from rail_mj.imagination.inputs import agent_setup, trajectory_array
+from rail_mj.imagination.perturb import Perturbation, world_model
 from rail_mj.imagination.summary import result_summary
 from rail_mj.llm import generate_profile
-from rail_mj.mjcf import check_fragment, compose_scene
+from rail_mj.mjcf import check_fragment, compose_scene, segment_state
 from rail_mj.mjcf.body import SEGMENTS, body_fragment, body_size
 from rail_mj.stable_poses import pose_from_up
 
@@ -160,3 +162,26 @@ def test_mjx_refuses_the_body_and_names_the_native_backend():
     body = AgentSetup(fragment=body_fragment("sit"), offsets=np.zeros((1, 3)))
     with pytest.raises(ImaginationError, match="backend='native'"):
         imagine(obj, [pose], body, [np.array([[0.0, 0.0, 1.5, 1, 0, 0, 0]])], backend="mjx")
+
+
+def test_a_perturbed_world_scales_the_whole_body_and_keeps_its_posture():
+    """A world's agent size scales every segment and its place on its parent about the root (one body, not nine
+    shrunk in place), its agent mass every segment's mass; the posture springs hold the same sag (stiffness x
+    mass x length, damping ratio kept), and the world's segments are read in the world's own model."""
+    scene = compose_scene(_stool(), AgentSetup(fragment=body_fragment("sit"), offsets=np.zeros((1, 3))))
+    m = world_model(scene, Perturbation(agent_size=1.1, agent_mass=0.8))
+    base = scene.model
+    nominal, world = mujoco.MjData(base), mujoco.MjData(m)
+    mujoco.mj_kinematics(base, nominal)
+    mujoco.mj_kinematics(m, world)
+    bodies = scene.agent_bodies[0]
+    np.testing.assert_allclose(world.xpos[bodies] - world.xpos[bodies[0]],
+                               1.1 * (nominal.xpos[bodies] - nominal.xpos[bodies[0]]), atol=1e-9)
+    np.testing.assert_allclose(m.body_mass[bodies], 0.8 * base.body_mass[bodies])
+    joints = m.dof_jntid[scene.hinge_dofs]
+    np.testing.assert_allclose(m.jnt_stiffness[joints], 0.8 * 1.1 * base.jnt_stiffness[joints])
+    np.testing.assert_allclose(m.dof_damping[scene.hinge_dofs], 0.8 * 1.1**1.5 * base.dof_damping[scene.hinge_dofs])
+    none = np.zeros((0, 2), dtype=np.int64)
+    h0, h1 = segment_state(scene, nominal, none)[0], segment_state(scene, world, none, m)[0]
+    np.testing.assert_allclose(h1 - h1[:, :1], 1.1 * (h0 - h0[:, :1]), atol=1e-9)
+

@@ -3,8 +3,9 @@
 World 0 is the nominal world; worlds 1..K each change, at once, the object's mesh scale (the whole world scales
 with it about the world origin: the stable pose, its box, its basin and the plans' via-poses, so the plan is the
 one made for the object at that size), the sliding friction of every geom, the agents' mass and size (their grid
-spacing scales with them), and shift every plan sideways by a fraction of the pose's half extents. Each factor is
-drawn stratified over its range (each of K equal slices of the range holds one draw), so a few worlds cover it.
+spacing scales with them; an articulated body scales whole: its segments, joints and posture springs), and shift
+every plan sideways by a fraction of the pose's half extents. Each factor is drawn stratified over its range (each
+of K equal slices of the range holds one draw), so a few worlds cover it.
 
 The draws depend on the seed only, the same for every object, so two objects differ only in themselves; with every
 amplitude 0 the perturbed worlds equal the nominal one. Backends make one model per world (:func:`world_models`:
@@ -137,10 +138,26 @@ def _scale_bodies(m: mujoco.MjModel, bodies: np.ndarray, geoms: np.ndarray, leng
     m.body_inertia[bodies] *= mass * length**2
 
 
+def _scale_joints(m: mujoco.MjModel, base: Scene, length: float, mass: float) -> None:
+    """An articulated agent (:mod:`rail_mj.mjcf.body`) scaled whole about its root: each segment's place on its
+    parent and its hinges' places by ``length``, as its geoms are. A posture spring holds what its joint carries
+    (stiffness = mass x g x lever / sag, :func:`rail_mj.mjcf.body._spring`): its stiffness x mass x length keeps
+    the posture's sag, and its damping (2 x ratio x sqrt(stiffness x mass x lever^2)) x mass x length^1.5 keeps the
+    damping ratio."""
+    segments = base.agent_bodies[:, 1:].ravel()  # the root's place is its free joint's
+    m.body_pos[segments] *= length
+    joints = m.dof_jntid[base.hinge_dofs]
+    m.jnt_pos[joints] *= length
+    m.jnt_stiffness[joints] *= mass * length
+    m.dof_damping[base.hinge_dofs] *= mass * length**1.5
+    m.dof_armature[base.hinge_dofs] *= mass * length**2  # a rotor inertia, were one set
+
+
 def world_model(base: Scene, w: Perturbation) -> mujoco.MjModel:
     """``base``'s model in world ``w``: a copy with the object scaled about its frame (mass x scale^3 at the same
-    density), every geom's sliding friction x friction, each agent's size (its geoms about its frame) x agent_size
-    and its mass x agent_mass. Edited in place of a recompile, so the MjData layout stays the batch's (a recompiled
+    density), every geom's sliding friction x friction, each agent's size (its geoms about its frame; an
+    articulated agent's segments and joints about its root, :func:`_scale_joints`) x agent_size and its mass x
+    agent_mass. Edited in place of a recompile, so the MjData layout stays the batch's (a recompiled
     scaled hull may triangulate its flat faces otherwise)."""
     m = copy.copy(base.model)
     if w.nominal:
@@ -150,6 +167,8 @@ def world_model(base: Scene, w: Perturbation) -> mujoco.MjModel:
     _scale_bodies(m, np.unique(m.geom_bodyid[obj_geoms]), obj_geoms, w.scale, w.scale**3)
     agent_geoms = np.nonzero(owner >= 0)[0]
     _scale_bodies(m, np.unique(m.geom_bodyid[agent_geoms]), agent_geoms, w.agent_size, w.agent_mass)
+    if base.articulated:
+        _scale_joints(m, base, w.agent_size, w.agent_mass)
     m.geom_friction[:, 0] *= w.friction
     mujoco.mj_setConst(m, mujoco.MjData(m))
     return m

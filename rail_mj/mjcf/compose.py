@@ -181,12 +181,13 @@ def count_contacts(geom_owner: np.ndarray, geom_pairs: np.ndarray, n_agents: int
     return out
 
 
-def segment_state(scene: Scene, data: mujoco.MjData,
-                  geom_pairs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def segment_state(scene: Scene, data: mujoco.MjData, geom_pairs: np.ndarray,
+                  model: mujoco.MjModel | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Where each agent's segments ended, from ``data.qpos`` and the (ncon, 2) contact geom pairs: (N, S) height
     (m) of each segment's origin above the ground, (N, S) ``up`` (the cosine of the angle between its own z axis
-    and the vertical) and (N, S, 3) its contact points with (object, other agents, ground)."""
-    m = scene.model
+    and the vertical) and (N, S, 3) its contact points with (object, other agents, ground). ``model``: the
+    rollout's own model when it is not ``scene.model`` (a perturbed world's, the same layout)."""
+    m = scene.model if model is None else model
     mujoco.mj_kinematics(m, data)
     bodies = scene.agent_bodies
     n, s = bodies.shape
