@@ -20,13 +20,14 @@ from rail_mj.affordances.kinds import kind_of
 from rail_mj.core.errors import FragmentError, ImaginationError
 from rail_mj.core.profile import CandidateInteraction
 from rail_mj.core.types import AgentSetup, RailObject
-from rail_mj.imagination import imagine
+from rail_mj.imagination import ImaginationConfig, draw, imagine
 from rail_mj.imagination.inputs import agent_setup, trajectory_array
 from rail_mj.imagination.perturb import Perturbation, world_model
 from rail_mj.imagination.summary import result_summary
 from rail_mj.llm import generate_profile
 from rail_mj.mjcf import check_fragment, compose_scene, segment_state
 from rail_mj.mjcf.body import SEGMENTS, body_fragment, body_size
+from rail_mj.pipeline.verdicts import world_outcomes
 from rail_mj.stable_poses import pose_from_up
 
 DROPLET = ('<mujoco><worldbody><body name="drop"><geom type="sphere" size="0.006" mass="0.001"/></body>'
@@ -185,3 +186,17 @@ def test_a_perturbed_world_scales_the_whole_body_and_keeps_its_posture():
     h0, h1 = segment_state(scene, nominal, none)[0], segment_state(scene, world, none, m)[0]
     np.testing.assert_allclose(h1 - h1[:, :1], 1.1 * (h0 - h0[:, :1]), atol=1e-9)
 
+
+def test_the_body_reports_its_segments_in_every_perturbed_world():
+    obj = _stool()
+    pose = pose_from_up(obj, np.array([0.0, 0.0, 1.0]), 1.0)
+    h = [float(v) for v in pose.half_extents]
+    profile = generate_profile("stool", obj.obb_dims)
+    trajectories = trajectory_array(profile.trajectories.trajectories, h)
+    worlds = draw(ImaginationConfig(perturbations=2, seed=1))
+    out = imagine(obj, [pose], agent_setup(profile.agent.mjcf, profile.layout), trajectories, backend="native",
+                  perturbations=worlds)
+    assert out.batch == 3 * len(trajectories)
+    for world, _ in world_outcomes(out, np.zeros(out.batch), worlds.n_worlds):
+        assert world.segment_names == SEGMENTS
+        assert [s.name for s in result_summary(world, 0).segments] == list(SEGMENTS)

@@ -57,8 +57,9 @@ def world_outcomes(outcomes: Outcomes, scores: np.ndarray, n_worlds: int) -> lis
     out = []
     for w in range(n_worlds):
         sl = slice(w * per, (w + 1) * per)
-        fields: dict[str, Any] = {f.name: None if getattr(outcomes, f.name) is None else getattr(outcomes, f.name)[sl]
-                  for f in dataclasses.fields(outcomes)}
+        # every per-rollout array sliced to the world's; the segments' names (a tuple) are every world's
+        fields: dict[str, Any] = {f.name: v[sl] if isinstance(v := getattr(outcomes, f.name), np.ndarray) else v
+                                  for f in dataclasses.fields(outcomes)}
         out.append((Outcomes(**fields), scores[sl]))
     return out
 
