@@ -20,7 +20,8 @@ from rail_mj.affordances.kinds import kind_of
 from rail_mj.core.errors import FragmentError, ImaginationError
 from rail_mj.core.profile import CandidateInteraction
 from rail_mj.core.types import AgentSetup, RailObject
-from rail_mj.imagination import ImaginationConfig, draw, imagine
+from rail_mj.imagination import ImaginationConfig, draw, imagine, prepare
+from rail_mj.imagination.batch import outcomes_from_states
 from rail_mj.imagination.inputs import agent_setup, trajectory_array
 from rail_mj.imagination.perturb import Perturbation, world_model
 from rail_mj.imagination.summary import result_summary
@@ -200,3 +201,26 @@ def test_the_body_reports_its_segments_in_every_perturbed_world():
     for world, _ in world_outcomes(out, np.zeros(out.batch), worlds.n_worlds):
         assert world.segment_names == SEGMENTS
         assert [s.name for s in result_summary(world, 0).segments] == list(SEGMENTS)
+
+
+def test_a_body_that_blew_up_reports_finite_segments():
+    obj = _stool()
+    pose = pose_from_up(obj, np.array([0.0, 0.0, 1.0]), 1.0)
+    body = AgentSetup(fragment=body_fragment("sit"), offsets=np.zeros((1, 3)))
+    scene = compose_scene(obj, body)
+    batch = prepare(obj, [pose], body, [np.array([[0.0, 0.0, 1.5, 1, 0, 0, 0]])] * 2, ImaginationConfig())
+    qpos = batch.initial_qpos(scene)
+    qpos[1, :3] = np.nan
+    n, s = 2, len(SEGMENTS)
+    segments = (np.full((n, 1, s), 0.4), np.full((n, 1, s), 0.9), np.ones((n, 1, s, 3), dtype=np.int64))
+    segments[0][1] = np.nan
+    segments[1][1] = np.nan
+    out = outcomes_from_states(scene, batch.placement, qpos, np.zeros((n, scene.model.nv)),
+                               np.zeros((n, 1, 3), dtype=np.int64), np.zeros((n, 1), dtype=bool),
+                               np.ones(n, dtype=bool), None, segments)
+    assert out.unstable is not None and out.unstable.tolist() == [False, True]
+    for name in ("segment_height", "segment_up", "segment_contacts"):
+        assert np.all(np.isfinite(getattr(out, name))), name
+    blown = result_summary(out, 1).segments
+    assert not any(x.touching_object or x.on_ground for x in blown)
+    assert result_summary(out, 0).segments[0].height == pytest.approx(0.4)

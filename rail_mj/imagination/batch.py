@@ -365,6 +365,10 @@ def outcomes_from_states(
             qpos[~finite, a : a + 3] = placement.origin[~finite]
             qpos[~finite, a + 3 : a + 7] = (1.0, 0.0, 0.0, 0.0)
         qvel[~finite] = 0.0
+        if segments is not None:  # a blown-up body's segments: at the ground, level, touching nothing
+            height, up, touching = segments
+            keep = finite[:, None, None]
+            segments = (np.where(keep, height, 0.0), np.where(keep, up, 0.0), np.where(keep[..., None], touching, 0))
     o = scene.object_qpos
     return assemble_outcomes(
         placement,
