@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from rail_mj.affordances.kinds.base import AgentShape
+from rail_mj.affordances.kinds.base import GAP, AgentShape
 from rail_mj.core.profile import CandidateInteraction, SegmentState, ViaPose
 from rail_mj.mjcf.body import Posture, body_fragment, body_size
 
@@ -35,7 +35,7 @@ def heading_vias(shape: AgentShape, heading: str, rel_xy: tuple[float, float],
     yaw = math.radians(dict(HEADINGS)[heading]) / 2
     quat = [math.cos(yaw), 0.0, 0.0, math.sin(yaw)]
     scale = shape.body.scale if shape.body is not None else 1.0
-    start = shape.radius + 0.01 * scale  # the body's whole reach clear of the box (a stage-5 check), 1 cm more
+    start = shape.radius + GAP * scale  # the body's whole reach clear of the box (a stage-5 check), a gap more
     ox, oy = round(off_xy[0], 5), round(off_xy[1], 5)
     return [ViaPose(rel=[rel_xy[0], rel_xy[1], 1.0], offset_m=[ox, oy, round(start, 5)], quat=quat),
             ViaPose(rel=[rel_xy[0], rel_xy[1], -1.0], offset_m=[ox, oy, round(shape.half_z + 0.02 * scale, 5)],

@@ -9,6 +9,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from rail_mj.affordances.kinds.base import (
+    MAX_OBJECT_TILT_DEG,
     AgentShape,
     Kind,
     register_kind,
@@ -63,7 +64,7 @@ class Lie(Kind):
         return heading_vias(shape, heading, (place * left[0], place * left[1]))
 
     def scoring(self, aff: Affordance, shape: AgentShape) -> ScoringCode:
-        return rest_scoring(aff, shape, *rest_bounds(aff), _PELVIS_DEG, 15, f"lying {rest_words(aff)}")
+        return rest_scoring(aff, shape, *rest_bounds(aff), _PELVIS_DEG, MAX_OBJECT_TILT_DEG, f"lying {rest_words(aff)}")
 
     def accept(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float]) -> tuple[bool, str]:
         lo, hi = rest_window(aff, self.agent(aff, h).half_z)

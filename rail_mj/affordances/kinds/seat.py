@@ -15,6 +15,8 @@ from dataclasses import dataclass
 from typing import cast
 
 from rail_mj.affordances.kinds.base import (
+    LEVEL_DEG,
+    MAX_OBJECT_TILT_DEG,
     AgentShape,
     Kind,
     register_kind,
@@ -53,9 +55,9 @@ _THIGH_DEG = 30
 _TORSO_DEG = 45
 #: The pelvis (the scoring's agent) within this of its posture (deg), the same relaxed limit.
 _PELVIS_DEG = 45
-#: The pelvis resting within this of upright (deg): a seat pan slopes 0-10° (ISO 9241-5), and 15° is the level
-#: every kind's resting agent keeps; on a steeper slope the sitter slides or perches on an edge.
-_SEAT_PAN_DEG = 15
+#: The pelvis resting within this of upright (deg): a seat pan slopes 0-10° (ISO 9241-5), and LEVEL_DEG (15°) is
+#: the level every kind's resting agent keeps; on a steeper slope the sitter slides or perches on an edge.
+_SEAT_PAN_DEG = LEVEL_DEG
 #: Of the body, only these may touch the ground: a sitter's feet stand on the floor.
 _ON_FLOOR = ("shank_l", "foot_l", "shank_r", "foot_r")
 _FEET = ("foot_l", "foot_r")
@@ -116,8 +118,8 @@ class Seat(Kind):
         return heading_vias(shape, heading, (place * ux, place * uy), (beside, 0.0))
 
     def scoring(self, aff: Affordance, shape: AgentShape) -> ScoringCode:
-        return rest_scoring(aff, shape, *rest_bounds(aff), _PELVIS_DEG, 15, f"sitting {rest_words(aff)}",
-                            ground=False)
+        return rest_scoring(aff, shape, *rest_bounds(aff), _PELVIS_DEG, MAX_OBJECT_TILT_DEG,
+                            f"sitting {rest_words(aff)}", ground=False)
 
     def accept(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float]) -> tuple[bool, str]:
         shape = self.agent(aff, h)
