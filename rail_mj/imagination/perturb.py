@@ -27,7 +27,7 @@ from rail_mj.core.types import Basin, StablePose
 from rail_mj.imagination.config import PERTURBATIONS_RANGE, ImaginationConfig
 from rail_mj.mjcf import OWNER_OBJECT, Scene
 
-__all__ = ["Perturbation", "PerturbationSet", "draw", "scaled_pose", "world_model", "world_models",
+__all__ = ["Perturbation", "PerturbationSet", "draw", "scaled_pose", "resting_on", "world_model", "world_models",
            "world_trajectory"]
 
 
@@ -109,6 +109,22 @@ def scaled_pose(pose: StablePose, s: float) -> StablePose:
         half_extents=np.asarray(pose.half_extents, dtype=np.float64) * s,
         basin=None if basin is None else Basin(rim=basin.rim * s, opening=np.asarray(basin.opening) * s,
                                                length=basin.length * s))
+
+
+def resting_on(pose: StablePose, hulls: tuple[np.ndarray, ...], other: tuple[np.ndarray, ...]) -> StablePose:
+    """``pose`` for the object collided as ``other`` hulls instead of ``hulls`` (its second decomposition): the same
+    orientation, raised or lowered so that the lowest point of ``other`` rests where the lowest of ``hulls`` did
+    (hulls of a coarser decomposition may reach a little below the first ones', and would start in the ground)."""
+    rot = np.zeros(9)
+    mujoco.mju_quat2Mat(rot, np.asarray(pose.quat, dtype=np.float64))
+    rot = rot.reshape(3, 3)
+
+    def lowest(hs: tuple[np.ndarray, ...]) -> float:
+        return float(min((np.asarray(h) @ rot.T)[:, 2].min() for h in hs))
+
+    pos = np.asarray(pose.pos, dtype=np.float64).copy()
+    pos[2] += lowest(hulls) - lowest(other)
+    return dataclasses.replace(pose, pos=pos)
 
 
 def world_trajectory(via: np.ndarray, half_extents: np.ndarray, w: Perturbation) -> np.ndarray:

@@ -97,6 +97,10 @@ class Kind(ABC):
     agent_description: ClassVar[str]
     interaction_description: ClassVar[str]
     expected_outcome: ClassVar[str]
+    #: The use rests in the object's concavities (a cavity, a well, a compartment), whose hulls the decomposition's
+    #: concavity threshold shapes: the perturbed worlds include the object's second decomposition. A kind whose
+    #: agent rests on the object's top (a seat, a table) meets the same convex top in any decomposition.
+    decomposition_matters: ClassVar[bool] = False
 
     @abstractmethod
     def agent(self, aff: Affordance, dims: Sequence[float]) -> AgentShape:
