@@ -73,8 +73,8 @@ def test_a_loaded_file_is_seen_by_every_lookup_and_the_offline_provider(tmp_path
     assert get("Pet_Beds") is row and normalize("dog cushions") == "dog bed"
     assert parse_words("put the puppy on the dog bed").affordance == "dog bed"
     profile = generate_profile("dog bed", [0.9, 0.65, 0.1], provider="offline")
-    assert profile.analysis.fits and profile.analysis.ibd == row.ibd and profile.agent.name == "torso"
-    assert "rest" in profile.scoring.source and len(profile.plans.plans) == 5
+    assert profile.analysis.fits and profile.analysis.ibd == row.ibd and profile.agent.name == "body"
+    assert "rest" in profile.scoring.source and len(profile.plans.plans) == 8
     (result,) = classify([_cushion(tmp_path / "cushion.stl")], ["pet bed"], provider="offline", progress=False,
                          workers=1, config=FAST)
     assert result.error is None and result.affordance == "dog bed" and result.dims_fit and result.functional

@@ -12,7 +12,7 @@ from rail_mj.affordances import ANY, LIQUID_RADIUS, PAPER_AFFORDANCES, REGISTRY
 from rail_mj.affordances.kinds import ContainerParams
 from rail_mj.affordances.prior import NEGLIGIBLE
 from rail_mj.core.errors import ConfigError, UnknownAffordanceError
-from rail_mj.core.profile import AgentLayout, CandidateInteraction, PoseCandidates, ResultSummary
+from rail_mj.core.profile import AgentLayout, CandidateInteraction, PoseCandidates, ResultSummary, SegmentState
 from rail_mj.core.results import BasinInfo
 from rail_mj.core.types import Outcomes, StablePose
 from rail_mj.imagination.inputs import agent_setup, layout_offsets, trajectory_array
@@ -233,19 +233,31 @@ def test_functional_pose_rules_for_a_cup():
     assert (verdict.best_pose, verdict.best_plan) == (0, "above")
 
 
+def _sitting(hips: float) -> list[SegmentState]:
+    """The seat kind's body sitting with its hip joints ``hips`` m up, feet on the floor."""
+    def seg(name: str, height: float, up: float, on_object: bool, on_ground: bool = False) -> SegmentState:
+        return SegmentState(agent=0, name=name, height=height, up=up, touching_object=on_object, on_ground=on_ground)
+    legs = [s for side in "lr" for s in (seg(f"thigh_{side}", hips, 0.0, True), seg(f"shank_{side}", hips, 1.0, False),
+                                         seg(f"foot_{side}", 0.07, 1.0, False, True))]
+    return [seg("pelvis", hips, 1.0, True), seg("torso", hips + 0.14, 1.0, False), seg("head", hips + 0.5, 1.0, False),
+            *legs]
+
+
 def test_functional_pose_rules_for_a_chair_and_no_valid_pose():
     h = [0.25, 0.24, 0.45]
-    seat = _candidate("front", [0.6, 0.0, 0.5], frac_touching_object=1.0, mean_height=0.0)  # centre 0.45 m up
-    off_centre = [_candidate(p, [0.0, 0.0, 0.8], score=0.3, frac_touching_object=1.0, mean_height=0.0)
-                  for p in ("above_left", "above_front")]  # a seat's area: it bears the pelvis off the centre too
-    too_high = _candidate("above", [0.0, 0.0, 0.8], frac_touching_object=1.0, mean_height=1.1)
+    seat = _candidate("facing_front", [0.6, 0.0, 0.5], frac_touching_object=1.0, mean_height=0.0,
+                      segments=_sitting(0.52))  # the hips 0.52 m up, the buttocks at 0.45 m
+    off_centre = [_candidate(p, [0.0, 0.0, 0.8], score=0.3, frac_touching_object=1.0, mean_height=0.0,
+                             segments=_sitting(0.52)) for p in ("facing_left", "facing_back")]
+    too_high = _candidate("facing_right", [0.0, 0.0, 0.8], frac_touching_object=1.0, mean_height=1.1,
+                          segments=_sitting(0.97))
     request = FunctionalPoseRequest(affordance="chair", expected_outcome="seated", poses=[
         PoseCandidates(pose_index=0, probability=0.6, half_extents=h, candidates=[too_high]),
         PoseCandidates(pose_index=1, probability=0.4, half_extents=h, candidates=[too_high, seat, *off_centre]),
     ])
     verdict = analyze_functional_poses(request)
     assert [v.accept for v in verdict.poses] == [False, True]
-    assert (verdict.best_pose, verdict.best_plan) == (1, "front")
+    assert (verdict.best_pose, verdict.best_plan) == (1, "facing_front")
     none = analyze_functional_poses(FunctionalPoseRequest(affordance="chair", expected_outcome="seated", poses=[
         PoseCandidates(pose_index=0, probability=1.0, half_extents=h, candidates=[too_high])]))
     assert none.best_pose is None and none.best_plan is None
@@ -392,7 +404,7 @@ def test_stage_7_request_from_one_batch():
              for p in (0.5, 0.3, 0.2)]
     kept = [0, 2]  # pose 1 was too rare to imagine
     one = _outcomes(np.random.default_rng(2).uniform(-0.03, 0.03, (27, 3)), h)
-    batch = Outcomes(**{f.name: np.repeat(getattr(one, f.name), 2 * n_plans, axis=0)
+    batch = Outcomes(**{f.name: np.repeat(getattr(one, f.name), 2 * n_plans, axis=0)  # pyright: ignore[reportArgumentType]  # no segment names here
                         for f in dataclasses.fields(one) if getattr(one, f.name) is not None})
     trajectories = [trajectory_array(profile.trajectories.trajectories, poses[i].half_extents) for i in kept]
     scores = np.full(2 * n_plans, -1.0)

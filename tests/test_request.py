@@ -13,6 +13,7 @@ from rail_mj.llm.offline import offline_request
 from rail_mj.llm.prompts import STAGES, system_prompt
 from rail_mj.llm.providers import OfflineProvider
 from rail_mj.llm.schemas import Request, RequestText
+from rail_mj.mjcf.body import body_size
 from rail_mj.pipeline.chain import classify
 from rail_mj.robot import parse_request
 from rail_mj.robot.demo import make_object
@@ -81,8 +82,11 @@ def test_doll_sized_chair_passes_the_dimension_check_only_for_a_doll():
     doll = task_profile(TaskDescription(affordance="chair", obb_dims=dims, scale=request_scale("doll")), offline)
     assert not person.analysis.fits
     assert doll.analysis.fits and doll.scale == pytest.approx(request_scale("doll"))
-    # the pelvis is a doll's, and the scoring's seat-height window a doll chair's
-    assert "0.0176" in doll.agent.mjcf and "0.0635" in doll.scoring.source
+    # the body is a doll's (its pelvis as broad as a doll's hips; the seat kind's agent is the articulated body now),
+    # and the scoring's seat-height window a doll chair's
+    hips = body_size(request_scale("doll")).hip_breadth / 2
+    assert f" {hips:.6g} " in doll.agent.mjcf
+    assert "0.0635" in doll.scoring.source
 
 
 @pytest.mark.parametrize("text, agent, affordance, owner", [

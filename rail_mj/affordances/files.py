@@ -51,7 +51,7 @@ __all__ = ["ENTRY_POINT_GROUP", "FIELDS", "FileRow", "parse", "read", "entry_poi
 ENTRY_POINT_GROUP = "rail_mj.affordances"
 _REQUIRED = ("name", "kind", "ibd")
 #: Every key an ``[[affordance]]`` table may have.
-FIELDS = (*_REQUIRED, "largest", "smallest", "aliases", "envelope", "params", "override")
+FIELDS = (*_REQUIRED, "largest", "smallest", "aliases", "envelope", "params", "override", "scale")
 _ENVELOPE = tuple(f.name for f in dataclasses.fields(Envelope) if f.name != "widths")
 
 
@@ -180,11 +180,15 @@ def _row(table: Any, where: _Where) -> FileRow:
     if not isinstance(override, bool):
         raise where.fail("override", f"must be true or false; got {override!r}")
     params = _model(KINDS[kind].params_model, table.get("params", {}), where, "params")
+    scale = table.get("scale", 1.0)
+    if not (_number(scale) and 0 < scale < math.inf):
+        raise where.fail("scale", f"must be a positive finite number (the row's agent against a person's size: a "
+                                  f"doll 0.18); got {scale!r}")
     return FileRow(Affordance(
         table["name"], kind, table["ibd"].strip(),
         *(_size_range(table[k], where, k) if k in table else ANY for k in ("largest", "smallest")),
         envelope=_envelope(table.get("envelope", {}), where),
-        aliases=tuple(aliases), params=params,
+        aliases=tuple(aliases), params=params, scale=float(scale),
     ), override)
 
 

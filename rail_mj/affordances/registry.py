@@ -152,12 +152,12 @@ def _rows() -> tuple[Affordance, ...]:
         Affordance("chair", "seat", "A chair lets one person sit: a level seat 0.3-0.7 m across, 0.38-0.55 m "
                    "high, up to 0.77 m for a counter or bar chair (feet on a rung, a back behind), usually with a "
                    "backrest.",
-                   # a seat for one by the seat kind's second-sitter test, not by the box: arms and a back
-                   # make an armchair's box 0.9 m wide around a 0.5 m seat and 1.3 m high with a high back
+                   # arms and a back make an armchair's box 0.9 m wide around a 0.5 m seat and 1.3 m high with a
+                   # high back
                    _SEAT_LARGEST, _SEAT_SMALLEST, paper=True,
-                   # counter and bar chairs seat a person at 0.6-0.77 m (24-30 in), with a back: above the knee
-                   # the feet hang, and a back is behind
-                   envelope=Envelope(rest=(_SEAT_LOW, 0.78)), params=SeatParams(perch=_KNEE)),
+                   # counter and bar chairs seat a person at 0.6-0.77 m (24-30 in), their feet on a rung (the seat
+                   # kind's body)
+                   envelope=Envelope(rest=(_SEAT_LOW, 0.78))),
         # an armchair or a bar chair is a stool too
         Affordance("stool", "seat", "A stool lets one person sit on a level seat 0.38-0.85 m high, without a "
                    # a footstool is lower and smaller than any chair: 0.3 m at its largest, a 0.25 m seat

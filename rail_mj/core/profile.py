@@ -37,6 +37,7 @@ __all__ = [
     "ViaPose",
     "PlanTrajectory",
     "ScoringCode",
+    "SegmentState",
     "ResultSummary",
     "CandidateInteraction",
     "PoseCandidates",
@@ -135,6 +136,18 @@ class ScoringCode(ProfileModel):
     source: str
 
 
+class SegmentState(ProfileModel):
+    """Where one segment of an articulated agent (a body's pelvis, torso, thigh, ...) came to rest."""
+
+    agent: int = Field(ge=0, description="the agent the segment belongs to")
+    name: str = Field(description="the segment's body name in the agent fragment")
+    height: float = Field(description="height of the segment's origin (its proximal joint) above the ground, m")
+    up: float = Field(ge=-1, le=1, description="cosine of the angle between the segment's own z axis and the "
+                                               "vertical (1: upright, 0: level)")
+    touching_object: bool
+    on_ground: bool
+
+
 class ResultSummary(ProfileModel):
     """A rollout's resultant configuration, summarised over its agents."""
 
@@ -157,6 +170,9 @@ class ResultSummary(ProfileModel):
         default=0.0, description="agents inside the box that lie open to one side: horizontal rays from the agent "
                                  "leave without meeting the object over a sector of at least 67 deg (no enclosing "
                                  "wall there)"
+    )
+    segments: list[SegmentState] = Field(
+        default_factory=list, description="an articulated agent's segments, agent by agent; empty for one-body agents"
     )
 
 

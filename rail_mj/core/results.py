@@ -91,7 +91,8 @@ class PoseProbability(BaseModel):
     probability: float = Field(ge=0, le=1, description="prior x physics")
     best_plan: str | None = Field(default=None, description="the plan that succeeded in the most worlds")
     successes: int = Field(default=0, ge=0, description="worlds in which the best plan succeeded")
-    worlds: int = Field(default=1, ge=1, description="worlds of the object (1 + perturbations): physics' denominator")
+    worlds: int = Field(default=1, ge=1, description="worlds of the object (1 + perturbations, + 1 for the second "
+                                                  "decomposition where it matters): physics' denominator")
     imagined: int = Field(default=1, ge=1, description="worlds this pose was imagined in: all of them with a "
                                                        "candidate in the nominal world, else the nominal one alone")
     blew_up: list[str] = Field(default_factory=list, description="rollouts of this pose that blew up (failures)")

@@ -169,6 +169,13 @@ class Outcomes:
     world: np.ndarray | None = None
     # (B,) bool, the rollout blew up: a non-finite state or a MuJoCo instability warning; None: none checked
     unstable: np.ndarray | None = None
+    # An articulated agent's segments (S of them, the root first; names in ``segment_names``), None for one-body
+    # agents: (B, N, S) height of each segment's origin above the ground, m; (B, N, S) cosine of the angle between
+    # its own z axis and the vertical; (B, N, S, 3) its contact points with (object, other agents, ground)
+    segment_height: np.ndarray | None = None
+    segment_up: np.ndarray | None = None
+    segment_contacts: np.ndarray | None = None
+    segment_names: tuple[str, ...] | None = None
 
     @property
     def batch(self) -> int:

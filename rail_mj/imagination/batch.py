@@ -302,6 +302,7 @@ def assemble_outcomes(
     settled: np.ndarray,
     open_sector: np.ndarray | None = None,
     unstable: np.ndarray | None = None,
+    segments: tuple[tuple[str, ...], np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> Outcomes:
     """Final world poses → task-frame Outcomes.
 
@@ -329,6 +330,8 @@ def assemble_outcomes(
         agent_open_sector=None if open_sector is None else open_sector.astype(np.int64),
         world=None if placement.world is None else placement.world.astype(np.int64),
         unstable=None if unstable is None else unstable.astype(bool),
+        **({} if segments is None else {"segment_names": segments[0], "segment_height": segments[1],
+                                        "segment_up": segments[2], "segment_contacts": segments[3]}),
     )
 
 
@@ -341,8 +344,10 @@ def outcomes_from_states(
     released_early: np.ndarray,
     settled: np.ndarray,
     unstable: np.ndarray | None = None,
+    segments: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> Outcomes:
-    """Final world states (B, nq)/(B, nv) of ``scene`` → task-frame Outcomes.
+    """Final world states (B, nq)/(B, nv) of ``scene`` → task-frame Outcomes; ``segments`` stacks an articulated
+    agent's :func:`rail_mj.mjcf.segment_state` over the batch.
 
     A rollout whose state is not finite, or that ``unstable`` (B,) marks (a MuJoCo instability warning), blew
     up: its state is replaced by its placement (agents where the plan starts) so that nothing downstream meets
@@ -360,6 +365,10 @@ def outcomes_from_states(
             qpos[~finite, a : a + 3] = placement.origin[~finite]
             qpos[~finite, a + 3 : a + 7] = (1.0, 0.0, 0.0, 0.0)
         qvel[~finite] = 0.0
+        if segments is not None:  # a blown-up body's segments: at the ground, level, touching nothing
+            height, up, touching = segments
+            keep = finite[:, None, None]
+            segments = (np.where(keep, height, 0.0), np.where(keep, up, 0.0), np.where(keep[..., None], touching, 0))
     o = scene.object_qpos
     return assemble_outcomes(
         placement,
@@ -373,6 +382,7 @@ def outcomes_from_states(
         settled=settled & ~bad,
         open_sector=open_sectors(scene, qpos, placement.scales),
         unstable=bad,
+        segments=None if segments is None else (scene.segment_names, *segments),
     )
 
 

@@ -97,6 +97,12 @@ class ImaginationConfig(BaseModel):
     # a plan aims within about 5% of the object's half extents (a robot's placement error on a 20 cm object: 5 mm)
     perturb_offset: float = _amplitude(0.05, "plans shift sideways by +-this fraction of the pose's half extents")
 
+    # a second CoACD setting shapes a cavity's hulls otherwise (rail_mj.mesh.second_decomposition)
+    perturb_decomposition: bool = Field(
+        default=True,
+        description="where the object's concavities carry the use (a kind's decomposition_matters), imagine the "
+                    "poses the perturbed worlds imagine once more on the object's second decomposition")
+
     def __init__(self, **data: Any) -> None:
         # a bad perturbation setting is the project's ConfigError with its range (model_validate, e.g. a run
         # config's nested dict, reports the same range as pydantic's ValidationError)

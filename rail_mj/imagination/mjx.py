@@ -190,6 +190,9 @@ class MjxBackend(Backend):
         """Same contract as the native backend, run as one jit-compiled JAX computation."""
         cfg = self.config
         scene = self.scene(batch.obj, batch.agents)
+        if scene.articulated:
+            raise ImaginationError("the mjx backend drives one-body agents only; an articulated agent (the body of "
+                                   "the seat and lie kinds) is imagined with backend='native'")
         placement, offsets = batch.placement, batch.world_offsets
         table = batch.table.padded(_pad_steps(int(batch.table.n_drive.max())))
         plan = placement.row

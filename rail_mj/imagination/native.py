@@ -10,7 +10,7 @@ from rail_mj.core.types import AgentSetup, Outcomes, RailObject
 from rail_mj.imagination.backend import Backend, Progress
 from rail_mj.imagination.batch import RolloutBatch, outcomes_from_states
 from rail_mj.imagination.perturb import world_models
-from rail_mj.mjcf import Scene, count_contacts
+from rail_mj.mjcf import Scene, count_contacts, segment_state
 
 __all__ = ["NativeBackend"]
 
@@ -35,9 +35,11 @@ class NativeBackend(Backend):
         table, placement, offsets = batch.table, batch.placement, batch.world_offsets
         n_worlds, n_agents = placement.batch, scene.n_agents
         sim = mujoco.batch.Batch(scene.model, n_worlds, nthread=cfg.nthread, persistent=True)
+        models = [scene.model] * n_worlds  # each rollout's model: its world's
         if any(not w.nominal for w in batch.perturbations.worlds):
-            models = world_models(scene, batch.perturbations)
-            sim.set_models([models[w] for w in placement.worlds])
+            per_world = world_models(scene, batch.perturbations)
+            models = [per_world[w] for w in placement.worlds]
+            sim.set_models(models)
         qpos, qvel = sim.bind("qpos"), sim.bind("qvel")
         qfrc = sim.bind("qfrc_constraint")
         sim.reset(stage=mujoco.mjtStage.mjSTAGE_NONE)  # pyright: ignore[reportArgumentType]  # it takes int(stage)
@@ -84,10 +86,14 @@ class NativeBackend(Backend):
 
         contacts = np.zeros((n_worlds, n_agents, 3), dtype=np.int64)
         unstable = np.zeros(n_worlds, dtype=bool)
+        segments = []
         data = mujoco.MjData(scene.model)
         for b in range(n_worlds):
             sim.get_data(b, data)
             contacts[b] = count_contacts(scene.geom_owner, data.contact.geom[: data.ncon], n_agents)
             unstable[b] = any(data.warning[w].number > 0 for w in _BLOW_UPS)
+            if scene.articulated:  # the segments where the rollout's own world (its agent's size) put them
+                segments.append(segment_state(scene, data, data.contact.geom[: data.ncon], models[b]))
+        stacked = tuple(np.stack(a) for a in zip(*segments, strict=True)) if segments else None
         return outcomes_from_states(scene, placement, np.array(qpos), np.array(qvel), contacts, released_early, settled,
-                                    unstable)
+                                    unstable, stacked)  # pyright: ignore[reportArgumentType]  # three arrays

@@ -3,8 +3,9 @@
 World 0 is the nominal world; worlds 1..K each change, at once, the object's mesh scale (the whole world scales
 with it about the world origin: the stable pose, its box, its basin and the plans' via-poses, so the plan is the
 one made for the object at that size), the sliding friction of every geom, the agents' mass and size (their grid
-spacing scales with them), and shift every plan sideways by a fraction of the pose's half extents. Each factor is
-drawn stratified over its range (each of K equal slices of the range holds one draw), so a few worlds cover it.
+spacing scales with them; an articulated body scales whole: its segments, joints and posture springs), and shift
+every plan sideways by a fraction of the pose's half extents. Each factor is drawn stratified over its range (each
+of K equal slices of the range holds one draw), so a few worlds cover it.
 
 The draws depend on the seed only, the same for every object, so two objects differ only in themselves; with every
 amplitude 0 the perturbed worlds equal the nominal one. Backends make one model per world (:func:`world_models`:
@@ -26,7 +27,7 @@ from rail_mj.core.types import Basin, StablePose
 from rail_mj.imagination.config import PERTURBATIONS_RANGE, ImaginationConfig
 from rail_mj.mjcf import OWNER_OBJECT, Scene
 
-__all__ = ["Perturbation", "PerturbationSet", "draw", "scaled_pose", "world_model", "world_models",
+__all__ = ["Perturbation", "PerturbationSet", "draw", "scaled_pose", "resting_on", "world_model", "world_models",
            "world_trajectory"]
 
 
@@ -110,6 +111,22 @@ def scaled_pose(pose: StablePose, s: float) -> StablePose:
                                                length=basin.length * s))
 
 
+def resting_on(pose: StablePose, hulls: tuple[np.ndarray, ...], other: tuple[np.ndarray, ...]) -> StablePose:
+    """``pose`` for the object collided as ``other`` hulls instead of ``hulls`` (its second decomposition): the same
+    orientation, raised or lowered so that the lowest point of ``other`` rests where the lowest of ``hulls`` did
+    (hulls of a coarser decomposition may reach a little below the first ones', and would start in the ground)."""
+    rot = np.zeros(9)
+    mujoco.mju_quat2Mat(rot, np.asarray(pose.quat, dtype=np.float64))
+    rot = rot.reshape(3, 3)
+
+    def lowest(hs: tuple[np.ndarray, ...]) -> float:
+        return float(min((np.asarray(h) @ rot.T)[:, 2].min() for h in hs))
+
+    pos = np.asarray(pose.pos, dtype=np.float64).copy()
+    pos[2] += lowest(hulls) - lowest(other)
+    return dataclasses.replace(pose, pos=pos)
+
+
 def world_trajectory(via: np.ndarray, half_extents: np.ndarray, w: Perturbation) -> np.ndarray:
     """World ``w``'s (K, 7) via-poses of a plan made for a pose of half extents ``half_extents`` (nominal): the task
     frame scaled with the object, the plan shifted sideways by its fraction of the pose's half extents x, y."""
@@ -137,10 +154,26 @@ def _scale_bodies(m: mujoco.MjModel, bodies: np.ndarray, geoms: np.ndarray, leng
     m.body_inertia[bodies] *= mass * length**2
 
 
+def _scale_joints(m: mujoco.MjModel, base: Scene, length: float, mass: float) -> None:
+    """An articulated agent (:mod:`rail_mj.mjcf.body`) scaled whole about its root: each segment's place on its
+    parent and its hinges' places by ``length``, as its geoms are. A posture spring holds what its joint carries
+    (stiffness = mass x g x lever / sag, :func:`rail_mj.mjcf.body._spring`): its stiffness x mass x length keeps
+    the posture's sag, and its damping (2 x ratio x sqrt(stiffness x mass x lever^2)) x mass x length^1.5 keeps the
+    damping ratio."""
+    segments = base.agent_bodies[:, 1:].ravel()  # the root's place is its free joint's
+    m.body_pos[segments] *= length
+    joints = m.dof_jntid[base.hinge_dofs]
+    m.jnt_pos[joints] *= length
+    m.jnt_stiffness[joints] *= mass * length
+    m.dof_damping[base.hinge_dofs] *= mass * length**1.5
+    m.dof_armature[base.hinge_dofs] *= mass * length**2  # a rotor inertia, were one set
+
+
 def world_model(base: Scene, w: Perturbation) -> mujoco.MjModel:
     """``base``'s model in world ``w``: a copy with the object scaled about its frame (mass x scale^3 at the same
-    density), every geom's sliding friction x friction, each agent's size (its geoms about its frame) x agent_size
-    and its mass x agent_mass. Edited in place of a recompile, so the MjData layout stays the batch's (a recompiled
+    density), every geom's sliding friction x friction, each agent's size (its geoms about its frame; an
+    articulated agent's segments and joints about its root, :func:`_scale_joints`) x agent_size and its mass x
+    agent_mass. Edited in place of a recompile, so the MjData layout stays the batch's (a recompiled
     scaled hull may triangulate its flat faces otherwise)."""
     m = copy.copy(base.model)
     if w.nominal:
@@ -150,6 +183,8 @@ def world_model(base: Scene, w: Perturbation) -> mujoco.MjModel:
     _scale_bodies(m, np.unique(m.geom_bodyid[obj_geoms]), obj_geoms, w.scale, w.scale**3)
     agent_geoms = np.nonzero(owner >= 0)[0]
     _scale_bodies(m, np.unique(m.geom_bodyid[agent_geoms]), agent_geoms, w.agent_size, w.agent_mass)
+    if base.articulated:
+        _scale_joints(m, base, w.agent_size, w.agent_mass)
     m.geom_friction[:, 0] *= w.friction
     mujoco.mj_setConst(m, mujoco.MjData(m))
     return m

@@ -18,6 +18,7 @@ from rail_mj.core.profile import (
     MotionPlan,
     PoseCandidates,
     ResultSummary,
+    SegmentState,
 )
 from rail_mj.core.results import BasinInfo
 from rail_mj.core.types import Outcomes, StablePose
@@ -45,7 +46,20 @@ def result_summary(outcomes: Outcomes, b: int) -> ResultSummary:
         frac_through_object=float(np.mean(beneath & (outcomes.contacts_ground[b] > 0))),
         frac_beneath_middle=float(np.mean(beneath)),
         frac_open_side=_frac_open_side(outcomes, b),
+        segments=_segments(outcomes, b),
     )
+
+
+def _segments(outcomes: Outcomes, b: int) -> list[SegmentState]:
+    """The segments of rollout ``b``'s articulated agents; [] for one-body agents."""
+    height, up, contacts = outcomes.segment_height, outcomes.segment_up, outcomes.segment_contacts
+    names = outcomes.segment_names
+    if height is None or up is None or contacts is None or names is None:
+        return []
+    return [SegmentState(agent=i, name=name, height=float(height[b, i, k]),
+                         up=float(np.clip(up[b, i, k], -1.0, 1.0)), touching_object=bool(contacts[b, i, k, 0] > 0),
+                         on_ground=bool(contacts[b, i, k, 2] > 0))
+            for i in range(height.shape[1]) for k, name in enumerate(names)]
 
 
 def _frac_open_side(outcomes: Outcomes, b: int) -> float:

@@ -45,8 +45,9 @@ __all__ = [
 
 #: Largest agent bounding radius relative to the object's largest dimension...
 MAX_AGENT_SCALE = 1.5
-#: ...or in metres, whichever is larger (human-scale agents test small furniture too).
-MAX_AGENT_RADIUS_M = 0.5
+#: ...or in metres, whichever is larger (human-scale agents test small furniture too: a whole body lying reaches
+#: 1.05 m from its hips, Winter's segment lengths for a 1.75 m adult).
+MAX_AGENT_RADIUS_M = 1.1
 #: Agent masses outside this range (kg) are not plausible for any profile.
 MASS_RANGE = (1e-5, 200.0)
 #: Via-poses may lie at most this many half extents (plus the layout's size) from the object.

@@ -105,9 +105,10 @@ def offline_analysis(task: TaskDescription) -> AffordanceAnalysis:
 
 
 def offline_agent(task: TaskDescription) -> AgentModel:
-    """Stage 2: the kind's agent as an MJCF fragment (one body, no joints), scaled to the object."""
+    """Stage 2: the kind's agent as an MJCF fragment (one body of one geom, or the kind's articulated body),
+    scaled to the object."""
     _, kind, shape = _resolve(task)
-    xml = (f'<mujoco><worldbody><body name="{shape.label}">'
+    xml = shape.fragment or (f'<mujoco><worldbody><body name="{shape.label}">'
            f'<geom name="{shape.label}_geom" {shape.geom} mass="{shape.mass:.6g}" rgba="0.2 0.5 0.9 1"/>'
            "</body></worldbody></mujoco>")
     return AgentModel(name=shape.label, description=kind.agent_description, mjcf=xml)

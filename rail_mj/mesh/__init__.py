@@ -14,8 +14,9 @@ from rail_mj.mesh.decomposition import (
     decomposition_for,
     mesh_hash,
     reduce_hull,
+    second_decomposition,
 )
-from rail_mj.mesh.object import DEFAULT_DENSITY, load_object, object_from_mesh
+from rail_mj.mesh.object import DEFAULT_DENSITY, load_object, object_from_mesh, redecomposed
 from rail_mj.mesh.quality import MAX_EXCESS, MAX_MISSING, HullQuality, hull_quality
 from rail_mj.mesh.read import MAX_FILE_BYTES, SUPPORTED_EXTENSIONS, load_mesh
 from rail_mj.mesh.repair import FACE_BUDGET, MAX_EXTENT, MAX_FACES, MIN_EXTENT, mesh_notes, repair_mesh
@@ -35,6 +36,7 @@ __all__ = [
     "MAX_MISSING",
     "DecompositionConfig",
     "decomposition_for",
+    "second_decomposition",
     "load_mesh",
     "repair_mesh",
     "mesh_notes",
@@ -45,4 +47,5 @@ __all__ = [
     "hull_quality",
     "object_from_mesh",
     "load_object",
+    "redecomposed",
 ]

@@ -7,6 +7,7 @@ always metres, z up.
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Literal
 
@@ -15,12 +16,12 @@ import trimesh
 
 from rail_mj.core.errors import ConfigError
 from rail_mj.core.types import RailObject
-from rail_mj.mesh.decomposition import DecompositionConfig, mesh_hash
+from rail_mj.mesh.decomposition import DecompositionConfig, decompose, mesh_hash, second_decomposition
 from rail_mj.mesh.quality import _guarded_hulls
 from rail_mj.mesh.read import load_mesh
 from rail_mj.mesh.repair import _NOTES_KEY, mesh_notes, repair_mesh
 
-__all__ = ["DEFAULT_DENSITY", "object_from_mesh", "load_object"]
+__all__ = ["DEFAULT_DENSITY", "object_from_mesh", "load_object", "redecomposed"]
 
 #: kg/m^3; a household-object average (wood ~500-700, plastic shells less) — mass matters for tipping.
 DEFAULT_DENSITY = 500.0
@@ -90,3 +91,9 @@ def load_object(
     return object_from_mesh(
         mesh, name=name or path.stem, density=density, decomposition=decomposition, source=str(path)
     )
+
+
+def redecomposed(obj: RailObject) -> RailObject:
+    """``obj`` with the hulls of its second decomposition (:func:`second_decomposition`, cached like the first):
+    the same mesh, mass and centre of mass; only the convex hulls the physics collides differ."""
+    return dataclasses.replace(obj, hulls=decompose(obj.mesh, second_decomposition(obj.mesh)))

@@ -13,6 +13,7 @@ from rail_mj.mjcf.compose import (
     build_scene,
     compose_scene,
     count_contacts,
+    segment_state,
 )
 from rail_mj.mjcf.scene import (
     AGENT_BIT,
@@ -66,4 +67,5 @@ __all__ = [
     "add_object",
     "compose_scene",
     "count_contacts",
+    "segment_state",
 ]

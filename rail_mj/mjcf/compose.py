@@ -23,7 +23,7 @@ Filtering agent pairs this way removes them before compile at no accuracy cost
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
@@ -59,6 +59,7 @@ __all__ = [
     "add_object",
     "add_agent",
     "count_contacts",
+    "segment_state",
 ]
 
 #: geom owner codes in Scene.geom_owner (agents are 0..N-1); OTHER (a robot's links) is never counted
@@ -113,6 +114,12 @@ class Scene:
     #: the object's own surface in its frame, for ray probes (:func:`surface_model`); None in a scene without
     #: agents
     surface: mujoco.MjModel | None = None
+    #: dof addresses of the agents' hinge joints (an articulated agent's; empty when every agent is one body)
+    hinge_dofs: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    #: reach (m) of what each hinge turns, about the hinge: the lever of its speed bound in :meth:`at_rest`
+    hinge_radius: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    #: (N, S) body ids of each agent's bodies (segments), the root first; S = 1 for one-body agents
+    agent_bodies: np.ndarray = field(default_factory=lambda: np.zeros((0, 1), dtype=np.int64))
 
     @property
     def free_dofs(self) -> np.ndarray:
@@ -121,11 +128,23 @@ class Scene:
 
     @property
     def free_radius(self) -> np.ndarray:
-        """Bounding radius of each free body (object first), about its frame origin, (1 + N,)."""
+        """Bounding radius of each free body (object first) and the bodies it carries, about its frame origin,
+        (1 + N,)."""
         m = self.model
-        bodies = m.dof_bodyid[self.free_dofs]
-        reach = np.linalg.norm(m.geom_pos, axis=1) + m.geom_rbound
-        return np.array([reach[m.geom_bodyid == b].max() for b in bodies])
+        return np.array([_reach(m, int(b)) for b in m.dof_bodyid[self.free_dofs]])
+
+    @property
+    def articulated(self) -> bool:
+        """Whether an agent has hinge joints (its segments move against each other)."""
+        return len(self.hinge_dofs) > 0
+
+    @property
+    def segment_names(self) -> tuple[str, ...]:
+        """The names of an agent's bodies (segments) as its fragment names them, the root first."""
+        if self.agent_bodies.shape[0] == 0:
+            return ()
+        prefix = agent_prefix(0)
+        return tuple(self.model.body(int(b)).name.removeprefix(prefix) for b in self.agent_bodies[0])
 
     def at_rest(self, qvel: np.ndarray, settle_speed: float) -> np.ndarray:
         """Whether every free body of each world is slower than ``settle_speed``; qvel (..., nv) → (...).
@@ -136,7 +155,17 @@ class Scene:
         lin = np.stack([qvel[..., d : d + 3] for d in self.free_dofs], axis=-2)
         ang = np.stack([qvel[..., d + 3 : d + 6] for d in self.free_dofs], axis=-2)
         speed = np.linalg.norm(lin, axis=-1) + np.linalg.norm(ang, axis=-1) * self.free_radius
-        return np.all(speed < settle_speed, axis=-1)
+        rest = np.all(speed < settle_speed, axis=-1)
+        if self.articulated:  # a limb swinging about its joint moves as fast as its far end
+            rest &= np.all(np.abs(qvel[..., self.hinge_dofs]) * self.hinge_radius < settle_speed, axis=-1)
+        return rest
+
+
+def _reach(m: mujoco.MjModel, body: int) -> float:
+    """How far (m) the geoms of ``body`` and of the bodies it carries reach from its origin, at most."""
+    own = np.linalg.norm(m.geom_pos[m.geom_bodyid == body], axis=1) + m.geom_rbound[m.geom_bodyid == body]
+    children = np.nonzero((m.body_parentid == body) & (np.arange(m.nbody) != body))[0]
+    return max([0.0, *own.tolist(), *(float(np.linalg.norm(m.body_pos[c])) + _reach(m, int(c)) for c in children)])
 
 
 def count_contacts(geom_owner: np.ndarray, geom_pairs: np.ndarray, n_agents: int) -> np.ndarray:
@@ -150,6 +179,33 @@ def count_contacts(geom_owner: np.ndarray, geom_pairs: np.ndarray, n_agents: int
         counted = (x >= 0) & (kind >= 0)
         np.add.at(out, (x[counted], kind[counted]), 1)
     return out
+
+
+def segment_state(scene: Scene, data: mujoco.MjData, geom_pairs: np.ndarray,
+                  model: mujoco.MjModel | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where each agent's segments ended, from ``data.qpos`` and the (ncon, 2) contact geom pairs: (N, S) height
+    (m) of each segment's origin above the ground, (N, S) ``up`` (the cosine of the angle between its own z axis
+    and the vertical) and (N, S, 3) its contact points with (object, other agents, ground). ``model``: the
+    rollout's own model when it is not ``scene.model`` (a perturbed world's, the same layout)."""
+    m = scene.model if model is None else model
+    mujoco.mj_kinematics(m, data)
+    bodies = scene.agent_bodies
+    n, s = bodies.shape
+    height = data.xpos[bodies, 2]
+    up = data.xmat[bodies, 8]
+    segment = np.full(m.nbody, -1, dtype=np.int64)
+    for row in bodies:
+        segment[row] = np.arange(s)
+    contacts = np.zeros((n, s, 3), dtype=np.int64)
+    if len(geom_pairs):
+        owner = scene.geom_owner[geom_pairs]
+        seg = segment[m.geom_bodyid[geom_pairs]]
+        for x, y in ((0, 1), (1, 0)):
+            kind = np.where(owner[:, y] == OWNER_OBJECT, 0, np.where(owner[:, y] == OWNER_GROUND, 2,
+                                                                      np.where(owner[:, y] >= 0, 1, -1)))
+            counted = (owner[:, x] >= 0) & (kind >= 0)
+            np.add.at(contacts, (owner[counted, x], seg[counted, x], kind[counted]), 1)
+    return height, up, contacts
 
 
 def _contact(geom: mujoco.MjsGeom, solref: list[float], contype: int, conaffinity: int) -> None:
@@ -393,14 +449,22 @@ def compose_scene(
     owner[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, GROUND_GEOM)] = OWNER_GROUND
     agent_qpos = np.zeros(n_agents, dtype=np.int64)
     agent_dof = np.zeros(n_agents, dtype=np.int64)
+    bodies = []
     for i in range(n_agents):
         jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, agent_prefix(i) + "free")
         agent_qpos[i], agent_dof[i] = model.jnt_qposadr[jid], model.jnt_dofadr[jid]
-        owner[model.geom_bodyid == model.jnt_bodyid[jid]] = i
+        root = model.jnt_bodyid[jid]
+        owner[model.body_rootid[model.geom_bodyid] == root] = i  # every segment's geoms are the agent's
+        bodies.append(np.nonzero(model.body_rootid == root)[0])
+    hinges = np.nonzero(np.isin(model.jnt_bodyid, np.concatenate(bodies) if bodies else [])
+                        & (model.jnt_type == mujoco.mjtJoint.mjJNT_HINGE))[0]
     jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, OBJECT_JOINT)
     return Scene(model=model, n_agents=n_agents, object_qpos=int(model.jnt_qposadr[jid]),
                  object_dof=int(model.jnt_dofadr[jid]), agent_qpos=agent_qpos, agent_dof=agent_dof, geom_owner=owner,
-                 surface=None if agents is None else surface_model(obj))
+                 surface=None if agents is None else surface_model(obj),
+                 hinge_dofs=model.jnt_dofadr[hinges].astype(np.int64),
+                 hinge_radius=np.array([_reach(model, int(model.jnt_bodyid[int(j)])) for j in hinges]),
+                 agent_bodies=np.stack(bodies).astype(np.int64) if bodies else np.zeros((0, 1), dtype=np.int64))
 
 
 def surface_model(obj: RailObject) -> mujoco.MjModel:

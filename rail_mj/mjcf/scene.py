@@ -64,10 +64,13 @@ _GEOM_ATTRS = ("name", "class", "type", "size", "fromto", *_POSE, "mass", "densi
 _SITE_ATTRS = ("name", "class", "type", "size", "fromto", *_POSE, "rgba", "material", "group")
 _MESH_ATTRS = ("name", "class", "vertex", "face", "normal", "scale", "refpos", "refquat", "maxhullvert", "inertia",
                "smoothnormal")
+_JOINT_ATTRS = ("name", "class", "type", "pos", "axis", "range", "limited", "ref", "springref", "stiffness", "damping",
+                 "armature", "frictionloss")
 _MATERIAL_ATTRS = ("name", "class", "rgba", "emission", "specular", "shininess", "reflectance", "metallic",
                    "roughness")
-# The allow-list: element -> (its allowed attributes, its allowed child elements). An agent is one rigid body of
-# primitive or inline-mesh geoms; anything else (files, plugins, joints, flexes, actuators, ...) is refused.
+# The allow-list: element -> (its allowed attributes, its allowed child elements). An agent is one body of
+# primitive or inline-mesh geoms, rigid or articulated by hinge joints in its nested bodies (an articulated body:
+# rail_mj.mjcf.body); anything else (files, plugins, other joints, flexes, actuators, ...) is refused.
 _ALLOWED: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
     "mujoco": (("model",), ("compiler", "default", "asset", "worldbody")),
     "compiler": (("angle", "eulerseq"), ()),
@@ -76,7 +79,8 @@ _ALLOWED: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
     "mesh": (_MESH_ATTRS, ()),
     "material": (_MATERIAL_ATTRS, ()),
     "worldbody": ((), ("body",)),
-    "body": (("name", "childclass", *_POSE), ("body", "geom", "site", "inertial")),
+    "body": (("name", "childclass", *_POSE), ("body", "geom", "site", "inertial", "joint")),
+    "joint": (_JOINT_ATTRS, ()),
     "geom": (_GEOM_ATTRS, ()),
     "site": (_SITE_ATTRS, ()),
     "inertial": ((*_POSE, "mass", "diaginertia", "fullinertia"), ()),
@@ -86,7 +90,7 @@ _SITE_TYPES = ("sphere", "capsule", "ellipsoid", "cylinder", "box")
 # Why common refused elements are refused (the allow-list alone would refuse them too).
 _WHY = {
     "include": "it pulls in another file",
-    "joint": "the scene adds a free joint itself and agents are rigid",
+    "joint": "the scene adds a free joint itself; only nested bodies may have hinge joints",
     "freejoint": "the scene adds a free joint itself",
     "flexcomp": "it builds a deformable body and can read a mesh file",
     "texture": "it can read an image file",
@@ -98,9 +102,10 @@ _WHY = {
 }
 _RULES = (
     f"a valid fragment is a <mujoco> document of at most {MAX_FRAGMENT_BYTES} bytes whose <worldbody> holds exactly "
-    "one rigid body (nested bodies allowed) made only of <body>, <geom> (type "
-    f"{', '.join(_GEOM_TYPES)}; a mesh given inline by <asset><mesh vertex=...>), <site> and <inertial>, plus "
-    "optional <compiler angle/eulerseq>, <default> and <asset> (<mesh>, <material>); no files, plugins or joints; "
+    "one body (nested bodies allowed, joined to it rigidly or by hinge <joint>s) made only of <body>, <geom> (type "
+    f"{', '.join(_GEOM_TYPES)}; a mesh given inline by <asset><mesh vertex=...>), <site>, <inertial> and, in nested "
+    "bodies, <joint type=\"hinge\">, plus optional <compiler angle/eulerseq>, <default> and <asset> (<mesh>, "
+    "<material>); no files, plugins or other joints; "
     f"at most {MAX_FRAGMENT_ELEMENTS} elements, {MAX_FRAGMENT_GEOMS} geoms and {MAX_FRAGMENT_VERTICES} inline mesh "
     f"vertices; geoms of positive size; e.g. {VALID_FRAGMENT_EXAMPLE}"
 )
@@ -133,8 +138,9 @@ def _check_element(el: ET.Element, parent: str) -> None:
             f"<{el.tag}> attribute {bad[0]!r} is not allowed; allowed <{el.tag}> attributes: "
             f"{', '.join(attributes) or 'none'}"
         )
-    types = {"geom": _GEOM_TYPES, "site": _SITE_TYPES}.get(el.tag)
-    if types is not None and el.attrib.get("type", "sphere") not in types:
+    types = {"geom": _GEOM_TYPES, "site": _SITE_TYPES, "joint": ("hinge",)}.get(el.tag)
+    default = "hinge" if el.tag == "joint" else "sphere"
+    if types is not None and el.attrib.get("type", default) not in types:
         raise _reject(f"<{el.tag}> type {el.attrib['type']!r} is not allowed; allowed: {', '.join(types)}")
 
 
@@ -167,11 +173,15 @@ def _scan_xml(xml: str) -> None:
         raise _reject(f"<mujoco> attribute {bad[0]!r} is not allowed; allowed <mujoco> attributes: model")
     n_elements = n_geoms = n_vertices = 0
     queue: list[tuple[ET.Element, bool]] = [(root, False)]  # (element, inside <worldbody>), breadth first
+    tops = {id(body) for world in root.findall("worldbody") for body in world}
     for el, in_world in queue:
         n_elements += 1
         if n_elements > MAX_FRAGMENT_ELEMENTS:
             raise _reject(f"the document has more than {MAX_FRAGMENT_ELEMENTS} elements")
         for child in el:
+            if child.tag == "joint" and id(el) in tops:  # the top body moves by the scene's free joint alone
+                raise _reject("<joint> is not allowed inside <body> (the scene adds a free joint itself to the top "
+                              "body; only nested bodies may have hinge joints)")
             _check_element(child, el.tag)
             queue.append((child, in_world or child.tag == "worldbody"))
         if el.tag == "geom" and in_world:

@@ -18,16 +18,18 @@ from typing import Any, cast
 import numpy as np
 
 from rail_mj import llm, profiles
-from rail_mj.affordances import load_files, request_scale
+from rail_mj.affordances import Affordance, load_files, request_scale
+from rail_mj.affordances.kinds import kind_of
 from rail_mj.affordances.prior import FUNCTIONAL, NEGLIGIBLE, Prior
 from rail_mj.core.errors import ConfigError, RailError, UnknownAffordanceError
 from rail_mj.core.results import AffordanceResult, PlanInfo, PoseInfo
 from rail_mj.core.types import RailObject, StablePose, StablePoses
 from rail_mj.imagination import draw, imagine, pose_plan, resolve_backend, rollout_index
 from rail_mj.imagination.inputs import agent_setup, trajectory_array
+from rail_mj.imagination.perturb import resting_on
 from rail_mj.llm.offline import rules_row
 from rail_mj.llm.schemas import ImaginationProfile
-from rail_mj.mesh import load_object, mesh_notes
+from rail_mj.mesh import load_object, mesh_notes, redecomposed
 from rail_mj.pipeline.config import ObjectInput, PoseMode, RunConfig
 from rail_mj.pipeline.parallel import ObjectTask, run_tasks
 from rail_mj.pipeline.verdicts import (
@@ -86,6 +88,8 @@ class Pipeline:
             profiles.check_profile_dir(self.config.profile_dir)
         self._profiles: dict[tuple, ImaginationProfile] = {}
         self._scorers: dict[str, ScoringFunction] = {}
+        # the last object's second decomposition: an object's affordances run one after another
+        self._second_of: tuple[RailObject, RailObject] | None = None
 
     @property
     def provider_name(self) -> str:
@@ -148,6 +152,18 @@ class Pipeline:
         if source not in self._scorers:
             self._scorers[source] = compile_scoring(source)
         return self._scorers[source]
+
+    def _decomposition_matters(self, row: Affordance | None) -> bool:
+        """Whether the use's verdict is also imagined on the object's second decomposition: the config asks for it
+        and the use rests in the object's concavities (its kind's ``decomposition_matters``; an LLM's use outside
+        the registry may, so it is)."""
+        return self.config.imagination.perturb_decomposition and (row is None or kind_of(row).decomposition_matters)
+
+    def _second(self, obj: RailObject) -> RailObject:
+        """``obj`` with its second decomposition's hulls, made once per object (CoACD's cache keeps them on disk)."""
+        if self._second_of is None or self._second_of[0] is not obj:
+            self._second_of = (obj, redecomposed(obj))
+        return self._second_of[1]
 
     def run(self, obj: RailObject, poses: StablePoses, affordance: str) -> AffordanceResult:
         """Imagine one affordance on one object whose stable poses are known."""
@@ -222,13 +238,22 @@ class Pipeline:
                             perturbations=perturbations.perturbed)
             perturbed = (again, scorer(again), slots)
         timings["perturbed_worlds"] = time.perf_counter() - t
+        decomposed = None
+        if slots and self._decomposition_matters(row):
+            t = time.perf_counter()
+            second = self._second(obj)
+            again = imagine(second, [resting_on(poses[kept[k]], obj.hulls, second.hulls) for k in slots], agents,
+                            [trajectories[k] for k in slots], backend=self.backend, config=self.config.imagination)
+            decomposed = (again, scorer(again), slots)
+            timings["second_decomposition"] = time.perf_counter() - t
 
         t = time.perf_counter()
         verdict = self._analyse(profile, poses, kept, outcomes, scores, trajectories)
         pose_list = cast(Sequence[StablePose], poses)  # StablePoses reads as a sequence of StablePose
         result.pose_verdicts = pose_probabilities(
             profile.affordance, profile.scale, obj.obb_dims, profile.plans.plans, pose_list, kept, (outcomes, scores),
-            trajectories, perturbations, perturbed, verdict, llm_veto=self.provider_name != "offline")
+            trajectories, perturbations, perturbed, verdict, llm_veto=self.provider_name != "offline",
+            decomposed=decomposed)
         timings["functional_pose_analyzer"] = time.perf_counter() - t
         result.timings = timings
         if verdict is None:

@@ -1,7 +1,7 @@
 """Per-pose verdicts as probabilities: a size prior times what the physics says under perturbation.
 
-For each imagined stable pose of an object, with ``W = 1 + K`` worlds (the nominal one and K perturbed ones,
-:mod:`rail_mj.imagination.perturb`)::
+For each imagined stable pose of an object, with ``W`` worlds (the nominal one, K perturbed ones,
+:mod:`rail_mj.imagination.perturb`, and the second decomposition where it matters)::
 
     physics(pose)     = #{worlds in which the pose succeeds} / W
     probability(pose) = size_prior(object's OBB) * pose_prior(pose's box, its basin's rim) * physics(pose)
@@ -16,7 +16,11 @@ The nominal world imagines every pose and plan; the K perturbed worlds, one more
 every plan of the poses with a candidate there (a plan scored above 0) whose prior is at least
 :data:`rail_mj.affordances.prior.FUNCTIONAL`: a pose without a candidate has no success to confirm (its
 physics is 0), and one with a smaller prior stays below it whatever its physics, so its verdict cannot change
-(its physics is the nominal world's, 0 or 1). ``W`` is the number of worlds a pose was imagined in. With an
+(its physics is the nominal world's, 0 or 1). Where the use rests in the object's concavities (a kind's
+``decomposition_matters``), one more world imagines those poses again on the object's second decomposition
+(:func:`rail_mj.mesh.second_decomposition`: CoACD's other concavity threshold), in a third batched call (its hulls
+differ in number and shape, so it cannot share the perturbed worlds' model layout). ``W`` is the number of worlds
+a pose was imagined in. With an
 LLM provider, a pose its stage 7 rejected in the nominal world has physics 0: common sense vetoes what the
 rules would let through. The priors are :meth:`Affordance.size_prior`
 and :meth:`Affordance.pose_prior` (1 for an affordance outside the registry).
@@ -57,8 +61,9 @@ def world_outcomes(outcomes: Outcomes, scores: np.ndarray, n_worlds: int) -> lis
     out = []
     for w in range(n_worlds):
         sl = slice(w * per, (w + 1) * per)
-        fields: dict[str, Any] = {f.name: None if getattr(outcomes, f.name) is None else getattr(outcomes, f.name)[sl]
-                  for f in dataclasses.fields(outcomes)}
+        # every per-rollout array sliced to the world's; the segments' names (a tuple) are every world's
+        fields: dict[str, Any] = {f.name: v[sl] if isinstance(v := getattr(outcomes, f.name), np.ndarray) else v
+                                  for f in dataclasses.fields(outcomes)}
         out.append((Outcomes(**fields), scores[sl]))
     return out
 
@@ -113,6 +118,7 @@ def pose_probabilities(
     perturbed: tuple[Outcomes, np.ndarray, Sequence[int]] | None = None,
     stage7: FunctionalPoseVerdict | None = None,
     llm_veto: bool = False,
+    decomposed: tuple[Outcomes, np.ndarray, Sequence[int]] | None = None,
 ) -> list[PoseProbability]:
     """One :class:`PoseProbability` per imagined pose (``kept``, in that order).
 
@@ -121,7 +127,9 @@ def pose_probabilities(
     (:func:`rail_mj.imagination.perturb.draw`, world 0 nominal); ``perturbed`` the (outcomes, scores, slots) of
     its perturbed worlds (world-major, ``perturbations.perturbed``) for the pose slots into ``kept`` that were
     imagined again (:func:`candidate_slots`); None without perturbed worlds. ``stage7`` is the nominal world's
-    verdict; ``llm_veto``: the poses it rejected get physics 0 (an LLM provider's common sense).
+    verdict; ``llm_veto``: the poses it rejected get physics 0 (an LLM provider's common sense). ``decomposed``:
+    the (outcomes, scores, slots) of one more world, the nominal one on the object's second decomposition
+    (:func:`rail_mj.mesh.second_decomposition`), for the pose slots it imagined; None without it.
     """
     aff = rules_row(affordance, scale)
     names = [p.name for p in plans]
@@ -154,6 +162,14 @@ def pose_probabilities(
             count(_accepted(aff, plans, poses_w, sub, out_w, scores_w, trajectories_w))
             for k, lines in _blown(out_w, names, f"world {w} ({world.doc()})").items():
                 blew_up[slots[k]] += lines
+    second = set() if decomposed is None else set(decomposed[2])
+    if decomposed is not None:
+        out_d, scores_d, slots = decomposed
+        out_d, scores_d = world_outcomes(out_d, scores_d, 1)[0]
+        count(_accepted(aff, plans, poses, [kept[k] for k in slots], out_d, scores_d,
+                        [trajectories[k] for k in slots]))
+        for k, lines in _blown(out_d, names, "the second decomposition").items():
+            blew_up[slots[k]] += lines
     stage7_plans = {v.pose_index: v.plan for v in stage7.poses} if stage7 is not None else {}
     vetoed = ({v.pose_index for v in stage7.poses if not v.accept} if llm_veto and stage7 is not None else set())
     out = []
@@ -165,12 +181,12 @@ def pose_probabilities(
         chosen, row = stage7_plans.get(i), scores0[k * len(names) : (k + 1) * len(names)]
         best = (max(wins[k], key=lambda name: (wins[k][name], name == chosen, float(row[names.index(name)])))
                 if successes else None)
-        imagined = perturbations.n_worlds if k in again else 1
+        imagined = (perturbations.n_worlds if k in again else 1) + (k in second)
         physics = successes / imagined
         out.append(PoseProbability(
             index=i, prior=_unit(prior), prior_factors=doc, physics=_unit(physics),
             probability=_unit(prior * physics), best_plan=best, successes=successes,
-            worlds=perturbations.n_worlds, imagined=imagined, blew_up=blew_up[k],
+            worlds=perturbations.n_worlds + (decomposed is not None), imagined=imagined, blew_up=blew_up[k],
         ))
     return out
 

@@ -138,8 +138,13 @@ def _origin(parent: ET.Element, pos: np.ndarray, mat: np.ndarray) -> None:
 
 def fragment_to_urdf(mjcf: str, name: str) -> str:
     """An agent fragment as a one-link URDF: every geom (box, sphere or cylinder) in the top body's frame, and the
-    whole body's mass and inertia about its centre of mass. ProfileFolderError for shapes URDF lacks."""
+    whole body's mass and inertia about its centre of mass. ProfileFolderError for shapes URDF lacks and for an
+    articulated agent."""
     model = check_fragment(mjcf).compile()
+    if model.njnt:  # the fragment's own joints are hinges between its bodies
+        raise ProfileFolderError(f"agent {name!r} is articulated ({model.njnt} hinge joints held by posture springs, "
+                                 "the body of the seat and lie kinds): agent.urdf holds one rigid link, and URDF has "
+                                 "no joint springs")
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
     top_pos, top_mat = data.xpos[1], data.xmat[1].reshape(3, 3)

@@ -23,6 +23,7 @@ from typing import ClassVar, Literal, TypeVar
 from rail_mj.affordances.row import KIND_PARAMS, Affordance, KindParams
 from rail_mj.core.errors import ConfigError
 from rail_mj.core.profile import AgentLayout, CandidateInteraction, MotionPlan, PoseCandidates, ScoringCode, ViaPose
+from rail_mj.mjcf.body import BodySize
 
 __all__ = [
     "SIDES",
@@ -80,6 +81,10 @@ class AgentShape:
     half_z: float  # half height, m
     mass: float  # kg
     label: str
+    #: the whole agent MJCF fragment when it is more than one geom (an articulated body); None: one ``geom``
+    fragment: str | None = None
+    body: BodySize | None = None  # the articulated body's dimensions, when it is one
+    count: int = 1  # agents side by side (bodies on a bench)
 
 
 class Kind(ABC):
@@ -92,6 +97,10 @@ class Kind(ABC):
     agent_description: ClassVar[str]
     interaction_description: ClassVar[str]
     expected_outcome: ClassVar[str]
+    #: The use rests in the object's concavities (a cavity, a well, a compartment), whose hulls the decomposition's
+    #: concavity threshold shapes: the perturbed worlds include the object's second decomposition. A kind whose
+    #: agent rests on the object's top (a seat, a table) meets the same convex top in any decomposition.
+    decomposition_matters: ClassVar[bool] = False
 
     @abstractmethod
     def agent(self, aff: Affordance, dims: Sequence[float]) -> AgentShape:
@@ -231,21 +240,24 @@ _REST_BODY = '''    """Fraction of agents resting as intended ({what}), minus {m
     height = (bottom > {lo}) & (bottom < {hi})
     cos_tilt = 1.0 - 2.0 * (agent_quat[:, :, 1] ** 2 + agent_quat[:, :, 2] ** 2)
     upright = cos_tilt > {cos_agent:.4f}
-    resting = footprint & height & upright & (contacts_object > 0) & (contacts_ground == 0)
+    resting = footprint & height & upright & (contacts_object > 0){ground_cond}
     frac = np.mean(resting, axis=1)
     return np.where(object_tilt < {max_tilt:.4f}, frac - {most}, -1.0)
 '''
 
 
 def rest_scoring(aff: Affordance, shape: AgentShape, lo: str, hi: str, agent_deg: float, object_deg: float,
-                 what: str) -> ScoringCode:
+                 what: str, ground: bool = True) -> ScoringCode:
     """Scoring of one agent that must come to rest on the object: its bottom between the task-frame z
     expressions ``lo`` and ``hi`` (``h`` broadcast over agents), tilted less than ``agent_deg``, the object less
-    than ``object_deg``; ``what`` says where in words."""
+    than ``object_deg``; ``what`` says where in words. ``ground``: an agent touching the ground fails (False for a
+    body whose feet may stand on the floor: its rules say which segments may touch it)."""
     body = _REST_BODY.format(what=what, half_z=shape.half_z, lo=lo, hi=hi, most=MOST,
-                             cos_agent=math.cos(math.radians(agent_deg)), max_tilt=math.radians(object_deg))
-    return ScoringCode(description=f"Success when the {shape.label} rests {what}, touching the object and not "
-                                   "the ground, and the object does not tip.",
+                             cos_agent=math.cos(math.radians(agent_deg)), max_tilt=math.radians(object_deg),
+                             ground_cond=" & (contacts_ground == 0)" if ground else "")
+    ground_words = " and not the ground" if ground else ""
+    return ScoringCode(description=f"Success when the {shape.label} rests {what}, touching the object{ground_words}, "
+                                   "and the object does not tip.",
                        source=SCORING_HEADER + body)
 
 

@@ -138,6 +138,7 @@ def _basin_fault(aff: Affordance, pose: PoseCandidates) -> str:
 @register_kind
 class Container(Kind):
     name = "container"
+    decomposition_matters = True
     params_model = ContainerParams
     agent_description = ("Small spheres standing for droplets of liquid (or items bigger than the holes of a "
                          "basket), sized to the object's opening, in a 3x3x3 grid.")

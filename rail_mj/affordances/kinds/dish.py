@@ -17,6 +17,7 @@ __all__ = ["Dish"]
 @register_kind
 class Dish(Lowering):
     name = "dish"
+    decomposition_matters = True
     agent_description = "One flat disc standing for a portion of food, sized to the object."
     interaction_description = ("The disc is lowered onto the object from above at its centre and at offsets; "
                                "released at contact.")

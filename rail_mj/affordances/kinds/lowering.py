@@ -1,4 +1,4 @@
-"""What the kinds whose one agent is lowered onto the object from above share: ``lie``, ``surface``, ``dish``.
+"""What the kinds whose one agent is lowered onto the object from above share: ``surface``, ``dish``.
 
 The plans lower the agent at the centre and offset towards each side; the
 agent must come to rest level on the object alone.

@@ -1,33 +1,39 @@
-"""``seat``: a box "pelvis" lowered onto the object from above, or arriving from a side above seat height.
+"""``seat``: an articulated human body, hips and knees at 90°, lowered onto the object facing each way.
 
-Success: the pelvis rests upright on the object alone at seat height. The verdict rests on where the pelvis
-comes to rest, not on the object's box: a seat is where the pelvis rests level at the centre; a seat has an
-area (the pelvis also rests a little off the centre, not only on a post or a ridge); and a
-seat for one is not a seat for two (a second pelvis lowered beside it along the object's length does not rest
-on its level, as it does on a bench or a sofa).
+Success: the body comes to rest carried by the object: its pelvis level and on the object with its thighs (a seat
+pan bears the thighs; an edge or a rail bears the pelvis alone) at seat height, its thighs near level, its torso
+upright or leaning on a back, its feet on the floor or on the object (a rung) or within a relaxed toe's reach of the
+floor, nothing but its shanks and feet on the ground, and the object not tipped. A seat for more than one (a bench)
+seats the body at two places side by side along its length, half a shoulder breadth either side of its centre.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import cast
 
 from rail_mj.affordances.kinds.base import (
-    SIDES,
+    LEVEL_DEG,
+    MAX_OBJECT_TILT_DEG,
     AgentShape,
     Kind,
-    box_agent,
-    clearance,
     register_kind,
-    rest_accept,
     rest_bounds,
     rest_scoring,
     rest_window,
     rest_words,
-    side_offset,
-    via,
+)
+from rail_mj.affordances.kinds.body import (
+    HEADINGS,
+    LEGS,
+    ROOT,
+    agents_segments,
+    body_agent,
+    heading_vias,
+    level,
+    upright,
 )
 from rail_mj.affordances.row import Affordance, KindParams
 from rail_mj.core.profile import AgentLayout, CandidateInteraction, MotionPlan, PoseCandidates, ScoringCode, ViaPose
@@ -37,156 +43,130 @@ __all__ = ["SeatParams", "Seat"]
 
 @dataclass(frozen=True)
 class SeatParams(KindParams):
-    """A seat row's own fields: how many sit on it, and the height above which it has a back."""
+    """A seat row's own field: how many sit on it side by side."""
 
     persons: int = 1  # people who sit on it side by side (1: a seat for one)
-    #: a seat higher than this (m, the sitter's bottom) has a back rising behind the sitter (a bar chair; a high
-    #: seat without one is a stool, or a table's top)
-    perch: float = math.inf
 
-    def scaled(self, factor: float) -> SeatParams:
-        """The perch height scales; the number of sitters does not."""
-        return replace(self, perch=self.perch * factor)
 
-#: The contact patch of a sitting pelvis, 0.2 m across: fits the narrowest seat (0.3 m) and the gap between
-#: armrests as the object's convex hulls render it (a 0.28 m box lands on the armrests of a dataset chair).
-_HALF = (0.1, 0.1, 0.05)
-#: Seat height (m) the side plans arrive above: higher than any seat.
-_ABOVE_SEAT = 0.65
-#: Off-centre placements (m, a person's) that probe the seat's area: a sitter shifts this much on a seat, and
-#: the pelvis still clears armrests 0.31 m apart. On a ridge (a pouf or a stool lying on its side) the pelvis
-#: placed this far across it tips off.
-_AREA = 0.06
-#: A back behind the seat: the pose's box rises at least this far above the seated pelvis's centre (units of
-#: the box's half height; the pelvis rests at mean height 1 + its half height when nothing rises above it). A
-#: chair's back rises 0.3-0.5 m above its seat, a chair lying on its back has nothing above the pelvis.
-_BACK = 0.5
-#: A back behind a high seat rises at least this far (m, a person's) above the seated pelvis's centre: a bar chair's
-#: back rises 0.25-0.35 m, a small table's top has nothing above it.
-_PERCH_BACK = 0.2
-#: A seat is the object's top when the pelvis rests at most this far (m, a person's) below the top of the pose's
-#: box: a cushion's seams and an uneven scan stay within it, a pouf's feet rise 3-6 cm round it upside down.
-_ON_TOP = 0.015
-#: Where a second sitter sits (m from the centre along the object's length, a person's): a pelvis resting
-#: there is supported only by a seat over 0.7 m long, the widest seat for one (0.9 m make a bench for two).
-_BESIDE = 0.35
-#: Plans that lower the pelvis onto the centre of the object's box.
-_CENTRE = ("above",) + tuple(side for side, _, _ in SIDES)
-_AREA_PLANS = tuple(f"above_{side}" for side, _, _ in SIDES)
-#: The off-centre placements along each horizontal axis of the task frame.
-_AXES = (("front", "back"), ("left", "right"))
-#: A second pelvis sits on the same seat when it rests at the seat's level: within this fraction of the pose's
-#: half height (an armchair's rolled arms bear it 0.1-0.2 m above its cushion, a third of its half height).
-_SAME_LEVEL = 0.15
-#: A second pelvis at either end of the length (task-frame x, the footprint's long side).
-_BESIDE_PLANS = (("beside_front", 1.0), ("beside_back", -1.0))
-
+#: Thighs within this of level (deg): sitting bears the thighs on the seat with a trunk-thigh angle of 90-135°
+#: (Keegan 1953, the relaxed sitting range); a thigh steeper than a third of a right angle slides off the seat.
+_THIGH_DEG = 30
+#: The torso within this of upright (deg): 135° trunk-thigh angle with level thighs, Keegan's relaxed limit.
+_TORSO_DEG = 45
+#: The pelvis (the scoring's agent) within this of its posture (deg), the same relaxed limit.
+_PELVIS_DEG = 45
+#: The pelvis resting within this of upright (deg): a seat pan slopes 0-10° (ISO 9241-5), and LEVEL_DEG (15°) is
+#: the level every kind's resting agent keeps; on a steeper slope the sitter slides or perches on an edge.
+_SEAT_PAN_DEG = LEVEL_DEG
+#: Of the body, only these may touch the ground: a sitter's feet stand on the floor.
+_ON_FLOOR = ("shank_l", "foot_l", "shank_r", "foot_r")
+_FEET = ("foot_l", "foot_r")
+#: A sitter's toes reach this far (units of the foot's length) below the ankle's standing height: the three
+#: quarters of the foot ahead of the ankle (Winter Fig. 4.1) hanging at a relaxed foot's 30° of plantar flexion
+#: (the ankle's resting angle with the foot unloaded, within the AAOS 0-50° range; tiptoe, 50°, is no sitting).
+_TOE_REACH = 0.75 * math.sin(math.radians(30))
+#: Where the hip joints are put down along the heading (units of h): the box's centre, and a quarter of the way to
+#: its back (a sitter sits back towards a backrest; half-way, a seat 0.45 m deep puts the back inside the sitter).
+_PLACES = (("", 0.0), ("_back", -0.25))
+#: A seat for more: the body faces across the object's length (task-frame x, its longer side) and sits at two places
+#: side by side along it, half a shoulder breadth (Winter Fig. 4.1, 0.259 H) to either side of the centre: two
+#: sitters shoulder to shoulder.
+_MANY_HEADINGS = ("left", "right")
+_BESIDE = (("_beside_front", 1.0), ("_beside_back", -1.0))
 
 @register_kind
 class Seat(Kind):
     name = "seat"
     params_model = SeatParams
-    agent_description = "One box standing for a sitting person's pelvis's contact patch, 0.2 x 0.2 x 0.1 m."
-    interaction_description = ("The pelvis is lowered onto the object from above, or arrives from the front, back, "
-                               "left or right above seat height and is then lowered; it is also lowered a little "
-                               "off the centre to each side, and 0.35 m to either end of the object's length where "
-                               "a second person would sit; it is released at the first contact.")
-    expected_outcome = ("The pelvis rests upright on the {name} at seat height (0.3–0.65 m above the ground), not "
-                        "touching the ground, and the {name} does not tip over.")
+    agent_description = ("An articulated human body (pelvis, torso, head, thighs, shanks, feet; Winter's "
+                         "anthropometry, 1.75 m and 75 kg for a person) with hips and knees at 90°, its joints held "
+                         "by posture springs.")
+    interaction_description = ("The sitting body is lowered straight down onto the object facing each way, with its "
+                               "hips over the object's centre and a quarter of the way to its back; it is released at "
+                               "the first contact and left to settle. On a seat for more, it is lowered at two "
+                               "places side by side along its length, half a shoulder breadth either side of the "
+                               "centre.")
+    expected_outcome = ("The body comes to rest sitting on the {name}: pelvis on it at seat height, thighs near level, "
+                        "torso upright or leaning on a back, feet on the floor or on the {name}, and the {name} does "
+                        "not tip over.")
 
     def agent(self, aff: Affordance, dims: Sequence[float]) -> AgentShape:
-        # the sitter's size: a doll's pelvis on a doll's chair (the row's agent scale)
-        return box_agent("pelvis", tuple(v * aff.scale for v in _HALF))
+        return body_agent("sit", aff.scale, cast(SeatParams, aff.params).persons)
+
+    def _plans(self, shape: AgentShape) -> list[tuple[str, str, float, float]]:
+        """(plan name, heading, place along it in units of h, shift along x in shoulder half-breadths)."""
+        if shape.count == 1:
+            return [(f"facing_{h}{suffix}", h, place, 0.0) for h, _ in HEADINGS for suffix, place in _PLACES]
+        return [(f"facing_{h}{suffix}{side}", h, place, shift) for h in _MANY_HEADINGS for suffix, place in _PLACES
+                for side, shift in _BESIDE]
 
     def plans(self, shape: AgentShape) -> list[MotionPlan]:
-        plans = [MotionPlan(name="above", description="Start with the pelvis above the object's centre; lower it "
-                                                     "straight down onto the seat; release at the first contact.")]
-        plans += [MotionPlan(name=side, description=f"Start at the {side} of the object, above seat height; move "
-                                                    "horizontally over the object's centre; lower the pelvis "
-                                                    "straight down; release at the first contact.")
-                  for side, _, _ in SIDES]
-        plans += [MotionPlan(name=f"above_{side}", description=f"Start with the pelvis above the object, "
-                                                               f"{_AREA:g} m to the {side} of its centre; lower it "
-                                                               "straight down; release at the first contact.")
-                  for side, _, _ in SIDES]
-        plans += [MotionPlan(name=name, description=f"Where a second person would sit: start with the pelvis above "
-                                                    f"the object, {_BESIDE:g} m to the {name.split('_')[1]} of its "
-                                                    "centre along its length; lower it straight down; release at "
-                                                    "the first contact.")
-                  for name, _ in _BESIDE_PLANS]
-        return plans
+        where = {0.0: "over the object's centre",
+                 -0.25: "a quarter of the way to the object's back (as seen facing that way)"}
+        return [MotionPlan(name=name, description=f"Start with the sitting {shape.label} above the object, facing "
+                                                  f"{heading}, its hips {where[place]}"
+                                                  + (f", half a shoulder breadth towards the object's "
+                                                     f"{'front' if shift > 0 else 'back'} end (where one of two "
+                                                     "people side by side sits)" if shift else "")
+                                                  + "; lower it straight down; release it at the first contact.")
+                for name, heading, place, shift in self._plans(shape)]
 
     def via_poses(self, plan: str, shape: AgentShape, layout: AgentLayout) -> list[ViaPose]:
-        gap = clearance(shape)
-        scale = shape.half_z / _HALF[2]  # the sitter's size against a person's
-        above_seat = scale * _ABOVE_SEAT + shape.radius + 0.05 * scale  # the pelvis included
-        bottom = shape.half_z + 0.02
-        beside = dict(_BESIDE_PLANS)
-        if plan == "above" or plan in _AREA_PLANS or plan in beside:
-            if plan in beside:
-                ox, oy = beside[plan] * _BESIDE * scale, 0.0
-            else:
-                ox, oy = side_offset(plan, _AREA * scale)
-            return [via((0, 0, 1), (ox, oy, shape.radius + gap)), via((0, 0, -1), (ox, oy, bottom))]
-        ux, uy = side_offset(plan, 1.0)
-        return [via((ux, uy, -1), (ux * (shape.radius + gap), uy * (shape.radius + gap), above_seat)),
-                via((0, 0, -1), (0, 0, above_seat)),
-                via((0, 0, -1), (0, 0, bottom))]
+        _, heading, place, shift = next(p for p in self._plans(shape) if p[0] == plan)
+        ux, uy = {"front": (1.0, 0.0), "back": (-1.0, 0.0), "left": (0.0, 1.0), "right": (0.0, -1.0)}[heading]
+        beside = shift * shape.body.shoulder_breadth / 2 if shape.body is not None else 0.0
+        return heading_vias(shape, heading, (place * ux, place * uy), (beside, 0.0))
 
     def scoring(self, aff: Affordance, shape: AgentShape) -> ScoringCode:
-        return rest_scoring(aff, shape, *rest_bounds(aff), 15, 15, f"upright {rest_words(aff)}")
+        return rest_scoring(aff, shape, *rest_bounds(aff), _PELVIS_DEG, MAX_OBJECT_TILT_DEG,
+                            f"sitting {rest_words(aff)}", ground=False)
 
     def accept(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float]) -> tuple[bool, str]:
-        ok, why = rest_accept(c, h, rest_window(aff, _HALF[2] * aff.scale), 15)
-        bottom = (c.summary.mean_height + 1.0) * h[2] - _HALF[2] * aff.scale
-        rise = (1.0 - c.summary.mean_height) * h[2]  # of the object above the pelvis's centre
-        perch = cast(SeatParams, aff.params).perch
-        if ok and bottom > perch and rise < _PERCH_BACK * aff.scale:
-            return False, (f"the seat is {bottom:.2f} m high, above a sitter's knees ({perch:g} m), and nothing "
-                           f"rises {_PERCH_BACK * aff.scale:g} m behind the sitter: a {aff.name} that high has a back")
-        return ok, why
+        shape = self.agent(aff, h)
+        lo, hi = rest_window(aff, shape.half_z)
+        bodies = agents_segments(c)
+        if not bodies or shape.body is None:
+            return False, "no body segments were reported: the seat kind needs its articulated body"
+        reach = shape.body.ankle + _TOE_REACH * shape.body.foot  # the ankle's height when the toes touch down
+        for i, seg in enumerate(bodies):
+            who = f"body {i + 1}: " if len(bodies) > 1 else ""
+            pelvis = seg[ROOT]
+            if not lo <= pelvis.height <= hi:
+                return False, f"{who}the hips rest {pelvis.height:.2f} m above the ground; sitting: {lo:.2f}-{hi:.2f} m"
+            if not pelvis.touching_object:
+                return False, f"{who}the pelvis does not rest on the object"
+            if not any(seg[t].touching_object for t in LEGS):  # both level with the buttocks: either may bear
+                return False, (f"{who}the object does not carry the thighs: the pelvis rests on an edge or a rail, "
+                               "not a seat")
+            grounded = [name for name, s in seg.items() if s.on_ground and name not in _ON_FLOOR]
+            if grounded:
+                return False, f"{who}the {grounded[0]} touches the ground: the body fell"
+            why = upright(pelvis, _SEAT_PAN_DEG) or level(seg, LEGS, _THIGH_DEG) or upright(seg["torso"], _TORSO_DEG)
+            if why:
+                return False, f"{who}{why}"
+            dangling = [f for f in _FEET if not (seg[f].on_ground or seg[f].touching_object or seg[f].height <= reach)]
+            if dangling:
+                return False, (f"{who}the feet hang {seg[dangling[0]].height:.2f} m up, touching nothing (a sitter's "
+                               f"toes reach the floor from {reach:.2f} m): a seat too high for the feet")
+        torso = all(seg["torso"].touching_object for seg in bodies)
+        return True, (f"the body sits {bodies[0][ROOT].height:.2f} m up, thighs level, torso upright"
+                      + (", leaning on a back" if torso else ""))
 
     def accept_pose(
         self, aff: Affordance, accepted: list[CandidateInteraction], pose: PoseCandidates
     ) -> tuple[list[CandidateInteraction], str]:
-        centre = [c for c in accepted if c.plan in _CENTRE]
-        area = [c for c in accepted if c.plan in _AREA_PLANS]
-        if not centre:
-            return [], "the pelvis rests at seat height only off the centre: no seat at the object's centre"
-        if not area:
-            return [], (f"the pelvis rests only where it is placed at the centre, not {_AREA * aff.scale:g} m off it "
-                        "to any side: a post or a ridge, no seat area")
-        placed = {c.plan for c in area}
-        along = [pair for pair in _AXES if not any(f"above_{side}" in placed for side in pair)]
-        if along:
-            return [], (f"the pelvis rests {_AREA * aff.scale:g} m off the centre only along one axis, not to the "
-                        f"{' or '.join(along[0])}: a ridge (a divider's edge, a pouf on its side), no seat area")
-        level = sorted(c.summary.mean_height for c in centre)[len(centre) // 2]
-        beside = {c.plan for c in accepted
-                  if c.plan in dict(_BESIDE_PLANS) and abs(c.summary.mean_height - level) <= _SAME_LEVEL}
-        both = len(beside) == len(_BESIDE_PLANS)
-        persons = cast(SeatParams, aff.params).persons
-        if persons == 1 and both:
-            return [], (f"a second pelvis also rests on the seat's level {_BESIDE * aff.scale:g} m to either side "
-                        f"along its length: a seat for more than one, not a {aff.name}")
-        if persons > 1 and not both:
-            return [], (f"a second pelvis does not rest on the seat's level {_BESIDE * aff.scale:g} m to either side "
-                        f"along its length: a {aff.name} seats people side by side")
-        return centre + area, ""
+        """A seat for more seats the body at both places side by side, facing the same way."""
+        if cast(SeatParams, aff.params).persons == 1:
+            return accepted, ""
+        plans = {c.plan for c in accepted}
+        both = [h for h in _MANY_HEADINGS
+                if any(all(f"facing_{h}{suffix}{side}" in plans for side, _ in _BESIDE) for suffix, _ in _PLACES)]
+        if not both:
+            return [], ("the body does not sit at both places side by side (half a shoulder breadth either side of "
+                        f"the centre, facing the same way): a seat for one, not a {aff.name}")
+        return accepted, ""
 
     def rank(self, aff: Affordance, accepted: list[CandidateInteraction], h: Sequence[float]) -> int:
-        """A seat with a back first, then one with an area both ways, then one on top: of two poses that seat the
-        pelvis, the one where the object rises behind it (a chair standing, not lying on its back or side, whose
-        box is the longer for it), then the one that bears it off the centre along both horizontal axes (a pouf
-        standing, not rolled on its side, whose ridge bears it only along its axis), then the one whose seat is
-        the object's top (a pouf on its feet, not upside down with its feet rising round the sitter).
-        6 x back (0 or 1) + 2 x axes (0-2) + top (0 or 1)."""
-        centre = [c for c in accepted if c.plan in _CENTRE]
-        if not centre:
-            return 0
-        level = sorted(c.summary.mean_height for c in centre)[len(centre) // 2]
-        plans = {c.plan for c in accepted}
-        axes = sum(any(f"above_{side}" in plans for side in pair) for pair in _AXES)
-        seat = (level - 1.0) * h[2] - _HALF[2] * aff.scale  # of the pelvis's bottom above the object's top
-        return 6 * int(level <= 1.0 - _BACK) + 2 * axes + int(seat > -_ON_TOP * aff.scale)
-
+        """A seat with a back first: of two poses that seat the body, the one where its torso leans on the object
+        (a chair standing, not lying on its side or back)."""
+        return int(any(all(seg["torso"].touching_object for seg in agents_segments(c)) for c in accepted))

@@ -31,6 +31,7 @@ _MID_Z = 0.15
 @register_kind
 class Storage(Kind):
     name = "storage"
+    decomposition_matters = True
     agent_description = "One small box standing for a stored item, sized to the object's depth."
     interaction_description = ("The box is pushed in horizontally from the front, back, left and right at mid "
                                "height, and from the front higher and lower; released at the first contact or at "

@@ -1,0 +1,235 @@
+"""An articulated human body as an agent fragment: pelvis (the root), torso, head, thighs, shanks and feet.
+
+Segment lengths, breadths and mass fractions are Winter's (D. A. Winter, *Biomechanics and Motor Control of
+Human Movement*, 4th ed., Wiley 2009, Fig. 4.1 for lengths as fractions of stature H, Table 4.1 for segment
+masses as fractions of body mass M), for an adult of H = 1.75 m and M = 75 kg; a doll or a teddy is the same
+body scaled by ``scale`` (lengths × scale, masses × scale³). Segment thicknesses follow from mass, length and
+the body's density. Joint ranges are the normal active ranges of motion of the American Academy of
+Orthopaedic Surgeons (*Joint Motion: Method of Measuring and Recording*, 1965). The lumbar, hip and knee
+joints are hinges with a posture spring and damping (sitting, the trunk's spring rests reclined a little); the
+head rides on the torso and the feet on the shanks.
+
+Frame of the fragment: x forward (the way the body faces), y to its left, z up; the origin is the midpoint of
+the hip joints. ``posture`` "sit" holds hips and knees at 90°, "lie" lies on its back, head towards −x.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from rail_mj.core.errors import ConfigError
+
+__all__ = ["Posture", "POSTURES", "SEGMENTS", "SEGMENT_AXES", "BodySize", "body_size", "body_fragment"]
+
+Posture = Literal["sit", "lie"]
+POSTURES: tuple[str, ...] = ("sit", "lie")
+#: The body's segments (MJCF body names, the root first).
+SEGMENTS = ("pelvis", "torso", "head", "thigh_l", "shank_l", "foot_l", "thigh_r", "shank_r", "foot_r")
+#: Each segment's long axis in its own frame, proximal to distal (up the trunk, down the legs, toes forward).
+SEGMENT_AXES = {"pelvis": (0.0, 0.0, 1.0), "torso": (0.0, 0.0, 1.0), "head": (0.0, 0.0, 1.0),
+                "thigh_l": (0.0, 0.0, -1.0), "shank_l": (0.0, 0.0, -1.0), "foot_l": (1.0, 0.0, 0.0),
+                "thigh_r": (0.0, 0.0, -1.0), "shank_r": (0.0, 0.0, -1.0), "foot_r": (1.0, 0.0, 0.0)}
+
+STATURE = 1.75  # m, the adult the table is read for
+BODY_MASS = 75.0  # kg
+DENSITY = 1050.0  # kg/m³, whole-body density (Winter Table 4.1: segments 1.03-1.11 g/cm³)
+_G = 9.81
+# Winter Table 4.1, segment mass / body mass
+_M_FOOT, _M_SHANK, _M_THIGH = 0.0145, 0.0465, 0.100
+_M_PELVIS, _M_THORAX_ABDOMEN, _M_HEAD = 0.142, 0.355, 0.081
+_M_ARM = 0.028 + 0.016 + 0.006  # upper arm + forearm + hand; the arms ride on the torso
+# Winter Fig. 4.1, lengths / stature
+_L_HIP, _L_KNEE, _L_ANKLE, _L_SHOULDER = 0.530, 0.285, 0.039, 0.818
+_L_HEAD_NECK = 1.0 - _L_SHOULDER
+_W_HIP, _W_SHOULDER, _L_FOOT, _W_FOOT = 0.191, 0.259, 0.152, 0.055
+#: The heel lies this fraction of the foot's length behind the ankle (Fig. 4.1 draws the ankle over the rear quarter).
+_HEEL = 0.25
+# AAOS (1965) normal ranges, degrees of flexion (negative: extension)
+_HIP_RANGE = (-30.0, 120.0)
+_KNEE_RANGE = (0.0, 135.0)
+_LUMBAR_RANGE = (-25.0, 80.0)
+#: The lumbar spring's rest (deg of flexion; negative: the trunk reclined): a relaxed sitter reclines the trunk 15° past
+#: upright, a 105° trunk-thigh angle (Keegan 1953, the relaxed sitting posture; ANSI/HFES 100: backrests 100-110°).
+_LUMBAR_REST = -15.0
+#: The posture spring lets a joint sag at most this far (deg) under the gravity moment of what it carries
+#: held out horizontally: a carried body keeps its posture, a load on it bends it.
+_SAG_DEG = 10.0
+#: Damping ratio of each joint's spring against what it carries: critically damped, so a set-down body settles.
+_DAMPING_RATIO = 1.0
+
+
+@dataclass(frozen=True)
+class BodySize:
+    """The body's dimensions (m) and mass (kg) at one scale, for the kinds' plans and rules."""
+
+    scale: float
+    stature: float
+    mass: float
+    thigh: float  # hip joint to knee joint
+    shank: float  # knee joint to ankle
+    ankle: float  # ankle above the sole
+    trunk: float  # hip joint to shoulder
+    head: float  # head-neck, shoulder to crown
+    hip_breadth: float
+    shoulder_breadth: float
+    thigh_radius: float
+    shank_radius: float
+
+    @property
+    def length(self) -> float:
+        """Heel to crown lying straight (m): the stature."""
+        return self.stature
+
+    @property
+    def foot(self) -> float:
+        """The foot's length (m)."""
+        return _L_FOOT * self.stature
+
+    @property
+    def lumbar(self) -> float:
+        """Hip joints to the lumbar joint (m): the trunk's length shared by pelvis and torso in proportion to their
+        mass (a uniform trunk)."""
+        return self.trunk * _M_PELVIS / (_M_PELVIS + _M_THORAX_ABDOMEN)
+
+    @property
+    def pelvis_half(self) -> tuple[float, float, float]:
+        """The pelvis box's half sizes standing (front-back, across, up; m): the hip breadth across, from the
+        thighs' undersides to the lumbar joint up, deep enough for its mass at the body's density."""
+        across, up = self.hip_breadth / 2, (self.lumbar + self.thigh_radius) / 2
+        return _M_PELVIS * self.mass / (DENSITY * 8 * across * up), across, up
+
+    @property
+    def torso_half(self) -> tuple[float, float, float]:
+        """The torso box's half sizes standing (front-back, across, up; m): the chest as broad as the hips across
+        (Fig. 4.1 gives the hips 0.191 H; a chest is as broad, the arms hang outside it and rest on armrests), from
+        the lumbar joint to the shoulders up, deep enough for the thorax and abdomen's mass (the arms' rides on it,
+        their volume outside it)."""
+        across, up = self.hip_breadth / 2, (self.trunk - self.lumbar) / 2
+        return _M_THORAX_ABDOMEN * self.mass / (DENSITY * 8 * across * up), across, up
+
+    def below_root(self, posture: Posture) -> float:
+        """How far (m) the body reaches below its root's origin (the hip joints) under the pelvis: the thighs'
+        undersides sitting, the back (pelvis and torso flush) lying."""
+        return self.thigh_radius if posture == "sit" else self.torso_half[0]
+
+
+def _radius(mass: float, length: float) -> float:
+    """Radius of a cylinder of the body's density with this mass and length."""
+    return math.sqrt(mass / (DENSITY * math.pi * length))
+
+
+def body_size(scale: float = 1.0) -> BodySize:
+    """The body at ``scale`` (1: an adult's)."""
+    if not (math.isfinite(scale) and scale > 0):
+        raise ConfigError(f"a body scale must be a positive finite number; got {scale!r}")
+    h, m = STATURE * scale, BODY_MASS * scale**3
+    thigh, shank = (_L_HIP - _L_KNEE) * h, (_L_KNEE - _L_ANKLE) * h
+    return BodySize(scale=scale, stature=h, mass=m, thigh=thigh, shank=shank, ankle=_L_ANKLE * h,
+                    trunk=(_L_SHOULDER - _L_HIP) * h, head=_L_HEAD_NECK * h, hip_breadth=_W_HIP * h,
+                    shoulder_breadth=_W_SHOULDER * h, thigh_radius=_radius(_M_THIGH * m, thigh),
+                    shank_radius=_radius(_M_SHANK * m, shank))
+
+
+def _quat_y(deg: float) -> np.ndarray:
+    """Rotation about +y by ``deg``, wxyz."""
+    a = math.radians(deg) / 2
+    return np.array([math.cos(a), 0.0, math.sin(a), 0.0])
+
+
+def _qmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    w1, x1, y1, z1 = a
+    w2, x2, y2, z2 = b
+    return np.array([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+                     w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])
+
+
+def _rot_y(v: np.ndarray, deg: float) -> np.ndarray:
+    c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))
+    return np.array([c * v[0] + s * v[2], v[1], -s * v[0] + c * v[2]])
+
+
+def _f(v) -> str:
+    return " ".join(f"{float(x):.6g}" for x in np.ravel(v))
+
+
+def _spring(mass: float, arm: float) -> tuple[float, float]:
+    """(stiffness N·m/rad, damping N·m·s/rad) of a joint carrying ``mass`` at lever ``arm`` (its centre of mass)."""
+    stiffness = mass * _G * arm / math.radians(_SAG_DEG)
+    inertia = mass * arm * arm
+    return stiffness, 2.0 * _DAMPING_RATIO * math.sqrt(stiffness * inertia)
+
+
+def _joint(name: str, axis: tuple[float, float, float], ref: float, limits: tuple[float, float],
+           mass: float, arm: float, rest: float | None = None) -> str:
+    """A hinge whose model pose is at ``ref`` (deg) and whose spring rests at ``rest`` (``ref`` if None)."""
+    k, c = _spring(mass, arm)
+    return (f'<joint name="{name}" type="hinge" axis="{_f(axis)}" range="{limits[0]:g} {limits[1]:g}" '
+            f'ref="{ref:g}" springref="{ref if rest is None else rest:g}" stiffness="{k:.6g}" damping="{c:.6g}"/>')
+
+
+def body_fragment(posture: Posture, scale: float = 1.0, name: str = "pelvis") -> str:
+    """The body in ``posture`` at ``scale`` as an agent MJCF fragment (its root body named ``name``)."""
+    if posture not in POSTURES:
+        raise ConfigError(f"a body posture must be one of {', '.join(POSTURES)}; got {posture!r}")
+    b = body_size(scale)
+    m = b.mass
+    hip_deg, knee_deg = (90.0, 90.0) if posture == "sit" else (0.0, 0.0)
+    # lying is standing turned about y by -90 deg: the spine along -x, the front facing up
+    turn = 0.0 if posture == "sit" else -90.0
+    turn_q = _quat_y(turn)
+
+    pelvis_m, torso_m, head_m = _M_PELVIS * m, (_M_THORAX_ABDOMEN + 2 * _M_ARM) * m, _M_HEAD * m
+    lumbar = b.lumbar
+    pelvis_low = -b.thigh_radius  # the buttocks level with the thighs' undersides
+    pelvis_half = np.array(b.pelvis_half)
+    torso_len = b.trunk - lumbar
+    torso_half = np.array(b.torso_half)
+    back = torso_half[0] - pelvis_half[0]  # the pelvis's back flush with the torso's: one straight back
+    head_r = (3 * head_m / (4 * math.pi * DENSITY)) ** (1 / 3)
+    foot_half = np.array([_L_FOOT * b.stature / 2, _W_FOOT * b.stature / 2, b.ankle / 2])
+    foot_m, shank_m, thigh_m = _M_FOOT * m, _M_SHANK * m, _M_THIGH * m
+
+    def child(pos: np.ndarray, quat: np.ndarray) -> str:
+        """pos/quat of a child of the pelvis, turned with the posture."""
+        return f'pos="{_f(_rot_y(pos, turn))}" quat="{_f(_qmul(turn_q, quat))}"'
+
+    leg_mass = thigh_m + shank_m + foot_m
+    leg_arm = (thigh_m * b.thigh / 2 + (shank_m + foot_m) * b.thigh) / leg_mass  # hip to the leg's centre, knee out
+    trunk_mass = torso_m + head_m
+    trunk_arm = (torso_m * torso_len / 2 + head_m * (torso_len + b.head / 2)) / trunk_mass
+    lower_arm = (shank_m * b.shank / 2 + foot_m * b.shank) / (shank_m + foot_m)
+    parts = [f'<body name="{name}">',
+             f'<geom name="pelvis" type="box" size="{_f(pelvis_half)}" '
+             f'pos="{_f(_rot_y(np.array([-back, 0.0, (lumbar + pelvis_low) / 2]), turn))}" quat="{_f(turn_q)}" '
+             f'mass="{pelvis_m:.6g}"/>',
+             f'<body name="torso" {child(np.array([0.0, 0.0, lumbar]), np.array([1.0, 0, 0, 0]))}>',
+             _joint("lumbar", (0.0, 1.0, 0.0), 0.0, _LUMBAR_RANGE, trunk_mass, trunk_arm,
+                    _LUMBAR_REST if posture == "sit" else None),
+             f'<geom name="torso" type="box" size="{_f(torso_half)}" pos="0 0 {torso_len / 2:.6g}" '
+             f'mass="{torso_m:.6g}"/>',
+             f'<body name="head" pos="0 0 {torso_len:.6g}">',
+             f'<geom name="head" type="sphere" size="{head_r:.6g}" pos="0 0 {b.head - head_r:.6g}" '
+             f'mass="{head_m:.6g}"/>',
+             "</body></body>"]
+    for side, sign in (("l", 1.0), ("r", -1.0)):
+        hip = np.array([0.0, sign * (b.hip_breadth / 2 - b.thigh_radius), 0.0])
+        # hip flexion turns the thigh forward: about -y; knee flexion turns the shank back: about +y
+        parts += [f'<body name="thigh_{side}" {child(hip, _quat_y(-hip_deg))}>',
+                  _joint(f"hip_{side}", (0.0, -1.0, 0.0), hip_deg, _HIP_RANGE, leg_mass, leg_arm),
+                  f'<geom name="thigh_{side}" type="capsule" size="{b.thigh_radius:.6g}" '
+                  f'fromto="0 0 0 0 0 {-b.thigh:.6g}" mass="{thigh_m:.6g}"/>',
+                  f'<body name="shank_{side}" pos="0 0 {-b.thigh:.6g}" quat="{_f(_quat_y(knee_deg))}">',
+                  _joint(f"knee_{side}", (0.0, 1.0, 0.0), knee_deg, _KNEE_RANGE, shank_m + foot_m, lower_arm),
+                  f'<geom name="shank_{side}" type="capsule" size="{b.shank_radius:.6g}" '
+                  f'fromto="0 0 0 0 0 {-b.shank:.6g}" mass="{shank_m:.6g}"/>',
+                  f'<body name="foot_{side}" pos="0 0 {-b.shank:.6g}">',
+                  f'<geom name="foot_{side}" type="box" size="{_f(foot_half)}" '
+                  f'pos="{_f([foot_half[0] - _HEEL * 2 * foot_half[0], 0.0, -foot_half[2]])}" '
+                  f'mass="{foot_m:.6g}"/>',
+                  "</body></body></body>"]
+    parts.append("</body>")
+    return f'<mujoco><worldbody>{"".join(parts)}</worldbody></mujoco>'

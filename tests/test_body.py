@@ -1,0 +1,226 @@
+"""The articulated body the seat and lie kinds imagine with (issue 22, part 4).
+
+The fast tests check the fragment (Winter's anthropometry, a valid agent) and the scene's bookkeeping of an
+articulated agent. The physics tests lower the body onto small objects built from boxes in their upright pose,
+through the offline profile (stages 1-6), the native imagination and the kind's stage-7 rules; each would fail
+with the box "pelvis" the kinds had before (it has no segments to report and no legs to reach the floor).
+"""
+
+from __future__ import annotations
+
+from typing import cast
+
+import mujoco
+import numpy as np
+import pytest
+import trimesh
+
+from rail_mj.affordances import get
+from rail_mj.affordances.kinds import kind_of
+from rail_mj.core.errors import FragmentError, ImaginationError
+from rail_mj.core.profile import CandidateInteraction
+from rail_mj.core.types import AgentSetup, RailObject
+from rail_mj.imagination import ImaginationConfig, draw, imagine, prepare
+from rail_mj.imagination.batch import outcomes_from_states
+from rail_mj.imagination.inputs import agent_setup, trajectory_array
+from rail_mj.imagination.perturb import Perturbation, world_model
+from rail_mj.imagination.summary import result_summary
+from rail_mj.llm import generate_profile
+from rail_mj.mjcf import check_fragment, compose_scene, segment_state
+from rail_mj.mjcf.body import SEGMENTS, body_fragment, body_size
+from rail_mj.pipeline.verdicts import world_outcomes
+from rail_mj.stable_poses import pose_from_up
+
+DROPLET = ('<mujoco><worldbody><body name="drop"><geom type="sphere" size="0.006" mass="0.001"/></body>'
+           '</worldbody></mujoco>')
+
+
+def _object(name: str, boxes: list[tuple[list[float], list[float]]], density: float = 500.0) -> RailObject:
+    hulls = [trimesh.creation.box(bounds=[lo, hi]).vertices for lo, hi in boxes]
+    mesh = cast(trimesh.Trimesh, trimesh.util.concatenate([trimesh.convex.convex_hull(h) for h in hulls]))
+    return RailObject(name=name, mesh=mesh, hulls=tuple(np.asarray(h) for h in hulls), mesh_hash=f"test-{name}",
+                      obb_dims=np.sort(mesh.extents)[::-1], com=mesh.center_mass, mass=float(mesh.volume * density),
+                      density=density)
+
+
+def _legs(x: float, y: float, top: float, t: float = 0.02) -> list[tuple[list[float], list[float]]]:
+    return [([sx * x - t, sy * y - t, 0.0], [sx * x + t, sy * y + t, top]) for sx in (-1, 1) for sy in (-1, 1)]
+
+
+def _chair(seat: float = 0.45) -> RailObject:
+    """A plain chair: a 0.45 x 0.45 m seat ``seat`` m high on four legs, a 0.4 m back at -x."""
+    return _object(f"chair{seat}", [([-0.225, -0.225, seat - 0.03], [0.225, 0.225, seat]),
+                                    ([-0.225, -0.225, seat], [-0.195, 0.225, seat + 0.4]),
+                                    *_legs(0.2, 0.2, seat - 0.03)])
+
+
+def _stool() -> RailObject:
+    """A backless stool, a 0.35 m square seat 0.46 m high."""
+    return _object("stool", [([-0.175, -0.175, 0.43], [0.175, 0.175, 0.46]), *_legs(0.15, 0.15, 0.43)])
+
+
+def _bed() -> RailObject:
+    """A bed: a 2.0 x 1.4 m mattress, its top 0.5 m up, on a base."""
+    return _object("bed", [([-1.0, -0.7, 0.3], [1.0, 0.7, 0.5]), ([-0.95, -0.65, 0.0], [0.95, 0.65, 0.3])])
+
+
+def _bathtub() -> RailObject:
+    """A bathtub 1.7 x 0.8 x 0.55 m, walls and floor 5 cm thick."""
+    L, W, H, t = 0.85, 0.4, 0.55, 0.05
+    return _object("bathtub", [([-L, -W, 0.0], [L, W, t]), ([-L, -W, 0.0], [-L + t, W, H]),
+                               ([L - t, -W, 0.0], [L, W, H]), ([-L, -W, 0.0], [L, -W + t, H]),
+                               ([-L, W - t, 0.0], [L, W, H])])
+
+
+def _judged(obj: RailObject, affordance: str) -> list[tuple[CandidateInteraction, bool, str]]:
+    """Every plan of ``affordance``'s offline profile imagined on ``obj`` standing upright, with stage 7's verdict
+    on it by the kind's rules."""
+    pose = pose_from_up(obj, np.array([0.0, 0.0, 1.0]), 1.0)
+    h = [float(v) for v in pose.half_extents]
+    profile = generate_profile(affordance, obj.obb_dims)
+    out = imagine(obj, [pose], agent_setup(profile.agent.mjcf, profile.layout),
+                  trajectory_array(profile.trajectories.trajectories, h), backend="native")
+    aff = get(affordance)
+    kind = kind_of(aff)
+    judged = []
+    for b, plan in enumerate(profile.plans.plans):
+        c = CandidateInteraction(plan=plan.name, description=plan.description, via_poses=[[0.0, 0.0, 0.0]],
+                                 score=0.5, summary=result_summary(out, b))
+        judged.append((c, *kind.judge(aff, c, h)))
+    return judged
+
+
+def test_the_body_has_winters_segment_masses_and_a_dolls_scale():
+    model = check_fragment(body_fragment("sit")).compile()
+    assert model.body_mass[1:].sum() == pytest.approx(75.0)
+    names = [model.body(i).name for i in range(1, model.nbody)]
+    assert sorted(names) == sorted(SEGMENTS)
+    thigh = model.body_mass[names.index("thigh_l") + 1]
+    assert thigh == pytest.approx(0.100 * 75.0)  # Winter Table 4.1: a thigh is a tenth of the body
+    assert model.njnt == 5  # lumbar, two hips, two knees: hinges
+    doll = body_size(0.18)
+    assert doll.stature == pytest.approx(0.18 * 1.75) and doll.mass == pytest.approx(75.0 * 0.18**3)
+    assert check_fragment(body_fragment("lie", 0.18)).compile().body_mass[1:].sum() == pytest.approx(doll.mass)
+
+
+def test_fragments_may_have_hinges_in_nested_bodies_only():
+    nested = ('<mujoco><worldbody><body><geom size="0.01"/><body pos="0 0 0.05"><joint type="slide"/>'
+              '<geom size="0.01"/></body></body></worldbody></mujoco>')
+    with pytest.raises(FragmentError, match="type 'slide' is not allowed"):
+        check_fragment(nested)
+    check_fragment(nested.replace('type="slide"', 'type="hinge" axis="0 1 0"'))
+
+
+def test_every_segment_is_the_agents_and_one_body_agents_are_unchanged():
+    obj = _stool()
+    body = compose_scene(obj, AgentSetup(fragment=body_fragment("sit"), offsets=np.zeros((1, 3))))
+    assert body.articulated and len(body.hinge_dofs) == 5 and body.segment_names[0] == "pelvis"
+    agent_geoms = np.nonzero(body.geom_owner == 0)[0]
+    assert len(agent_geoms) == len(SEGMENTS)
+    # a hinge turning fast enough keeps the world from resting, though every free body is still
+    qvel = np.zeros(body.model.nv)
+    assert body.at_rest(qvel, 0.05)
+    qvel[body.hinge_dofs[0]] = 1.0
+    assert not body.at_rest(qvel, 0.05)
+    drops = compose_scene(obj, AgentSetup(fragment=DROPLET, offsets=np.zeros((2, 3))))
+    assert not drops.articulated and drops.agent_bodies.shape == (2, 1)
+
+
+def test_the_body_sits_upright_in_a_plain_chair_and_on_a_stool():
+    for obj, name in ((_chair(), "chair"), (_stool(), "stool")):
+        sat = [(c, why) for c, ok, why in _judged(obj, name) if ok]
+        assert sat, f"the body sits nowhere on the {obj.name}"
+        for c, _ in sat:
+            seg = {s.name: s for s in c.summary.segments}
+            assert seg["torso"].up > np.cos(np.radians(45)) and abs(seg["thigh_l"].up) < 0.5
+            assert seg["pelvis"].touching_object and not seg["pelvis"].on_ground
+    # in the chair, sitting back, the torso leans on its back
+    assert any(c.plan.endswith("_back") and {s.name: s for s in c.summary.segments}["torso"].touching_object
+               for c, ok, _ in _judged(_chair(), "chair") if ok)
+
+
+def test_the_body_does_not_sit_on_a_seat_1_2_m_up():
+    judged = _judged(_chair(1.2), "chair")
+    assert not any(ok for _, ok, _ in judged)
+    assert any("the hips rest" in why or "the feet hang" in why for _, _, why in judged)
+
+
+def test_the_body_lies_in_a_bed_and_a_bathtub_holds_it_lying_down():
+    assert any(ok for _, ok, _ in _judged(_bed(), "bed"))
+    # a bathtub is no bed (its floor is below a bed's height), but it holds the body lying on its back, inside
+    held = 0
+    for c, _, _ in _judged(_bathtub(), "bed"):
+        seg = {s.name: s for s in c.summary.segments}
+        lying = all(abs(seg[n].up) < np.sin(np.radians(45)) for n in ("torso", "thigh_l", "thigh_r"))
+        inside = seg["pelvis"].height < 0.55 and seg["torso"].height < 0.55  # below the rim, its legs as they fall
+        carried = not any(s.on_ground for s in seg.values()) and seg["torso"].touching_object
+        held += lying and inside and carried and c.summary.object_tilt_deg < 15
+    assert held
+
+
+def test_mjx_refuses_the_body_and_names_the_native_backend():
+    obj = _stool()
+    pose = pose_from_up(obj, np.array([0.0, 0.0, 1.0]), 1.0)
+    body = AgentSetup(fragment=body_fragment("sit"), offsets=np.zeros((1, 3)))
+    with pytest.raises(ImaginationError, match="backend='native'"):
+        imagine(obj, [pose], body, [np.array([[0.0, 0.0, 1.5, 1, 0, 0, 0]])], backend="mjx")
+
+
+def test_a_perturbed_world_scales_the_whole_body_and_keeps_its_posture():
+    """A world's agent size scales every segment and its place on its parent about the root (one body, not nine
+    shrunk in place), its agent mass every segment's mass; the posture springs hold the same sag (stiffness x
+    mass x length, damping ratio kept), and the world's segments are read in the world's own model."""
+    scene = compose_scene(_stool(), AgentSetup(fragment=body_fragment("sit"), offsets=np.zeros((1, 3))))
+    m = world_model(scene, Perturbation(agent_size=1.1, agent_mass=0.8))
+    base = scene.model
+    nominal, world = mujoco.MjData(base), mujoco.MjData(m)
+    mujoco.mj_kinematics(base, nominal)
+    mujoco.mj_kinematics(m, world)
+    bodies = scene.agent_bodies[0]
+    np.testing.assert_allclose(world.xpos[bodies] - world.xpos[bodies[0]],
+                               1.1 * (nominal.xpos[bodies] - nominal.xpos[bodies[0]]), atol=1e-9)
+    np.testing.assert_allclose(m.body_mass[bodies], 0.8 * base.body_mass[bodies])
+    joints = m.dof_jntid[scene.hinge_dofs]
+    np.testing.assert_allclose(m.jnt_stiffness[joints], 0.8 * 1.1 * base.jnt_stiffness[joints])
+    np.testing.assert_allclose(m.dof_damping[scene.hinge_dofs], 0.8 * 1.1**1.5 * base.dof_damping[scene.hinge_dofs])
+    none = np.zeros((0, 2), dtype=np.int64)
+    h0, h1 = segment_state(scene, nominal, none)[0], segment_state(scene, world, none, m)[0]
+    np.testing.assert_allclose(h1 - h1[:, :1], 1.1 * (h0 - h0[:, :1]), atol=1e-9)
+
+
+def test_the_body_reports_its_segments_in_every_perturbed_world():
+    obj = _stool()
+    pose = pose_from_up(obj, np.array([0.0, 0.0, 1.0]), 1.0)
+    h = [float(v) for v in pose.half_extents]
+    profile = generate_profile("stool", obj.obb_dims)
+    trajectories = trajectory_array(profile.trajectories.trajectories, h)
+    worlds = draw(ImaginationConfig(perturbations=2, seed=1))
+    out = imagine(obj, [pose], agent_setup(profile.agent.mjcf, profile.layout), trajectories, backend="native",
+                  perturbations=worlds)
+    assert out.batch == 3 * len(trajectories)
+    for world, _ in world_outcomes(out, np.zeros(out.batch), worlds.n_worlds):
+        assert world.segment_names == SEGMENTS
+        assert [s.name for s in result_summary(world, 0).segments] == list(SEGMENTS)
+
+
+def test_a_body_that_blew_up_reports_finite_segments():
+    obj = _stool()
+    pose = pose_from_up(obj, np.array([0.0, 0.0, 1.0]), 1.0)
+    body = AgentSetup(fragment=body_fragment("sit"), offsets=np.zeros((1, 3)))
+    scene = compose_scene(obj, body)
+    batch = prepare(obj, [pose], body, [np.array([[0.0, 0.0, 1.5, 1, 0, 0, 0]])] * 2, ImaginationConfig())
+    qpos = batch.initial_qpos(scene)
+    qpos[1, :3] = np.nan
+    n, s = 2, len(SEGMENTS)
+    segments = (np.full((n, 1, s), 0.4), np.full((n, 1, s), 0.9), np.ones((n, 1, s, 3), dtype=np.int64))
+    segments[0][1] = np.nan
+    segments[1][1] = np.nan
+    out = outcomes_from_states(scene, batch.placement, qpos, np.zeros((n, scene.model.nv)),
+                               np.zeros((n, 1, 3), dtype=np.int64), np.zeros((n, 1), dtype=bool),
+                               np.ones(n, dtype=bool), None, segments)
+    assert out.unstable is not None and out.unstable.tolist() == [False, True]
+    for name in ("segment_height", "segment_up", "segment_contacts"):
+        assert np.all(np.isfinite(getattr(out, name))), name
+    blown = result_summary(out, 1).segments
+    assert not any(x.touching_object or x.on_ground for x in blown)
+    assert result_summary(out, 0).segments[0].height == pytest.approx(0.4)
