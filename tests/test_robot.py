@@ -12,11 +12,13 @@ from rail_mj.core.errors import FragmentError, RobotError
 from rail_mj.core.types import RailObject
 from rail_mj.imagination import ImaginationConfig
 from rail_mj.mjcf import OBJECT_BODY, compose_scene
+from rail_mj.mjcf.body import body_fragment
 from rail_mj.robot import RobotConfig, build_scene, drive, execute
 from rail_mj.robot.arm import ARM_JOINTS
 from rail_mj.robot.control import make_torque_controlled
 from rail_mj.robot.demo import make_object, plan_offline, upright_pose
 from rail_mj.robot.model import MENAGERIE_ENV, PANDA_FILES, fetch_panda, load_panda_spec, panda_dir, verify_panda
+from rail_mj.robot.scene import graspable_scale
 
 
 def test_cached_model_verifies_and_loads(panda_folder):
@@ -183,3 +185,16 @@ def test_an_item_pressed_onto_a_bed_does_not_bring_the_fingertips_down_on_it(pan
     res = execute(obj, pose, doll, via, _on_object)
     assert res.reachable and res.success and res.force_events
     assert res.peak_force < 1.05 * res.force_limit
+
+
+def test_the_hand_carries_a_seated_figure_rigid_and_at_its_own_size():
+    doll = body_fragment("sit", 0.18, name="pelvis")
+    chair = make_object("chair", 0)
+    pose = upright_pose(chair)
+    # a box agent is scaled to the hand; the doll the request names keeps its size
+    assert graspable_scale(doll, np.asarray(pose.half_extents), RobotConfig()) == 1.0
+    scene = build_scene(RobotConfig(), obj=chair, pose=pose, agent_fragment=doll)
+    agent = scene.agent_body
+    hinges = [j for j in range(scene.model.njnt) if scene.model.body_rootid[scene.model.jnt_bodyid[j]] == agent
+              and scene.model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE]
+    assert not hinges  # its posture held as it was imagined: no hinge to swing out of the hand's weld

@@ -72,6 +72,9 @@ def test_judge_on_checks_support_tilt_and_the_figures_pelvis():
     slumped = judge(_state("on", [0.55, 0.0, 0.17], figure=True, support="table"))
     assert not slumped.success and "pelvis_on_object" in slumped.reason
     assert judge(_state("on", [0.55, 0.0, 0.17], figure=True)).success
+    # a seated doll's feet stand on the table as a sitter's on the floor; an apple touching it is not on the seat
+    assert judge(_state("on", [0.55, 0.0, 0.17], figure=True, touches_table=True)).success
+    assert not judge(_state("on", [0.55, 0.0, 0.17], touches_table=True)).success
 
 
 def test_judge_refuses_a_knocked_over_object_and_counts_droplets():

@@ -10,7 +10,7 @@ Per preposition and agent:
 - ``on``: each item rests touching the object, off the table, its centre over the object's footprint, tipped no
   more than :data:`MAX_TIP` from the orientation it was set down in. A figure (doll, teddy, person) must have its
   pelvis carried by the object: straight down from its centre the first thing is the object (the seat), not the
-  table or nothing.
+  table or nothing; its feet may touch the table, as a sitter's stand on the floor.
 
 In both cases the object must still stand (tipped no more than :data:`MAX_TIP`). :func:`observe` reads the end
 state out of a MuJoCo simulation; :func:`judge` decides from an :class:`EndState` alone, so hand-built end states
@@ -106,8 +106,10 @@ def judge(state: EndState) -> Judgement:
         "rests": moved < REST_SPEED * state.window,
         "over_footprint": (_inside(state.items[:, :2], state.footprint)
                            & _inside(state.items_before[:, :2], state.footprint)),
-        "off_table": ~state.touches_table & np.array([s != "table" for s in state.support], dtype=bool),
     }
+    off = np.array([s != "table" for s in state.support], dtype=bool)
+    # a figure's feet may stand on the table, as a sitter's stand on the floor: its pelvis is what must be off it
+    checks["off_table"] = off if state.figure else off & ~state.touches_table
     if state.preposition == "in":
         checks["below_rim"] = (state.items[:, 2] < state.rim_z) & (state.items_before[:, 2] < state.rim_z)
     else:

@@ -32,6 +32,7 @@ from rail_mj.robot.model import load_panda_spec
 
 __all__ = [
     "GRASP_QUAT",
+    "GRASP_TWIN",
     "Neighbour",
     "RobotScene",
     "build_scene",
@@ -46,6 +47,9 @@ __all__ = [
 _FINGERTIP_Z = 0.1125
 #: Agent frame -> hand frame: the hand points down (its z = the agent's -z).
 GRASP_QUAT = np.array([0.0, 1.0, 0.0, 0.0])
+#: The same grasp turned half a turn about the hand's axis: a parallel gripper holds the item alike either way round,
+#: and the wrist may reach one where its joint limits refuse the other.
+GRASP_TWIN = np.array([0.0, 0.0, 1.0, 0.0])
 #: A plan whose path runs at least this far, and more horizontally than vertically, may be held from the side, m.
 _SIDE_PUSH = 0.01
 _PRIMITIVES = (mujoco.mjtGeom.mjGEOM_SPHERE, mujoco.mjtGeom.mjGEOM_BOX, mujoco.mjtGeom.mjGEOM_CAPSULE,
@@ -111,6 +115,11 @@ def _agent_spec(fragment: str, scale: float) -> mujoco.MjSpec:
         if not np.isnan(g.mass):
             g.mass = g.mass * scale**3
     top = spec.worldbody.first_body()
+    # an articulated figure (the seat and lie kinds' body) is carried as one rigid piece in the posture it was
+    # imagined in, as a doll's stiff joints hold it: its posture springs are set for its imagined size, and
+    # scaled to a graspable size they would swing it out of the hand's weld
+    for joint in top.find_all(mujoco.mjtObj.mjOBJ_JOINT):
+        spec.delete(joint)
     nested = top.find_all(mujoco.mjtObj.mjOBJ_BODY)
     for body in nested:
         body.pos = np.asarray(body.pos) * scale
@@ -276,7 +285,11 @@ def home_grip(scene: RobotScene) -> tuple[np.ndarray, np.ndarray]:
 
 
 def graspable_scale(fragment: str, half_extents: np.ndarray, cfg: RobotConfig) -> float:
-    """Scale that makes the agent graspable (cfg.agent_size) but smaller than the object's footprint."""
+    """Scale that makes the agent graspable (cfg.agent_size) but smaller than the object's footprint. An
+    articulated figure (the seat and lie kinds' body) keeps its own size, 1: it is the doll or teddy the request
+    names, imagined at that size on furniture of that size, and the hand holds it by its trunk."""
+    if check_fragment(fragment).worldbody.first_body().find_all(mujoco.mjtObj.mjOBJ_JOINT):
+        return 1.0
     size = float(np.max(_agent_extent(fragment)))
     lo, hi = cfg.agent_size
     target = min(max(size, lo), hi, 0.5 * 2 * float(np.min(half_extents[:2])))
