@@ -12,6 +12,7 @@ from pydantic import ValidationError
 
 from rail_mj.affordances import (
     ANY,
+    LIQUID_RADIUS,
     PAPER_AFFORDANCES,
     REGISTRY,
     Affordance,
@@ -22,6 +23,7 @@ from rail_mj.affordances import (
     normalize,
 )
 from rail_mj.affordances.kinds import KINDS, kind_of
+from rail_mj.affordances.kinds.container import ContainerParams
 from rail_mj.core.errors import UnknownAffordanceError
 from rail_mj.dataset import ground_truth as dataset
 from rail_mj.dataset.labels import LabelRecord
@@ -142,3 +144,23 @@ def test_the_registry_imports_without_the_llm_stages_and_the_kinds_import_first(
     first = "import rail_mj.affordances.kinds as k, rail_mj.llm.offline as o; assert o.kinds is k"
     for code in (light, first):
         subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_a_liquid_is_one_drop_size_in_any_vessel():
+    """Water is water: an espresso cup's, a vase's neck's and a bathtub's droplets are the same drop."""
+    liquid = [a for a in REGISTRY.values()
+              if isinstance(a.params, ContainerParams) and a.params.droplets.max_radius <= LIQUID_RADIUS]
+    assert {"cup", "bowl", "vase", "bathtub"} <= {a.name for a in liquid}
+    for aff in liquid:
+        for middle in (0.05, 0.08, 0.2, 0.8):
+            assert KINDS["container"].agent(aff, (middle, middle, middle)).radius == pytest.approx(LIQUID_RADIUS)
+
+
+@pytest.mark.parametrize("kind, name", [("dish", "plate"), ("surface", "table")])
+def test_the_agent_placed_on_a_figures_dish_or_table_is_sized_to_it(kind, name):
+    """A doll's side plate or smallest table (a person's scaled by 0.3 / 1.7) gets food or a book sized to it,
+    never one wider than the object itself."""
+    doll = 0.3 / 1.7
+    width = {"plate": 0.15, "table": 0.5}[name] * doll
+    shape = KINDS[kind].agent(REGISTRY[name], (width, width, 0.02 * doll))
+    assert 2 * shape.radius < width

@@ -66,11 +66,11 @@ def _find(name: str) -> Affordance | None:
     return next((BY_NAME[c] for c in candidates if c in BY_NAME), None)
 
 
-def closest_names(name: str, n: int = 4) -> list[str]:
-    """The registered names and aliases spelt most like ``name`` (difflib), best first; an alias as
-    ``"alias (name)"``."""
+def closest_names(name: str) -> list[str]:
+    """The registered names and aliases spelt most like ``name`` (difflib's defaults: its three closest, at
+    least 0.6 alike), best first; an alias as ``"alias (name)"``."""
     index = dict(BY_NAME)
-    close = difflib.get_close_matches(_spelling(name), list(index), n=n, cutoff=0.5)
+    close = difflib.get_close_matches(_spelling(name), list(index))
     return [c if index[c].name == c else f"{c} ({index[c].name})" for c in close]
 
 

@@ -28,7 +28,7 @@ from pathlib import Path
 
 from rail_mj.affordances.envelope import Envelope
 from rail_mj.affordances.files import FileRow, entry_point_rows, read
-from rail_mj.affordances.kinds.container import ContainerParams, Droplets
+from rail_mj.affordances.kinds.container import LIQUID_RADIUS, ContainerParams, Droplets
 from rail_mj.affordances.kinds.seat import SeatParams
 from rail_mj.affordances.kinds.surface import SurfaceParams
 from rail_mj.affordances.row import Affordance
@@ -53,18 +53,31 @@ __all__ = [
 #: A person's height (m): the registry's sizes are those of things a person uses.
 PERSON_HEIGHT = 1.7
 
-#: Largest droplet radius standing for a liquid, m: drops 9 mm across leak through 1 cm slots and holes.
-LIQUID_RADIUS = 0.0045
-
-#: Droplets of a liquid: small enough to leak through a basket's slots, the same size in any vessel.
+#: Droplets of a liquid: drops of water (LIQUID_RADIUS), small enough to leak through a basket's slots, the same
+#: size in any vessel (a vase's narrow neck or a bathtub).
 _LIQUID = Droplets(max_radius=LIQUID_RADIUS)
 
-#: A hand's grip (m): the widest rim one hand holds round (a cup's widest), the narrowest a bowl or a basket has.
+#: A hand's grip (m): the widest rim or body one hand holds round (a cup's, a jar's, a pen holder's widest), the
+#: narrowest a vessel held by its handles or in both hands has (a bowl, a basket, a pot, a bucket).
 _GRIP = 0.125
+#: A cup's height (m): an espresso cup's 6 cm to a tall mug's 16 cm, deep enough to drink from; a pencil cup's too.
+_CUP_HEIGHT = (0.06, 0.16)
+#: The line between a wide, shallow vessel and a deep one, as wall height / rim width: a bowl's wall is at most
+#: 0.55 of its rim (a deep cereal bowl), a cup's or a bucket's higher.
+_BOWL_DEPTH = 0.55
 #: The span of two arms carrying a thing before the body (m): a basket's or a tray's widest.
 _ARMS = 0.6
-#: A dish's rim (m): a finger high, 1-4.5 cm from its foot to its rim (a plate's, a tray's).
+#: A dish's rim (m): a finger high, 1-4.5 cm from its foot to its rim (a plate's, a tray's, a saucer's, a soap
+#: dish's); a vessel (a bowl, a basket) is deeper than the deepest dish.
 _DISH = (0.01, 0.045)
+#: A plate's diameter (m): a side plate's 15 cm to a charger's 32 cm. A saucer is smaller than a side plate; a
+#: cupboard is at least a plate deep.
+_PLATE = (0.15, 0.32)
+#: A table's lowest top (m): a seated person's elbow over a low table (0.55 m); a coffee table is lower.
+_TABLE_LOW = 0.55
+#: A standing person's hip height (m; Pheasant, Bodyspace: about 0.9 m): the highest rim one drops waste into or
+#: steps over into a bath.
+_HIP = 0.9
 #: Seat heights (m): the lowest a person sits on, a 5th-percentile woman's popliteal height (0.36 m), and the
 #: highest whose feet stand on the floor, a 95th-percentile man's with shoes (0.57 m; Pheasant, Bodyspace).
 _SEAT_LOW, _KNEE = 0.36, 0.57
@@ -86,69 +99,64 @@ def _rows() -> tuple[Affordance, ...]:
     return (
         Affordance("cup", "container", "A cup holds a small amount of liquid in an upward-facing cavity that can be "
                    "filled from above and keeps the liquid while resting on a table; it is held in one hand (rim at "
-                   "most 12.5 cm across, 6-16 cm tall, taller than about half its width).",
+                   "most 12.5 cm across, 6-16 cm tall, taller than 0.55 of its width).",
                    aliases=("mug",), paper=True, params=ContainerParams(droplets=_LIQUID, holds_water=True),
-                   # held in one hand (its rim the width; a handle lengthens the box, never widens it); 6 cm (an
-                   # espresso cup) to 16 cm (a tall mug) deep enough to drink from
-                   envelope=Envelope(height=(0.06, 0.16), width=(0.0, _GRIP),
-                                     aspect=(0.5, inf))),  # a cup's wall is at least half its rim high
+                   # held in one hand (its rim the width; a handle lengthens the box, never widens it)
+                   envelope=Envelope(height=_CUP_HEIGHT, width=(0.0, _GRIP), aspect=(_BOWL_DEPTH, inf))),
         Affordance("bowl", "container", "A bowl holds food or liquid in a wide, open, upward-facing cavity reachable "
-                   "from above (rim 12.5-35 cm across, up to 50 cm long with a handle, at least 4 cm deep, height at "
+                   "from above (rim 12.5-35 cm across, up to 50 cm long with a handle, at least 4.5 cm deep, height at "
                    "most 0.55 of the rim).", paper=True, params=ContainerParams(droplets=_LIQUID, holds_water=True),
                    # a rim wider than a hand's grip up to a serving bowl's 40 cm (a saucepan's handle lengthens
-                   # its box, never widens it); 4 cm (a soup plate's depth) to 20 cm deep; wide and shallow: the
-                   # wall at most 0.55 of the rim
-                   envelope=Envelope(height=(0.04, 0.2), width=(_GRIP, 0.4), aspect=(0.0, 0.55))),
+                   # its box, never widens it); deeper than a dish, to 20 cm deep; wide and shallow
+                   envelope=Envelope(height=(_DISH[1], 0.2), width=(_GRIP, 0.4), aspect=(0.0, _BOWL_DEPTH))),
         Affordance("vase", "container", "A vase holds water and flower stems in a deep cavity with an opening at the "
                    "top, often narrower than its body (15-80 cm tall, clearly taller than wide, its body rarely over "
                    "23 cm across).", paper=True,
-                   # droplets sized to a narrow neck: 3.5% of the body's width
-                   params=ContainerParams(droplets=Droplets(scale=0.035, max_radius=LIQUID_RADIUS),
-                                          holds_water=True),
+                   params=ContainerParams(droplets=_LIQUID, holds_water=True),
                    # a bud vase's 15 cm to a floor vase's 80 cm; a body an arm holds (23 cm); taller than wide (1.2)
                    envelope=Envelope(height=(0.15, 0.8), width=(0.0, 0.23), aspect=(1.2, inf))),
-        Affordance("pot", "container", "A pot holds food or soil in an open cavity, filled from above (rim 15-45 cm, "
+        Affordance("pot", "container", "A pot holds food or soil in an open cavity, filled from above (rim 12.5-50 cm, "
                    "10-30 cm tall).", params=ContainerParams(droplets=_LIQUID),
-                   # a cooking or flower pot: a 15-50 cm rim on a hob or a sill, 10-30 cm deep, 0.4 of its rim at least
-                   envelope=Envelope(height=(0.1, 0.3), width=(0.15, 0.5), aspect=(0.4, inf))),
+                   # a cooking or flower pot: a rim wider than a hand's grip to 50 cm on a hob or a sill, 10-30 cm
+                   # deep, 0.4 of its rim at least
+                   envelope=Envelope(height=(0.1, 0.3), width=(_GRIP, 0.5), aspect=(0.4, inf))),
         Affordance("pen holder", "container", "A pen holder keeps pens upright in an open cavity filled from above "
-                   "(opening 4-12.5 cm, 7-16 cm tall).", aliases=("pencil holder", "pencil cup"),
-                   # a pen's 14 cm stands in it up to half its length (7-16 cm); a hand's grip wide at most (15 cm)
-                   envelope=Envelope(height=(0.07, 0.16), width=(0.0, 0.15))),
+                   "(at most 12.5 cm across, 6-16 cm tall).", aliases=("pencil holder", "pencil cup"),
+                   # a cup for pens, a cup's size: a pen's 14 cm stands in it up to half its length
+                   envelope=Envelope(height=_CUP_HEIGHT, width=(0.0, _GRIP))),
         Affordance("trash bin", "container", "A trash bin collects waste dropped through its top opening and keeps "
                    "it inside (opening at least 18 cm, 30-90 cm tall).", aliases=("trash can", "garbage can", "bin"),
-                   # stands on the floor, its opening from a desk bin's knee height (30 cm) to a hip's (90 cm),
+                   # stands on the floor, its opening from a desk bin's knee height (30 cm) to a hip's,
                    # wider than a hand's full (18 cm) and narrower than a wheelie bin (80 cm)
-                   envelope=Envelope(height=(0.3, 0.9), width=(0.18, 0.8))),
+                   envelope=Envelope(height=(0.3, _HIP), width=(0.18, 0.8))),
         Affordance("basket", "container", "A basket carries items in an open, often perforated cavity whose holes are "
-                   "smaller than the items (opening over 12.5 cm, 4-35 cm deep, footprint at most 60 cm, not taller "
+                   "smaller than the items (opening over 12.5 cm, 4.5-35 cm deep, footprint at most 60 cm, not taller "
                    "than wide).", paper=True,
                    # items, not liquid: 2.4 cm across at least, larger than a basket's weave or slots
                    params=ContainerParams(droplets=Droplets(min_radius=0.012)),
-                   # carried in the arms: wider than a hand's grip, 4 cm (a bread basket) to 35 cm (a laundry
-                   # basket) deep, not taller than wide
-                   envelope=Envelope(height=(0.04, 0.35), width=(_GRIP, _ARMS), aspect=(0.0, 1.0))),
+                   # carried in the arms: wider than a hand's grip, deeper than a dish (a bread basket) to 35 cm
+                   # (a laundry basket) deep, not taller than wide
+                   envelope=Envelope(height=(_DISH[1], 0.35), width=(_GRIP, _ARMS), aspect=(0.0, 1.0))),
         Affordance("bathtub", "container", "A bathtub holds enough water for a person to bathe in a long open basin "
-                   "on the floor (over 1.2 m long inside, 0.35-0.8 m tall).", aliases=("bath tub", "tub"), paper=True,
-                   # droplets sized to a basin a person fills; the basin a bather sits in with legs stretched: their
-                   # buttock-heel length, 0.6 of stature (Pheasant, Bodyspace); a console on its back, whose
-                   # compartments hold water, parts it into basins 0.6-0.9 m long
-                   params=ContainerParams(droplets=Droplets(scale=0.05, max_radius=LIQUID_RADIUS),
-                                          holds_water=True, basin_length=0.6 * PERSON_HEIGHT),  # Bodyspace
-                   # a person lies in it: a rim at knee to hip height (0.35-0.8 m), wider than the hips (0.5 m),
-                   # longer than a sitting bather (1.25 m) and than a lying one (2.5 m) at most
-                   envelope=Envelope(height=(0.35, 0.8), width=(0.5, inf), length=(1.25, 2.5))),
+                   "on the floor (over 1 m long inside, 0.35-0.9 m tall).", aliases=("bath tub", "tub"), paper=True,
+                   # the basin a bather sits in with legs stretched: their buttock-heel length, 0.6 of stature
+                   # (Pheasant, Bodyspace); a console on its back, whose compartments hold water, parts it into
+                   # basins 0.6-0.9 m long. The basin decides how long a tub is at least: no bound on its box
+                   params=ContainerParams(droplets=_LIQUID, holds_water=True,
+                                          basin_length=0.6 * PERSON_HEIGHT),  # Bodyspace
+                   # a person lies in it: a rim at knee to hip height, wider than the hips (0.5 m), no longer than
+                   # a lying one (2.5 m)
+                   envelope=Envelope(height=(0.35, _HIP), width=(0.5, inf), length=(0.0, 2.5))),
         Affordance("plate", "dish", "A plate holds food on a low, level, nearly flat surface (15-32 cm across, 1-4 cm "
                    "tall).", aliases=("dish",), paper=True,
-                   # a side plate's 15 cm to a charger's 32 cm
-                   envelope=Envelope(height=_DISH, length=(0.15, 0.32))),
+                   envelope=Envelope(height=_DISH, length=_PLATE)),
         Affordance("table", "surface", "A table holds items on a level top surface 0.55-1.1 m high and at least "
                    "0.5 m across, with free space above it and room for a person's feet under its edge.",
                    paper=True, params=SurfaceParams(legroom=True),
-                   # its top at a seated person's elbow (a coffee table's 0.55 m) to a standing one's (a bar
-                   # table's 1.12 m), wide enough for a place setting (0.5 m); the top's depth against its height
-                   # is no rule: a desk or a console is 0.55-0.6 m deep and 0.6-0.77 m high
-                   envelope=Envelope(height=(0.55, 1.12), width=(0.5, inf))),
+                   # its top at a seated person's elbow to a standing one's (a bar table's 1.12 m), wide enough
+                   # for a place setting (0.5 m); the top's depth against its height is no rule: a desk or a
+                   # console is 0.55-0.6 m deep and 0.6-0.77 m high
+                   envelope=Envelope(height=(_TABLE_LOW, 1.12), width=(0.5, inf))),
         Affordance("chair", "seat", "A chair lets one person sit: a level seat 0.3-0.7 m across, 0.38-0.55 m "
                    "high, up to 0.77 m for a counter or bar chair (feet on a rung, a back behind), usually with a "
                    "backrest.",
@@ -180,25 +188,25 @@ def _rows() -> tuple[Affordance, ...]:
                    _FURNITURE, (0.15, 0.8), aliases=("bookshelf",)),
         Affordance("cupboard", "storage", "A cupboard stores items inside an enclosure on level boards, reached "
                    "through an opening at the front.",
-                   # at least a plate's depth (0.3 m), within an arm's reach (1 m)
-                   _FURNITURE, (0.3, 1.0), aliases=("cabinet",)),
+                   # at least a plate's depth, within an arm's reach (1 m)
+                   _FURNITURE, (_PLATE[1], 1.0), aliases=("cabinet",)),
         Affordance("bucket", "container", "A bucket carries water or soil in an open, upward-facing cavity with a "
-                   "flat base, filled from above and keeping its load while standing (opening 15-40 cm across, "
+                   "flat base, filled from above and keeping its load while standing (opening 12.5-40 cm across, "
                    "15-45 cm tall, about as tall as wide).", aliases=("pail",),
                    params=ContainerParams(droplets=_LIQUID, holds_water=True),
-                   # carried by a handle beside the leg: 15-45 cm tall, 14-40 cm across; about as tall as wide
-                   # (0.6-2), which keeps a bowl (at most 0.55) and a tall narrow bin out
-                   envelope=Envelope(height=(0.15, 0.45), width=(0.14, 0.4), aspect=(0.6, 2.0))),
+                   # carried by a handle beside the leg: 15-45 cm tall, wider than a hand's grip to 40 cm across;
+                   # deeper than a bowl and at most twice as tall as wide, which keeps a tall narrow bin out
+                   envelope=Envelope(height=(0.15, 0.45), width=(_GRIP, 0.4), aspect=(_BOWL_DEPTH, 2.0))),
         Affordance("jar", "container", "A jar stores food or liquid in a standing cavity with a wide mouth at the "
-                   "top, filled from above and keeping its contents (5-16 cm across, 7-30 cm tall, at least as "
+                   "top, filled from above and keeping its contents (at most 12.5 cm across, 7-30 cm tall, at least as "
                    "tall as wide).", aliases=("mason jar", "jam jar"),
                    params=ContainerParams(droplets=_LIQUID, holds_water=True),
-                   # a spice jar's 7 cm to a storage jar's 30 cm, a hand's grip wide (16 cm), as tall as wide
-                   envelope=Envelope(height=(0.07, 0.3), width=(0.0, 0.16), aspect=(1.0, inf))),
+                   # a spice jar's 7 cm to a storage jar's 30 cm, a hand's grip wide, as tall as wide
+                   envelope=Envelope(height=(0.07, 0.3), width=(0.0, _GRIP), aspect=(1.0, inf))),
         Affordance("saucer", "dish", "A saucer holds a cup or a little food on a small, low dish with a shallow "
-                   "well inside a rim (10-18 cm across, 1-3.5 cm tall).",
-                   # under a cup's foot (10 cm) to a side plate's size (18 cm), 1-3.5 cm high
-                   envelope=Envelope(height=(0.01, 0.035), length=(0.1, 0.18))),
+                   "well inside a rim (10-15 cm across, 1-4.5 cm tall).",
+                   # under a cup's foot (10 cm) to a side plate's size, a dish's rim high
+                   envelope=Envelope(height=_DISH, length=(0.1, _PLATE[0]))),
         Affordance("nightstand", "surface", "A nightstand holds a lamp, a book or a glass beside a bed on a level top "
                    "0.4-0.75 m high, 0.25-0.55 m deep and at most 0.8 m long, lower and smaller than a table.",
                    aliases=("night stand", "bedside table", "night table", "bedside cabinet"),
@@ -212,18 +220,19 @@ def _rows() -> tuple[Affordance, ...]:
                    # a board for a hand and a knife: 0.8-5 cm thick, 12-40 cm wide, 20-60 cm long
                    envelope=Envelope(height=(0.008, 0.05), width=(0.12, 0.4), length=(0.2, 0.6))),
         # a low table in front of a sofa: its top is about a sofa seat's height (0.4-0.46 m, 16-18 in), low ones
-        # 0.3 m; 0.5-1.6 m long (a small round one to two thirds of a 2.3 m sofa), at least a tray across (0.45 m).
+        # 0.3 m, lower than a table's; 0.5-1.6 m long (a small round one to two thirds of a 2.3 m sofa), at least
+        # a tray across (0.45 m).
         # One sits behind it, not at it with knees under its edge: no legroom
         Affordance("coffee table", "surface", "A coffee table holds cups, books or a tray in front of a sofa on a "
-                   "level top 0.3-0.5 m high, at least 0.45 m across, lower than a table.",
+                   "level top 0.3-0.55 m high, at least 0.45 m across, lower than a table.",
                    aliases=("cocktail table", "sofa table"),
-                   envelope=Envelope(height=(0.3, 0.5), width=(0.45, 1.2), length=(0.5, 1.6))),
-        # a bar of soap is 7-10 cm long, 5-6.5 cm wide, 2-3 cm thick; its dish is a little longer (9-16 cm) and
-        # 1-4 cm tall, ribbed or with a shallow well
+                   envelope=Envelope(height=(0.3, _TABLE_LOW), width=(0.45, 1.2), length=(0.5, 1.6))),
+        # a bar of soap is 7-10 cm long, 5-6.5 cm wide, 2-3 cm thick; its dish is a little longer (9-16 cm),
+        # a dish's rim high, ribbed or with a shallow well
         Affordance("soap dish", "dish", "A soap dish holds a bar of soap on a small, low dish with a shallow well or "
-                   "ribs inside a rim (9-16 cm long, 1-4 cm tall).",
+                   "ribs inside a rim (9-16 cm long, 1-4.5 cm tall).",
                    aliases=("soap holder", "soap tray"),
-                   envelope=Envelope(height=(0.01, 0.04), length=(0.09, 0.16))),
+                   envelope=Envelope(height=_DISH, length=(0.09, 0.16))),
     )
 
 

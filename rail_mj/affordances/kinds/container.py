@@ -40,7 +40,11 @@ from rail_mj.core.profile import (
     ViaPose,
 )
 
-__all__ = ["MIN_DEPTH", "MAX_OPEN", "Droplets", "ContainerParams", "Container"]
+__all__ = ["LIQUID_RADIUS", "MIN_DEPTH", "MAX_OPEN", "Droplets", "ContainerParams", "Container"]
+
+#: A drop of water's radius (m): 8 mm across, the largest a falling drop holds together; it leaks through 1 cm
+#: slots and holes. The smallest droplet agent, and a liquid's only size.
+LIQUID_RADIUS = 0.004
 
 
 @dataclass(frozen=True)
@@ -49,8 +53,9 @@ class Droplets:
     [``min_radius``, ``max_radius``] m; at the default scale the 3x3x3 grid spans ~30% of that dim."""
 
     scale: float = 0.045  # the grid spans ~30% of the opening: a pour narrower than it, as from a jug
-    min_radius: float = 0.004  # a drop of water 8 mm across, the largest a falling drop holds together
-    max_radius: float = 0.05  # an item 10 cm across, a fruit: the largest a basket is filled with
+    min_radius: float = LIQUID_RADIUS  # no agent smaller than a drop of water
+    # items grow with the opening: a basket's or a bin's size prior bounds them (a fruit, 10 cm across at most)
+    max_radius: float = math.inf
 
 
 @dataclass(frozen=True)

@@ -27,10 +27,11 @@ class Dish(Lowering):
     target = "the dish"
 
     def agent(self, aff: Affordance, dims: Sequence[float]) -> AgentShape:
-        # a portion half the dish across (radius a quarter of it), from a 4 cm biscuit to a 24 cm pizza
-        a = min(0.12, max(0.02, 0.25 * dims[1]))
-        # a tenth of its radius thick, 1-3 cm: a slice of bread to a steak
-        c = min(0.015, max(0.005, 0.1 * a))
+        # a portion half the dish across (radius a quarter of it): sized to the dish, as a figure's dish is to
+        # the figure (the dish's size prior keeps it a biscuit to a pizza)
+        a = 0.25 * dims[1]
+        # a tenth of its radius thick: a slice of bread on a side plate, a steak on a charger
+        c = 0.1 * a
         mass = WATER_DENSITY * math.pi * a * a * 2 * c  # food is mostly water
         return AgentShape(f'type="cylinder" size="{a:.4f} {c:.4f}"', math.hypot(a, c), c, mass, "food")
 

@@ -40,8 +40,9 @@ class Storage(Kind):
                         "and the {name} does not tip over.")
 
     def agent(self, aff: Affordance, dims: Sequence[float]) -> AgentShape:
-        # a book or a jar, 20 cm at most, and a fifth of the thinnest side (never taller than a shelf allows)
-        side = min(0.1, 0.2 * dims[2])
+        # a book or a jar, a fifth of the thinnest side (never taller than a shelf allows): sized to the furniture,
+        # whose size prior keeps it a book's size
+        side = 0.2 * dims[2]
         return box_agent("item", (side, side, side))
 
     def plans(self, shape: AgentShape) -> list[MotionPlan]:

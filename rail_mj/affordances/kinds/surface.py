@@ -37,9 +37,9 @@ class SurfaceParams(KindParams):
     legroom: bool = False  # used from beside it, so a person's feet go under its top's edge
 
 _HALF_Z = 0.015  # the book's half height, m: a 3 cm book
-#: How many of the five lowering plans must succeed: a top at least half a metre across holds the box placed
-#: off centre too, a small pedestal foot or a stretcher only at one place.
-_MIN_PLANS = 4
+#: How many of the five lowering plans (the centre and one to each side) must succeed: all but one. A top holds
+#: the box placed off centre too, a small pedestal foot or a stretcher only at one place.
+_MIN_PLANS = len(SIDES)
 #: A top has free space above it: the box rests at least this high in the pose's box (its centre, in units of
 #: the box's half height; 1 = the box top). Upside down, a console holds the box on its bottom among its legs,
 #: which rise 8 cm or more above it (0.8 or lower in its 0.7 m box); a stretcher or a shelf is lower still.
@@ -66,8 +66,9 @@ class Surface(Lowering):
     max_agent_tilt = 10  # a glass stands on a top within 10 deg of level, a book slides at 15 (LEVEL_DEG)
 
     def agent(self, aff: Affordance, dims: Sequence[float]) -> AgentShape:
-        # a book or a dish, a quarter of the top across, from a coaster's 8 cm to a tray's 30 cm
-        return box_agent("book", (min(0.15, max(0.04, 0.12 * dims[1])),) * 2 + (_HALF_Z,))
+        # a book or a dish, a quarter of the top across: sized to the top, as a figure's table is to the figure
+        # (the top's size prior keeps it a coaster to a tray)
+        return box_agent("book", (0.12 * dims[1],) * 2 + (_HALF_Z,))
 
     def plans(self, shape: AgentShape) -> list[MotionPlan]:
         return super().plans(shape) + [
