@@ -4,7 +4,6 @@ it on the object's second decomposition, CoACD's other concavity threshold."""
 from __future__ import annotations
 
 import numpy as np
-import pytest
 import trimesh
 
 from rail_mj.affordances import REGISTRY, get
