@@ -4,15 +4,19 @@ it on the object's second decomposition, CoACD's other concavity threshold."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import trimesh
 
 from rail_mj.affordances import REGISTRY, get
+from rail_mj.core.results import AffordanceResult, PoseProbability
 from rail_mj.core.types import StablePose
 from rail_mj.imagination import ImaginationConfig
 from rail_mj.imagination.perturb import resting_on
 from rail_mj.mesh import DENSE_DECOMPOSITION, DENSE_FACES, DecompositionConfig, second_decomposition
+from rail_mj.pipeline import chain
 from rail_mj.pipeline.chain import Pipeline, classify
 from rail_mj.pipeline.config import RunConfig
+from rail_mj.pipeline.verdicts import undecided
 from rail_mj.robot.demo import make_object
 
 
@@ -38,17 +42,42 @@ def test_the_object_rests_on_its_second_hulls_where_it_rested_on_its_first():
     assert resting_on(pose, (hull,), (hull,)).pos.tolist() == pose.pos.tolist()
 
 
-def _worlds(affordance: str, **imagination) -> list[tuple[int, int]]:
+def _cup(**imagination) -> AffordanceResult:
     config = RunConfig(imagination=ImaginationConfig(perturbations=2, **imagination))
-    r = classify([make_object("cup", 0)], [affordance], provider="offline", progress=False, workers=1,
+    r = classify([make_object("cup", 0)], ["cup"], provider="offline", progress=False, workers=1,
                  pose="as_placed", config=config)[0]
     assert r.error is None
-    return [(v.worlds, v.imagined) for v in r.pose_verdicts]
+    return r
 
 
-def test_a_cup_is_imagined_once_more_on_its_second_decomposition():
-    assert _worlds("cup") == [(4, 4)]  # nominal, 2 perturbed, the second decomposition
-    assert _worlds("cup", perturb_decomposition=False) == [(3, 3)]
+def test_a_settled_verdict_is_not_imagined_again_an_open_one_is(monkeypatch):
+    settled = _cup()
+    # held in the nominal world and both perturbed ones, prior 1: 3 of 4 would still be functional
+    assert [(v.worlds, v.imagined, v.successes) for v in settled.pose_verdicts] == [(3, 3, 3)]
+    assert "second_decomposition" not in settled.timings
+    monkeypatch.setattr(chain, "undecided", lambda verdicts, slots: list(slots))  # as if the verdict were open
+    opened = _cup()
+    assert [(v.worlds, v.imagined) for v in opened.pose_verdicts] == [(4, 4)]
+    assert opened.timings["second_decomposition"] > 0
+    assert _cup(perturb_decomposition=False).pose_verdicts[0].imagined == 3
+
+
+def _verdict(prior: float, successes: int, imagined: int = 5) -> PoseProbability:
+    physics = successes / imagined
+    return PoseProbability(index=0, prior=prior, physics=physics, probability=prior * physics, successes=successes,
+                           worlds=imagined, imagined=imagined, best_plan="above" if successes else None)
+
+
+@pytest.mark.parametrize("prior, successes, open_", [
+    (1.0, 5, False),  # 5 of 6 even if it fails: functional either way
+    (1.0, 2, True),  # 2 of 6 or 3 of 6: it decides
+    (0.6, 5, False),  # 0.6 x 5/6 = 0.5: functional either way
+    (0.6, 4, True),  # 0.6 x 4/6 = 0.4 or 0.6 x 5/6 = 0.5
+    (1.0, 1, False),  # 1 or 2 of 6: not functional either way
+])
+def test_undecided_names_the_poses_one_more_world_could_turn(prior, successes, open_):
+    verdicts = [_verdict(1.0, 5), _verdict(prior, successes)]
+    assert undecided(verdicts, [0, 1]) == ([1] if open_ else [])
 
 
 def test_only_uses_that_rest_in_concavities_get_the_second_decomposition():

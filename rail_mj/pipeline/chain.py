@@ -37,6 +37,7 @@ from rail_mj.pipeline.verdicts import (
     most_probable,
     pose_prior,
     pose_probabilities,
+    undecided,
     world_outcomes,
 )
 from rail_mj.scoring import ScoringFunction, compile_scoring
@@ -238,23 +239,25 @@ class Pipeline:
                             perturbations=perturbations.perturbed)
             perturbed = (again, scorer(again), slots)
         timings["perturbed_worlds"] = time.perf_counter() - t
-        decomposed = None
-        if slots and self._decomposition_matters(row):
-            t = time.perf_counter()
-            second = self._second(obj)
-            again = imagine(second, [resting_on(poses[kept[k]], obj.hulls, second.hulls) for k in slots], agents,
-                            [trajectories[k] for k in slots], backend=self.backend, config=self.config.imagination)
-            decomposed = (again, scorer(again), slots)
-            timings["second_decomposition"] = time.perf_counter() - t
-
         t = time.perf_counter()
         verdict = self._analyse(profile, poses, kept, outcomes, scores, trajectories)
         pose_list = cast(Sequence[StablePose], poses)  # StablePoses reads as a sequence of StablePose
-        result.pose_verdicts = pose_probabilities(
-            profile.affordance, profile.scale, obj.obb_dims, profile.plans.plans, pose_list, kept, (outcomes, scores),
-            trajectories, perturbations, perturbed, verdict, llm_veto=self.provider_name != "offline",
-            decomposed=decomposed)
+        args = (profile.affordance, profile.scale, obj.obb_dims, profile.plans.plans, pose_list, kept,
+                (outcomes, scores), trajectories, perturbations, perturbed, verdict)
+        veto = self.provider_name != "offline"
+        result.pose_verdicts = pose_probabilities(*args, llm_veto=veto)
         timings["functional_pose_analyzer"] = time.perf_counter() - t
+        # the second decomposition: one more world for the poses whose verdict it could still change
+        again_slots = undecided(result.pose_verdicts, slots) if self._decomposition_matters(row) else []
+        if again_slots:
+            t = time.perf_counter()
+            second = self._second(obj)
+            again = imagine(second, [resting_on(poses[kept[k]], obj.hulls, second.hulls) for k in again_slots],
+                            agents, [trajectories[k] for k in again_slots], backend=self.backend,
+                            config=self.config.imagination)
+            result.pose_verdicts = pose_probabilities(*args, llm_veto=veto,
+                                                      decomposed=(again, scorer(again), again_slots))
+            timings["second_decomposition"] = time.perf_counter() - t
         result.timings = timings
         if verdict is None:
             result.analyzer_reasons = ["no plan scored above 0 in any stable pose"]

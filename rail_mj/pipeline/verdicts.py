@@ -17,10 +17,10 @@ every plan of the poses with a candidate there (a plan scored above 0) whose pri
 :data:`rail_mj.affordances.prior.FUNCTIONAL`: a pose without a candidate has no success to confirm (its
 physics is 0), and one with a smaller prior stays below it whatever its physics, so its verdict cannot change
 (its physics is the nominal world's, 0 or 1). Where the use rests in the object's concavities (a kind's
-``decomposition_matters``), one more world imagines those poses again on the object's second decomposition
-(:func:`rail_mj.mesh.second_decomposition`: CoACD's other concavity threshold), in a third batched call (its hulls
-differ in number and shape, so it cannot share the perturbed worlds' model layout). ``W`` is the number of worlds
-a pose was imagined in. With an
+``decomposition_matters``), one more world imagines again, on the object's second decomposition
+(:func:`rail_mj.mesh.second_decomposition`: CoACD's other concavity threshold), the poses whose verdict it could
+still change (:func:`undecided`), in a third batched call (its hulls differ in number and shape, so it cannot share
+the perturbed worlds' model layout). ``W`` is the number of worlds a pose was imagined in. With an
 LLM provider, a pose its stage 7 rejected in the nominal world has physics 0: common sense vetoes what the
 rules would let through. The priors are :meth:`Affordance.size_prior`
 and :meth:`Affordance.pose_prior` (1 for an affordance outside the registry).
@@ -50,7 +50,7 @@ from rail_mj.imagination.summary import pose_candidates
 from rail_mj.llm.offline import judge_pose, rules_row
 from rail_mj.llm.schemas import FunctionalPoseVerdict
 
-__all__ = ["world_outcomes", "candidate_slots", "pose_prior", "pose_probabilities", "most_probable"]
+__all__ = ["world_outcomes", "candidate_slots", "undecided", "pose_prior", "pose_probabilities", "most_probable"]
 
 
 def world_outcomes(outcomes: Outcomes, scores: np.ndarray, n_worlds: int) -> list[tuple[Outcomes, np.ndarray]]:
@@ -76,6 +76,20 @@ def candidate_slots(scores: np.ndarray, n_kept: int, n_plans: int,
     the physics."""
     grid = np.asarray(scores, dtype=float).reshape(n_kept, n_plans)
     return [k for k in range(n_kept) if np.any(grid[k] > 0) and (priors is None or priors[k] >= FUNCTIONAL)]
+
+
+def undecided(verdicts: Sequence[PoseProbability], slots: Sequence[int]) -> list[int]:
+    """Of the pose ``slots`` (into the imagined poses, whose ``verdicts`` these are, in order) the ones whose verdict
+    one more world could change: with it counted, ``prior x successes / (imagined + 1)`` is below FUNCTIONAL and
+    ``prior x (successes + 1) / (imagined + 1)`` is not. For the others the verdict is the same whatever that world
+    shows (and the same as without it), so it is not imagined."""
+    out = []
+    for k in slots:
+        v = verdicts[k]
+        n = v.imagined + 1
+        if v.prior * v.successes / n < FUNCTIONAL <= v.prior * (v.successes + 1) / n:
+            out.append(k)
+    return out
 
 
 def pose_prior(aff: Affordance | None, obb_dims: Sequence[float] | np.ndarray, pose: StablePose) -> Prior:
@@ -186,7 +200,7 @@ def pose_probabilities(
         out.append(PoseProbability(
             index=i, prior=_unit(prior), prior_factors=doc, physics=_unit(physics),
             probability=_unit(prior * physics), best_plan=best, successes=successes,
-            worlds=perturbations.n_worlds + (decomposed is not None), imagined=imagined, blew_up=blew_up[k],
+            worlds=perturbations.n_worlds + (k in second), imagined=imagined, blew_up=blew_up[k],
         ))
     return out
 
