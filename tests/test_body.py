@@ -18,7 +18,7 @@ import trimesh
 from rail_mj.affordances import get
 from rail_mj.affordances.kinds import kind_of
 from rail_mj.core.errors import FragmentError, ImaginationError
-from rail_mj.core.profile import CandidateInteraction
+from rail_mj.core.profile import CandidateInteraction, PoseCandidates
 from rail_mj.core.types import AgentSetup, RailObject
 from rail_mj.imagination import ImaginationConfig, draw, imagine, prepare
 from rail_mj.imagination.batch import outcomes_from_states
@@ -224,3 +224,25 @@ def test_a_body_that_blew_up_reports_finite_segments():
     blown = result_summary(out, 1).segments
     assert not any(x.touching_object or x.on_ground for x in blown)
     assert result_summary(out, 0).segments[0].height == pytest.approx(0.4)
+
+
+def _bench() -> RailObject:
+    """A backless bench for two: a 1.2 x 0.35 m seat 0.45 m high."""
+    return _object("bench", [([-0.6, -0.175, 0.42], [0.6, 0.175, 0.45]), *_legs(0.55, 0.15, 0.42)])
+
+
+def _seat_for_one(obj: RailObject, affordance: str) -> tuple[bool, str]:
+    """A seat row's pose verdict on ``obj`` upright: its accepted plans after the kind's rules for the whole pose."""
+    judged = _judged(obj, affordance)
+    accepted = [c for c, ok, _ in judged if ok]
+    aff = get(affordance)
+    pose = PoseCandidates(pose_index=0, probability=1.0, half_extents=[0.3, 0.3, 0.3], candidates=accepted)
+    kept, why = kind_of(aff).accept_pose(aff, accepted, pose)
+    return bool(kept), why
+
+
+def test_a_seat_for_one_has_no_room_for_a_second_sitter_beside_the_first():
+    assert _seat_for_one(_chair(), "chair")[0] and _seat_for_one(_stool(), "stool")[0]
+    for affordance in ("chair", "stool"):
+        ok, why = _seat_for_one(_bench(), affordance)
+        assert not ok and "room for a second sitter" in why

@@ -73,6 +73,11 @@ _PLACES = (("", 0.0), ("_back", -0.25))
 #: sitters shoulder to shoulder.
 _MANY_HEADINGS = ("left", "right")
 _BESIDE = (("_beside_front", 1.0), ("_beside_back", -1.0))
+#: A seat for one has no room for a second sitter beside the first: the body put down facing across the object's
+#: length one hip breadth (Winter Fig. 4.1, 0.191 H: a sitter's width) to either side of the centre sits at both
+#: places on a bench or a bed, and falls off or meets an armrest or a back on a chair or a stool.
+_ASIDE = (("_aside_front", 1.0), ("_aside_back", -1.0))
+_ASIDE_HEADING = "left"
 
 @register_kind
 class Seat(Kind):
@@ -94,28 +99,39 @@ class Seat(Kind):
         return body_agent("sit", aff.scale, cast(SeatParams, aff.params).persons)
 
     def _plans(self, shape: AgentShape) -> list[tuple[str, str, float, float]]:
-        """(plan name, heading, place along it in units of h, shift along x in shoulder half-breadths)."""
+        """(plan name, heading, place along it in units of h, shift along x in m)."""
+        body = shape.body
+        if body is None:
+            return []
         if shape.count == 1:
-            return [(f"facing_{h}{suffix}", h, place, 0.0) for h, _ in HEADINGS for suffix, place in _PLACES]
-        return [(f"facing_{h}{suffix}{side}", h, place, shift) for h in _MANY_HEADINGS for suffix, place in _PLACES
-                for side, shift in _BESIDE]
+            return ([(f"facing_{h}{suffix}", h, place, 0.0) for h, _ in HEADINGS for suffix, place in _PLACES]
+                    + [(f"facing_{_ASIDE_HEADING}{side}", _ASIDE_HEADING, 0.0, sign * body.hip_breadth)
+                       for side, sign in _ASIDE])
+        return [(f"facing_{h}{suffix}{side}", h, place, sign * body.shoulder_breadth / 2) for h in _MANY_HEADINGS
+                for suffix, place in _PLACES for side, sign in _BESIDE]
 
     def plans(self, shape: AgentShape) -> list[MotionPlan]:
         where = {0.0: "over the object's centre",
                  -0.25: "a quarter of the way to the object's back (as seen facing that way)"}
+        def aside(name: str, shift: float) -> str:
+            end = "front" if shift > 0 else "back"
+            if not shift:
+                return ""
+            if "_aside" in name:
+                return (f", one hip breadth towards the object's {end} end (where a second sitter beside it would "
+                        "sit: a seat for one has no room there)")
+            return (f", half a shoulder breadth towards the object's {end} end (where one of two people side by side "
+                    "sits)")
+
         return [MotionPlan(name=name, description=f"Start with the sitting {shape.label} above the object, facing "
-                                                  f"{heading}, its hips {where[place]}"
-                                                  + (f", half a shoulder breadth towards the object's "
-                                                     f"{'front' if shift > 0 else 'back'} end (where one of two "
-                                                     "people side by side sits)" if shift else "")
+                                                  f"{heading}, its hips {where[place]}" + aside(name, shift)
                                                   + "; lower it straight down; release it at the first contact.")
                 for name, heading, place, shift in self._plans(shape)]
 
     def via_poses(self, plan: str, shape: AgentShape, layout: AgentLayout) -> list[ViaPose]:
         _, heading, place, shift = next(p for p in self._plans(shape) if p[0] == plan)
         ux, uy = {"front": (1.0, 0.0), "back": (-1.0, 0.0), "left": (0.0, 1.0), "right": (0.0, -1.0)}[heading]
-        beside = shift * shape.body.shoulder_breadth / 2 if shape.body is not None else 0.0
-        return heading_vias(shape, heading, (place * ux, place * uy), (beside, 0.0))
+        return heading_vias(shape, heading, (place * ux, place * uy), (shift, 0.0))
 
     def scoring(self, aff: Affordance, shape: AgentShape) -> ScoringCode:
         return rest_scoring(aff, shape, *rest_bounds(aff), _PELVIS_DEG, MAX_OBJECT_TILT_DEG,
@@ -155,8 +171,13 @@ class Seat(Kind):
     def accept_pose(
         self, aff: Affordance, accepted: list[CandidateInteraction], pose: PoseCandidates
     ) -> tuple[list[CandidateInteraction], str]:
-        """A seat for more seats the body at both places side by side, facing the same way."""
+        """A seat for more seats the body at both places side by side, facing the same way; a seat for one does not
+        seat it one hip breadth to either side of the centre (room for a second sitter)."""
         if cast(SeatParams, aff.params).persons == 1:
+            plans = {c.plan for c in accepted}
+            if all(f"facing_{_ASIDE_HEADING}{side}" in plans for side, _ in _ASIDE):
+                return [], ("the body also sits one hip breadth to either side of the centre: room for a second "
+                            f"sitter beside the first, a seat for more than one, not a {aff.name}")
             return accepted, ""
         plans = {c.plan for c in accepted}
         both = [h for h in _MANY_HEADINGS
