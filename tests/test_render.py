@@ -147,7 +147,7 @@ def test_contact_sheet_one_tile_per_stable_pose(cup, tmp_path):
     rgb = _image(sheet.path)
     assert sheet.columns == 2 and 2 * tile[0] < rgb.shape[1] < 2 * tile[0] + 40
     assert rgb.shape[0] > tile[1] + 40  # header + a row of captioned tiles
-    other = llm.generate_profile("cup", cup.obb_dims * 3, "offline")  # another size, another agent
+    other = llm.generate_profile("basket", cup.obb_dims, "offline")  # items, not water: another agent
     with pytest.raises(RailError, match="not the ones the result was imagined with"):
         render_contact_sheet(cup, r, tmp_path / "bad.png", profile=other, tile=tile)
 
