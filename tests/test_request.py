@@ -29,6 +29,11 @@ from rail_mj.robot.demo import make_object
     ("could you put the book on the bookshelves please", "book", "shelf", "on"),
     ("drop the paper ball in the trash can", "paper ball", "trash bin", "in"),
     ("the box on the benches", "box", "bench", "on"),
+    ("put the paper in the trash bin", "paper", "trash bin", "in"),  # compound names, matched whole
+    ("put the pen in the pen holder", "pen", "pen holder", "in"),
+    ("put the bread on the cutting board", "bread", "cutting board", "on"),
+    ("pour the water into the cup", "water", "cup", "in"),
+    ("sit the person on the stool", "person", "stool", "on"),
 ])
 def test_parser_reads_good_sentences(text, agent, affordance, preposition):
     req = parse_request(text)

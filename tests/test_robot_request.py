@@ -14,7 +14,6 @@ from rail_mj.robot.__main__ import main
 from rail_mj.robot.control import RobotConfig
 from rail_mj.robot.demo import make_object
 from rail_mj.robot.judge import MAX_TIP, EndState, Support, judge
-from rail_mj.robot.request import parse_request
 from rail_mj.robot.run import decline_text, run_request, verdict_row
 from rail_mj.robot.table import GAP, layout, load_user_object
 
@@ -30,18 +29,6 @@ def _state(prep: str, item, *, before=None, touches_object=True, touches_table=F
                     item_bottom=items[:, 2] - 0.02, item_tilt=np.full(n, item_tilt),
                     touches_object=np.full(n, touches_object), touches_table=np.full(n, touches_table),
                     support=(support,) * n, footprint=_SQUARE, rim_z=0.16, table_z=0.1, object_tilt=object_tilt)
-
-
-@pytest.mark.parametrize("text, agent, affordance, prep", [
-    ("put the paper in the trash bin", "paper", "trash bin", "in"),
-    ("put the pen in the pen holder", "pen", "pen holder", "in"),
-    ("put the bread on the cutting board", "bread", "cutting board", "on"),
-    ("pour the water into the cup", "water", "cup", "in"),
-    ("sit the person on the stool", "person", "stool", "on"),
-])
-def test_the_request_parser_reads_compound_names(text, agent, affordance, prep):
-    req = parse_request(text)
-    assert (req.agent, req.affordance, req.preposition) == (agent, affordance, prep)
 
 
 def test_judge_in_accepts_an_item_resting_inside_below_the_rim():
