@@ -33,8 +33,7 @@ from rail_mj.robot.arm import HOME_QPOS
 from rail_mj.robot.control import RobotConfig, contact_force, impedance_torque
 from rail_mj.robot.judge import WINDOW, Judgement, judge, observe
 from rail_mj.robot.scene import (
-    GRASP_QUAT,
-    GRASP_TWIN,
+    TOP_GRASPS,
     Neighbour,
     RobotScene,
     build_scene,
@@ -354,7 +353,7 @@ def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: 
     chosen = None
     # the hand holds the agent from above; where that hand would have to pass through the object (a cupboard's
     # top board over the shelf the item is pushed onto), a hand holding it from behind may not
-    for grasp in [GRASP_QUAT, GRASP_TWIN, *side_grasps(traj[:, :3], quats[-1])]:
+    for grasp in [*TOP_GRASPS, *side_grasps(traj[:, :3], quats[-1])]:
         t0 = time.perf_counter()
         scene = build_scene(cfg, obj=obj, pose=pose, agent_fragment=agent_fragment, agent_scale=scale,
                             visual=True if render is not None else None, grasp=grasp, others=others)
@@ -429,7 +428,7 @@ def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: 
     sim.gripper = 255.0
     pos, quat = sim.site_pose()
     away = np.array([0.0, 0.0, 1.0])
-    if grasp is not GRASP_QUAT and grasp is not GRASP_TWIN:
+    if not any(grasp is g for g in TOP_GRASPS):
         away = -quat_rotate(path[-1][1], hand_z(grasp))  # agent frame -> task frame
     _follow(sim, [(pos + cfg.lift_after_release * away, quat)], [sim.posture[None]], "lift", -1)
 

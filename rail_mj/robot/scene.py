@@ -33,6 +33,7 @@ from rail_mj.robot.model import load_panda_spec
 __all__ = [
     "GRASP_QUAT",
     "GRASP_TWIN",
+    "TOP_GRASPS",
     "Neighbour",
     "RobotScene",
     "build_scene",
@@ -50,6 +51,8 @@ GRASP_QUAT = np.array([0.0, 1.0, 0.0, 0.0])
 #: The same grasp turned half a turn about the hand's axis: a parallel gripper holds the item alike either way round,
 #: and the wrist may reach one where its joint limits refuse the other.
 GRASP_TWIN = np.array([0.0, 0.0, 1.0, 0.0])
+#: The grasps that hold the item from above.
+TOP_GRASPS = (GRASP_QUAT, GRASP_TWIN)
 #: A plan whose path runs at least this far, and more horizontally than vertically, may be held from the side, m.
 _SIDE_PUSH = 0.01
 _PRIMITIVES = (mujoco.mjtGeom.mjGEOM_SPHERE, mujoco.mjtGeom.mjGEOM_BOX, mujoco.mjtGeom.mjGEOM_CAPSULE,
@@ -118,7 +121,7 @@ def _agent_spec(fragment: str, scale: float) -> mujoco.MjSpec:
     # an articulated figure (the seat and lie kinds' body) is carried as one rigid piece in the posture it was
     # imagined in, as a doll's stiff joints hold it: its posture springs are set for its imagined size, and
     # scaled to a graspable size they would swing it out of the hand's weld
-    for joint in top.find_all(mujoco.mjtObj.mjOBJ_JOINT):
+    for joint in _figure_joints(spec):
         spec.delete(joint)
     nested = top.find_all(mujoco.mjtObj.mjOBJ_BODY)
     for body in nested:
@@ -128,6 +131,11 @@ def _agent_spec(fragment: str, scale: float) -> mujoco.MjSpec:
             body.mass, body.ipos = body.mass * scale**3, np.asarray(body.ipos) * scale
             body.inertia = np.asarray(body.inertia) * scale**5
     return spec
+
+
+def _figure_joints(spec: mujoco.MjSpec) -> list:
+    """The joints inside a fragment's agent body: those of an articulated figure, none for a rigid agent."""
+    return spec.worldbody.first_body().find_all(mujoco.mjtObj.mjOBJ_JOINT)
 
 
 def _agent_extent(fragment: str) -> np.ndarray:
@@ -288,7 +296,7 @@ def graspable_scale(fragment: str, half_extents: np.ndarray, cfg: RobotConfig) -
     """Scale that makes the agent graspable (cfg.agent_size) but smaller than the object's footprint. An
     articulated figure (the seat and lie kinds' body) keeps its own size, 1: it is the doll or teddy the request
     names, imagined at that size on furniture of that size, and the hand holds it by its trunk."""
-    if check_fragment(fragment).worldbody.first_body().find_all(mujoco.mjtObj.mjOBJ_JOINT):
+    if _figure_joints(check_fragment(fragment)):
         return 1.0
     size = float(np.max(_agent_extent(fragment)))
     lo, hi = cfg.agent_size
