@@ -113,10 +113,12 @@ class Seat(Kind):
     def plans(self, shape: AgentShape) -> list[MotionPlan]:
         where = {0.0: "over the object's centre",
                  -0.25: "a quarter of the way to the object's back (as seen facing that way)"}
-        def aside(name: str, shift: float) -> str:
-            end = "front" if shift > 0 else "back"
+
+        def shifted(name: str, shift: float) -> str:
+            """Where a plan's hips are shifted along the object's length, in words."""
             if not shift:
                 return ""
+            end = "front" if shift > 0 else "back"
             if "_aside" in name:
                 return (f", one hip breadth towards the object's {end} end (where a second sitter beside it would "
                         "sit: a seat for one has no room there)")
@@ -124,7 +126,7 @@ class Seat(Kind):
                     "sits)")
 
         return [MotionPlan(name=name, description=f"Start with the sitting {shape.label} above the object, facing "
-                                                  f"{heading}, its hips {where[place]}" + aside(name, shift)
+                                                  f"{heading}, its hips {where[place]}" + shifted(name, shift)
                                                   + "; lower it straight down; release it at the first contact.")
                 for name, heading, place, shift in self._plans(shape)]
 
