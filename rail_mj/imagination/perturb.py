@@ -115,12 +115,10 @@ def resting_on(pose: StablePose, hulls: tuple[np.ndarray, ...], other: tuple[np.
     """``pose`` for the object collided as ``other`` hulls instead of ``hulls`` (its second decomposition): the same
     orientation, raised or lowered so that the lowest point of ``other`` rests where the lowest of ``hulls`` did
     (hulls of a coarser decomposition may reach a little below the first ones', and would start in the ground)."""
-    rot = np.zeros(9)
-    mujoco.mju_quat2Mat(rot, np.asarray(pose.quat, dtype=np.float64))
-    rot = rot.reshape(3, 3)
+    up = pose.up_in_mesh_frame  # a mesh-frame point's height above the pose's origin is its dot with it
 
     def lowest(hs: tuple[np.ndarray, ...]) -> float:
-        return float(min((np.asarray(h) @ rot.T)[:, 2].min() for h in hs))
+        return float(min((np.asarray(h) @ up).min() for h in hs))
 
     pos = np.asarray(pose.pos, dtype=np.float64).copy()
     pos[2] += lowest(hulls) - lowest(other)
