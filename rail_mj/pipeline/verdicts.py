@@ -176,14 +176,15 @@ def pose_probabilities(
             count(_accepted(aff, plans, poses_w, sub, out_w, scores_w, trajectories_w))
             for k, lines in _blown(out_w, names, f"world {w} ({world.doc()})").items():
                 blew_up[slots[k]] += lines
-    second = set() if decomposed is None else set(decomposed[2])
+    second: set[int] = set()
     if decomposed is not None:
-        out_d, scores_d, slots = decomposed
+        out_d, scores_d, slots_d = decomposed
+        second = set(slots_d)
         out_d, scores_d = world_outcomes(out_d, scores_d, 1)[0]
-        count(_accepted(aff, plans, poses, [kept[k] for k in slots], out_d, scores_d,
-                        [trajectories[k] for k in slots]))
+        count(_accepted(aff, plans, poses, [kept[k] for k in slots_d], out_d, scores_d,
+                        [trajectories[k] for k in slots_d]))
         for k, lines in _blown(out_d, names, "the second decomposition").items():
-            blew_up[slots[k]] += lines
+            blew_up[slots_d[k]] += lines
     stage7_plans = {v.pose_index: v.plan for v in stage7.poses} if stage7 is not None else {}
     vetoed = ({v.pose_index for v in stage7.poses if not v.accept} if llm_veto and stage7 is not None else set())
     out = []
