@@ -10,7 +10,8 @@ from rail_mj.affordances.kinds.base import GAP, AgentShape
 from rail_mj.core.profile import CandidateInteraction, SegmentState, ViaPose
 from rail_mj.mjcf.body import Posture, body_fragment, body_size
 
-__all__ = ["HEADINGS", "ROOT", "LEGS", "body_agent", "heading_vias", "agents_segments", "level", "upright"]
+__all__ = ["HEADINGS", "ROOT", "LEGS", "body_agent", "heading_axes", "heading_vias", "agents_segments", "level",
+           "upright"]
 
 #: Which way the body faces (its +x) when it is lowered, and the yaw (deg) that turns it so.
 HEADINGS = (("front", 0.0), ("left", 90.0), ("back", 180.0), ("right", 270.0))
@@ -26,6 +27,13 @@ def body_agent(posture: Posture, scale: float, count: int = 1) -> AgentShape:
     reach = max(b.trunk + b.head, b.thigh + b.shank + b.ankle + b.foot)  # from the hip joints, either way
     return AgentShape(geom="", radius=reach, half_z=b.below_root(posture), mass=b.mass, label="body",
                       fragment=body_fragment(posture, scale, name=ROOT), body=b, count=count)
+
+
+def heading_axes(heading: str) -> tuple[tuple[float, float], tuple[float, float]]:
+    """The task-frame unit vectors (x, y) of the body's forward (its +x) and its left (its +y) facing ``heading``."""
+    yaw = math.radians(dict(HEADINGS)[heading])
+    c, s = round(math.cos(yaw), 12) + 0.0, round(math.sin(yaw), 12) + 0.0  # the four headings' exact 0 and ±1
+    return (c, s), (-s + 0.0, c)
 
 
 def heading_vias(shape: AgentShape, heading: str, rel_xy: tuple[float, float],

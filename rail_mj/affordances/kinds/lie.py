@@ -18,7 +18,16 @@ from rail_mj.affordances.kinds.base import (
     rest_window,
     rest_words,
 )
-from rail_mj.affordances.kinds.body import HEADINGS, LEGS, ROOT, agents_segments, body_agent, heading_vias, level
+from rail_mj.affordances.kinds.body import (
+    HEADINGS,
+    LEGS,
+    ROOT,
+    agents_segments,
+    body_agent,
+    heading_axes,
+    heading_vias,
+    level,
+)
 from rail_mj.affordances.row import Affordance
 from rail_mj.core.profile import AgentLayout, CandidateInteraction, MotionPlan, ScoringCode, ViaPose
 
@@ -60,7 +69,7 @@ class Lie(Kind):
     def via_poses(self, plan: str, shape: AgentShape, layout: AgentLayout) -> list[ViaPose]:
         # the body's +x points to its feet; its left is +y turned with it
         _, heading, place = next(p for p in self._plans() if p[0] == plan)
-        left = {"front": (0.0, 1.0), "left": (-1.0, 0.0), "back": (0.0, -1.0), "right": (1.0, 0.0)}[heading]
+        _, left = heading_axes(heading)
         return heading_vias(shape, heading, (place * left[0], place * left[1]))
 
     def scoring(self, aff: Affordance, shape: AgentShape) -> ScoringCode:

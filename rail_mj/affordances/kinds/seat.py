@@ -31,6 +31,7 @@ from rail_mj.affordances.kinds.body import (
     ROOT,
     agents_segments,
     body_agent,
+    heading_axes,
     heading_vias,
     level,
     upright,
@@ -132,7 +133,7 @@ class Seat(Kind):
 
     def via_poses(self, plan: str, shape: AgentShape, layout: AgentLayout) -> list[ViaPose]:
         _, heading, place, shift = next(p for p in self._plans(shape) if p[0] == plan)
-        ux, uy = {"front": (1.0, 0.0), "back": (-1.0, 0.0), "left": (0.0, 1.0), "right": (0.0, -1.0)}[heading]
+        (ux, uy), _ = heading_axes(heading)
         return heading_vias(shape, heading, (place * ux, place * uy), (shift, 0.0))
 
     def scoring(self, aff: Affordance, shape: AgentShape) -> ScoringCode:
