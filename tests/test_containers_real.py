@@ -220,3 +220,12 @@ def test_a_console_on_its_back_holds_water_in_compartments_too_short_for_a_bathe
              for i, p in enumerate((lying, upright))]
     verdict = analyze_functional_poses(FunctionalPoseRequest(affordance="bathtub", expected_outcome="", poses=poses))
     assert [v.accept for v in verdict.poses] == [False, True] and "basin holds water" in verdict.poses[0].reason
+
+
+def test_flower_stems_stand_in_a_vase_but_lie_across_a_goblets_bowl() -> None:
+    """A goblet holds water, but its bowl is about as wide as it is deep: a stem on its floor leans on the rim
+    some 40 deg from vertical, and it is no vase. A vase's narrow, deep body keeps the stem within 30 deg."""
+    goblet = _verdict(shapes.GENERATORS["goblet"](np.random.default_rng(9)).mesh, "goblet", "vase")
+    assert not goblet.functional and any("flower stem" in r for r in goblet.analyzer_reasons), goblet.analyzer_reasons
+    vase = _verdict(shapes.GENERATORS["vase"](np.random.default_rng(3)).mesh, "vase", "vase")
+    assert vase.functional, vase.analyzer_reasons

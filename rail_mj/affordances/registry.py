@@ -112,7 +112,7 @@ def _rows() -> tuple[Affordance, ...]:
         Affordance("vase", "container", "A vase holds water and flower stems in a deep cavity with an opening at the "
                    "top, often narrower than its body (15-80 cm tall, clearly taller than wide, its body rarely over "
                    "23 cm across).", paper=True,
-                   params=ContainerParams(droplets=_LIQUID, holds_water=True),
+                   params=ContainerParams(droplets=_LIQUID, holds_water=True, stems=True),
                    # a bud vase's 15 cm to a floor vase's 80 cm; a body an arm holds (23 cm); taller than wide (1.2)
                    envelope=Envelope(height=(0.15, 0.8), width=(0.0, 0.23), aspect=(1.2, inf))),
         Affordance("pot", "container", "A pot holds food or soil in an open cavity, filled from above (rim 12.5-50 cm, "

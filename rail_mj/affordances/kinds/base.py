@@ -30,6 +30,7 @@ __all__ = [
     "SCORING_HEADER",
     "MAX_OBJECT_TILT_DEG",
     "LEVEL_DEG",
+    "NEAR_AXIS_DEG",
     "MOST",
     "GAP",
     "WATER_DENSITY",
@@ -60,6 +61,9 @@ MAX_OBJECT_TILT_DEG = 15
 #: An agent resting tilted less than this (deg) rests level: an item on a surface tilted more slides off at the
 #: friction of wood or china (coefficient 0.27 = tan 15 deg).
 LEVEL_DEG = 15
+#: A long part is near an axis within a third of a right angle of it (deg): a sitter's thigh near level (steeper,
+#: it slides off the seat), a flower stem near upright (leaning more, it lies across the vessel's mouth).
+NEAR_AXIS_DEG = 30
 #: "Most" of the agents, by definition: more than half.
 MOST = 0.5
 #: Gap (m) that keeps an agent clear of the object at a plan's start or between agents: 1 cm, above a scan's or

@@ -6,7 +6,9 @@ asks that they sit in a cavity: their mean centre at least :data:`MIN_DEPTH` of
 the box height below the rim, and walls all round most of them (the enclosure
 probe's horizontal rays meet the object every way but in sectors narrower than
 :data:`~rail_mj.core.profile.OPEN_SECTOR` directions). A row's :class:`ContainerParams`
-size its droplets and say whether it holds water.
+size its droplets and say whether it holds water, and whether flower stems must stand upright in it (a vase:
+a stem on the floor of the poured water, leaning on the rim, within
+:data:`~rail_mj.affordances.kinds.base.NEAR_AXIS_DEG` of vertical).
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ import rail_mj.core.profile as profile
 from rail_mj.affordances.kinds.base import (
     MAX_OBJECT_TILT_DEG,
     MOST,
+    NEAR_AXIS_DEG,
     SCORING_HEADER,
     SIDES,
     WATER_DENSITY,
@@ -67,6 +70,8 @@ class ContainerParams(KindParams):
     #: hole, walled but for its open front, lets it run out), at least ``basin_length`` (m) long at its spill level
     holds_water: bool = False
     basin_length: float = 0.0
+    #: it holds flower stems upright in its water (a vase): see :func:`_stem_lean`
+    stems: bool = False
 
     def scaled(self, factor: float) -> ContainerParams:
         """The basin's least length scales; the droplets do not (water is water at any scale)."""
@@ -138,6 +143,16 @@ def _basin_fault(aff: Affordance, pose: PoseCandidates) -> str:
         return (f"its basin holds water {pose.basin.length:.2f} m long; a {aff.name}'s is at least "
                 f"{basin_length:g} m")
     return ""
+
+
+def _stem_lean(c: CandidateInteraction, pose: PoseCandidates) -> tuple[float, float, float]:
+    """(lean from vertical in deg, depth m, width m) of a flower stem in the water a pour left: its foot on the
+    floor where the droplets came to rest, leaning on the rim across the water's surface (the basin's longer side
+    at the spill level). A stem in a vessel as wide as it is deep leans 45 deg, across the mouth; in a vase it
+    stands."""
+    depth = (1.0 - c.summary.mean_height) * pose.half_extents[2]  # below the box top (mean_height: units of h)
+    width = pose.basin.length if pose.basin is not None else math.inf
+    return math.degrees(math.atan2(width, max(depth, 0.0))), depth, width
 
 
 @register_kind
@@ -217,5 +232,17 @@ class Container(Kind):
         if leaks:
             return [], (f"droplets poured into the object ({', '.join(leaks)}) came through it to the ground "
                         f"beneath; a {aff.name} that leaks does not hold")
-        why = _basin_fault(aff, pose) if cast(ContainerParams, aff.params).holds_water else ""
-        return ([], why) if why else (accepted, "")
+        params = cast(ContainerParams, aff.params)
+        why = _basin_fault(aff, pose) if params.holds_water else ""
+        if why:
+            return [], why
+        if params.stems and accepted:
+            upright = [c for c in accepted if _stem_lean(c, pose)[0] <= NEAR_AXIS_DEG]
+            if not upright:
+                lean, depth, width = min(_stem_lean(c, pose) for c in accepted)
+                return [], (f"a flower stem standing in the water {depth:.3f} m below the rim and leaning on a "
+                             f"{width:.3f} m wide mouth leans {lean:.0f} deg from vertical; a {aff.name} holds "
+                             f"stems within {NEAR_AXIS_DEG} deg of upright (water at least 1.7 times as deep as its "
+                             "mouth is wide)")
+            return upright, ""
+        return accepted, ""

@@ -17,6 +17,7 @@ from typing import cast
 from rail_mj.affordances.kinds.base import (
     LEVEL_DEG,
     MAX_OBJECT_TILT_DEG,
+    NEAR_AXIS_DEG,
     AgentShape,
     Kind,
     register_kind,
@@ -51,7 +52,7 @@ class SeatParams(KindParams):
 
 #: Thighs within this of level (deg): sitting bears the thighs on the seat with a trunk-thigh angle of 90-135°
 #: (Keegan 1953, the relaxed sitting range); a thigh steeper than a third of a right angle slides off the seat.
-_THIGH_DEG = 30
+_THIGH_DEG = NEAR_AXIS_DEG
 #: The torso within this of upright (deg): 135° trunk-thigh angle with level thighs, Keegan's relaxed limit.
 _TORSO_DEG = 45
 #: The pelvis (the scoring's agent) within this of its posture (deg), the same relaxed limit.
