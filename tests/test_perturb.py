@@ -16,7 +16,7 @@ from rail_mj.imagination import ImaginationConfig, PerturbationSet, draw, get_ba
 from rail_mj.imagination.batch import outcomes_from_states
 from rail_mj.imagination.perturb import world_models
 from rail_mj.mjcf import OWNER_OBJECT
-from rail_mj.pipeline.verdicts import candidate_slots, pose_probabilities
+from rail_mj.pipeline.verdicts import candidate_slots, most_probable, pose_probabilities
 from rail_mj.render.explain import explain, format_explanation
 from rail_mj.stable_poses import pose_from_up
 
@@ -224,3 +224,24 @@ def test_perturbed_worlds_imagine_again_only_poses_whose_verdict_they_can_change
     assert candidate_slots(scores, 3, 2) == [0, 2]
     assert candidate_slots(scores, 3, 2, priors=[0.9, 0.9, 0.49]) == [0]
     assert candidate_slots(scores, 3, 2, priors=[0.5, 0.0, 1.0]) == [0, 2]
+
+
+def test_poses_one_world_apart_tie_and_stage_7s_pick_breaks_the_tie():
+    """Five worlds tell 4/5 from 5/5 by one world only: an upright chair that failed one perturbed world is as
+    probable as the chair on its side, and stage 7's pick (the one whose back bears the torso) is the functional
+    pose. Two worlds apart, the more probable pose wins whatever stage 7 picked."""
+    from types import SimpleNamespace
+
+    def pose(i: int, successes: int) -> PoseProbability:
+        return PoseProbability(index=i, prior=1.0, physics=successes / 5, probability=successes / 5,
+                               best_plan="facing_front" if successes else None, successes=successes, worlds=5,
+                               imagined=5)
+
+    stable = [SimpleNamespace(probability=p) for p in (0.4, 0.3, 0.2, 0.1)]
+    one_apart = [pose(0, 5), pose(1, 4), pose(2, 0), pose(3, 2)]
+    assert most_probable(one_apart, stable, stage7_best=1).index == 1  # type: ignore[arg-type]
+    assert most_probable(one_apart, stable, stage7_best=None).index == 0  # type: ignore[arg-type]
+    two_apart = [pose(0, 5), pose(1, 3), pose(2, 0), pose(3, 2)]
+    assert most_probable(two_apart, stable, stage7_best=1).index == 0  # type: ignore[arg-type]
+    below = [pose(0, 3), pose(1, 2)]  # 0.4 is one world from 0.6 but not functional
+    assert most_probable(below, stable, stage7_best=1).index == 0  # type: ignore[arg-type]

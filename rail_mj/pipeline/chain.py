@@ -267,7 +267,7 @@ class Pipeline:
         best = most_probable(result.pose_verdicts, pose_list, None if verdict is None else verdict.best_pose)
         if best is None:
             return result
-        result.probability = best.probability
+        result.probability = max(v.probability for v in result.pose_verdicts)  # the use's: its likeliest pose's
         result.prior = best.prior_factors
         if best.probability < FUNCTIONAL or best.best_plan is None:
             return result

@@ -26,9 +26,10 @@ rules would let through. The priors are :meth:`Affordance.size_prior`
 and :meth:`Affordance.pose_prior` (1 for an affordance outside the registry).
 
 The result's ``probability`` is the largest pose probability; the result is functional when it is at least
-:data:`rail_mj.affordances.prior.FUNCTIONAL`, and its functional pose is the most probable pose (ties: stage
-7's pick in the nominal world, then the pose that succeeds in more worlds, then the more probable stable
-pose). Every probability is finite and in [0, 1].
+:data:`rail_mj.affordances.prior.FUNCTIONAL`, and its functional pose is the most probable pose, where a pose within
+one world's worth of it (prior / W: a count of W worlds tells no finer) is as probable (ties: stage 7's pick in
+the nominal world, then the more probable, then the pose that succeeds in more worlds, then the more probable
+stable pose). Every probability is finite and in [0, 1].
 """
 
 from __future__ import annotations
@@ -213,8 +214,14 @@ def _unit(x: float) -> float:
 
 def most_probable(verdicts: Sequence[PoseProbability], poses: Sequence[StablePose],
                   stage7_best: int | None) -> PoseProbability | None:
-    """The most probable pose (ties: stage 7's pick, more successful worlds, the more probable stable pose)."""
+    """The most probable pose. A pose's physics counts successes in W worlds, so it tells probabilities apart only
+    by more than one world's worth, prior x 1/W: a pose within that of the most probable one (and functional, as it
+    is) ties with it. Ties: stage 7's pick, the more probable, more successful worlds, the more probable stable
+    pose."""
     if not verdicts:
         return None
-    return max(verdicts, key=lambda v: (v.probability, v.index == stage7_best, v.successes,
-                                        float(poses[v.index].probability)))
+    top = max(verdicts, key=lambda v: v.probability)
+    step = top.prior / max(top.imagined, 1)  # one world of the top pose's
+    tied = [v for v in verdicts if v.probability >= max(top.probability - step, FUNCTIONAL) - 1e-9] or [top]
+    return max(tied, key=lambda v: (v.index == stage7_best, v.probability, v.successes,
+                                    float(poses[v.index].probability)))
