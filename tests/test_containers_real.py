@@ -144,6 +144,17 @@ def test_a_bowls_proportions_are_its_rims_a_deep_pot_stays_no_bowl() -> None:
     assert "e[:, 2]" not in source  # the proportions are the bowl's prior, not its scoring's
 
 
+def test_a_cups_depth_is_its_rims_a_scoops_rising_handle_makes_it_no_deeper() -> None:
+    """A 13.3 cm scoop's handle raises its box to 0.65 of its width, a cup's proportions; its rim stands at 0.44 of
+    it, a dipper's: no cup. A mug's rim is its top, and its proportions stay a cup's."""
+    cup = get("cup")
+    scoop = [0.121, 0.0665, 0.0434]
+    assert cup.pose_prior(scoop).value >= 0.5
+    assert cup.pose_prior(scoop, rim=0.059).value < 0.5
+    mug = [0.06, 0.043, 0.05]
+    assert cup.pose_prior(mug, rim=0.1).value == 1.0
+
+
 def test_a_scoop_whose_handle_rises_above_its_rim_is_a_bowl() -> None:
     """Its handle makes the box 0.82 as high as wide; its rim is 0.47 of its width."""
     r = _verdict(shapes.GENERATORS["scoop"](np.random.default_rng(1)).mesh, "scoop", "bowl")

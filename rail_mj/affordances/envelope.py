@@ -4,8 +4,8 @@ One stable pose's task-frame box (half extents ``h``) has ``H = 2 h_z``, ``W`` /
 horizontal full extent, and ``aspect = H / W``. ``rest`` is the agent's bottom height above the ground for
 the seat and lie kinds (their physics checks it; it is no size of the object's box). The ranges are typical
 ranges, never vetoes: :meth:`Affordance.pose_prior <rail_mj.affordances.row.Affordance.pose_prior>` turns
-them into a plausibility (:mod:`rail_mj.affordances.prior`). A vessel's aspect above its range is judged at
-its rim (the pose's spill level over ``W``), which a handle rising above the rim does not raise.
+them into a plausibility (:mod:`rail_mj.affordances.prior`). A vessel's aspect is judged at its rim (the pose's
+spill level over ``W``), which a handle rising above the rim does not raise.
 """
 
 from __future__ import annotations
@@ -54,12 +54,12 @@ class Envelope:
 
     def values(self, half: Sequence[float], rim: float | None = None) -> list[tuple[str, float, Range]]:
         """(name, value, range) of each constrained box size of a pose (half extents); with the pose's ``rim``
-        (spill level, m) an aspect above its range is the rim's, ``min(H, rim) / W`` (a handle rising above the
-        rim does not make a vessel taller)."""
+        (spill level, m) the aspect is the rim's, ``min(H, rim) / W``: a handle rising above the rim makes a
+        vessel neither taller than a bowl nor deep enough for a cup."""
         hx, hy, hz = (float(v) for v in half)
         width = min(hx, hy)
         aspect = hz / width if width > 0 else math.inf
-        if rim is not None and aspect > self.aspect[1] and width > 0:
+        if rim is not None and width > 0:
             aspect = min(hz, rim / 2) / width
         values = {"height": 2 * hz, "width": 2 * width, "length": 2 * max(hx, hy), "height/width": aspect}
         return [(name, values[name], rng) for name, rng in self.ranges().items()]
