@@ -241,6 +241,14 @@ def test_poses_one_world_apart_tie_and_stage_7s_pick_breaks_the_tie():
     one_apart = [pose(0, 5), pose(1, 4), pose(2, 0), pose(3, 2)]
     assert most_probable(one_apart, stable, stage7_best=1).index == 1  # type: ignore[arg-type]
     assert most_probable(one_apart, stable, stage7_best=None).index == 0  # type: ignore[arg-type]
+    tied = AffordanceResult(object="chair", affordance="chair", requested="chair", functional=True,
+                            stable_poses=[PoseInfo(index=i, pos=[0.0] * 3, quat=[1.0, 0, 0, 0], probability=0.25,
+                                                   half_extents=[0.3] * 3, up_in_mesh_frame=[0.0, 0.0, 1.0])
+                                          for i in range(4)],
+                            pose_verdicts=one_apart, probability=1.0, functional_pose=None)
+    tied.functional_pose = tied.stable_poses[1]
+    assert "probability 1.00 (pose 1: 0.80, within one world of the most probable pose" in format_explanation(
+        explain(tied))
     two_apart = [pose(0, 5), pose(1, 3), pose(2, 0), pose(3, 2)]
     assert most_probable(two_apart, stable, stage7_best=1).index == 0  # type: ignore[arg-type]
     below = [pose(0, 3), pose(1, 2)]  # 0.4 is one world from 0.6 but not functional

@@ -49,9 +49,10 @@ class Explanation(BaseModel):
     requested: str
     affordance: str
     verdict: str
-    probability: float = Field(default=0.0, description="the most probable pose's probability")
     dims_fit: bool | None
-    probability: float = Field(default=0.0, description="the result's probability (prior x physics)")
+    probability: float = Field(default=0.0, description="the result's probability: its most probable pose's")
+    pose_probability: float | None = Field(default=None, description="the functional pose's probability, None "
+                                                                     "without one")
     prior: str = Field(default="", description="the factors of the functional (or most probable accepted) "
                                                "pose's prior, in words")
     functional_pose: int | None
@@ -122,6 +123,7 @@ def explain(r: AffordanceResult) -> Explanation:
         verdict = "not functional"
     return Explanation(object=r.object, requested=r.requested, affordance=r.affordance, verdict=verdict,
                        dims_fit=r.dims_fit, probability=r.probability, prior=r.prior, functional_pose=best,
+                       pose_probability=verdicts[best].probability if best in verdicts else None,
                        best_plan=r.best_plan.name if r.best_plan is not None else None,
                        poses=poses, reasons=general, error=r.error)
 
@@ -153,5 +155,9 @@ def format_explanation(e: Explanation) -> str:
         lines.append(f"  rule: {reason}")
     tail = f" in pose {e.functional_pose} with plan {e.best_plan!r}" if e.functional_pose is not None else ""
     error = f" ({e.error})" if e.error else ""
-    lines.append(f"  verdict: {e.verdict}{tail}, probability {e.probability:.2f}{error}")
+    tied = ""
+    if e.pose_probability is not None and e.pose_probability < e.probability:
+        tied = (f" (pose {e.functional_pose}: {e.pose_probability:.2f}, within one world of the most probable pose: "
+                "a tie, which stage 7's pick wins)")
+    lines.append(f"  verdict: {e.verdict}{tail}, probability {e.probability:.2f}{tied}{error}")
     return "\n".join(lines)
