@@ -253,3 +253,23 @@ def test_poses_one_world_apart_tie_and_stage_7s_pick_breaks_the_tie():
     assert most_probable(two_apart, stable, stage7_best=1).index == 0  # type: ignore[arg-type]
     below = [pose(0, 3), pose(1, 2)]  # 0.4 is one world from 0.6 but not functional
     assert most_probable(below, stable, stage7_best=1).index == 0  # type: ignore[arg-type]
+
+
+def test_a_world_with_a_resized_body_judges_it_by_the_row_scaled_for_that_body():
+    """The seat rules read the body's own size (its toe reach, its hips over the seat): a world whose body is 10%
+    larger is judged for that body, as a doll's chair is for a doll. A cup's rules read no agent size."""
+    from rail_mj.affordances.kinds import kind_of
+    from rail_mj.llm.offline import rules_row
+    from rail_mj.pipeline.verdicts import _agent_row
+
+    chair = rules_row("chair")
+    assert chair is not None
+    big = _agent_row(chair, "chair", 1.0, 1.1)
+    assert big is not None and big.scale == pytest.approx(1.1)
+    nominal, larger = (kind_of(chair).agent(row, [0.9, 0.5, 0.4]).body for row in (chair, big))
+    assert nominal is not None and larger is not None
+    assert larger.ankle == pytest.approx(1.1 * nominal.ankle) and larger.foot == pytest.approx(1.1 * nominal.foot)
+    assert big.envelope.rest == pytest.approx(tuple(1.1 * v for v in chair.envelope.rest))
+    assert _agent_row(chair, "chair", 1.0, 1.0) is chair
+    cup = rules_row("cup")
+    assert _agent_row(cup, "cup", 1.0, 1.1) is cup

@@ -9,7 +9,9 @@ For each imagined stable pose of an object, with ``W`` worlds (the nominal one, 
 A pose succeeds in a world when the Functional Pose Analyzer's rules accept it there
 (:func:`rail_mj.llm.offline.judge_pose`: the kind's rules on each candidate, a rollout that scored above 0
 and did not blow up, then the pose's rules on its candidates together, which may need several plans: a seat's
-centre and area, a table top's two placements). Its best plan is the plan accepted in the most worlds (ties: stage
+centre and area, a table top's two placements); a world whose agent is resized is judged, where the kind's rules
+read the agent's size (``Kind.rules_read_agent_size``: a body's reach), by the row scaled for that agent. Its best
+plan is the plan accepted in the most worlds (ties: stage
 7's plan for the pose, then the better nominal score). A rollout
 that blew up (``Outcomes.unstable``: a non-finite state or a MuJoCo instability warning) is a failure and is named.
 The nominal world imagines every pose and plan; the K perturbed worlds, one more batched call, imagine again
@@ -42,6 +44,7 @@ from typing import Any
 import numpy as np
 
 from rail_mj.affordances import Affordance
+from rail_mj.affordances.kinds import kind_of
 from rail_mj.affordances.prior import FUNCTIONAL, Prior
 from rail_mj.core.profile import MotionPlan
 from rail_mj.core.results import PoseProbability
@@ -174,7 +177,8 @@ def pose_probabilities(
             poses_w = [scaled_pose(p, world.scale) for p in poses]
             trajectories_w = [[world_trajectory(t, np.asarray(poses[kept[k]].half_extents), world)
                                for t in trajectories[k]] for k in slots]
-            count(_accepted(aff, plans, poses_w, sub, out_w, scores_w, trajectories_w))
+            count(_accepted(_agent_row(aff, affordance, scale, world.agent_size), plans, poses_w, sub, out_w,
+                            scores_w, trajectories_w))
             for k, lines in _blown(out_w, names, f"world {w} ({world.doc()})").items():
                 blew_up[slots[k]] += lines
     second: set[int] = set()
@@ -205,6 +209,14 @@ def pose_probabilities(
             worlds=perturbations.n_worlds + (k in second), imagined=imagined, blew_up=blew_up[k],
         ))
     return out
+
+
+def _agent_row(aff: Affordance | None, affordance: str, scale: float, agent_size: float) -> Affordance | None:
+    """The row a world whose agent is ``agent_size`` times the size is judged by: scaled for that agent where the
+    kind's rules read the agent's size (a body's reach), else ``aff``."""
+    if aff is None or agent_size == 1.0 or not kind_of(aff).rules_read_agent_size:
+        return aff
+    return rules_row(affordance, scale * agent_size)
 
 
 def _unit(x: float) -> float:

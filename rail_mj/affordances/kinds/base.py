@@ -105,6 +105,10 @@ class Kind(ABC):
     #: concavity threshold shapes: the perturbed worlds include the object's second decomposition. A kind whose
     #: agent rests on the object's top (a seat, a table) meets the same convex top in any decomposition.
     decomposition_matters: ClassVar[bool] = False
+    #: The kind's rules read its agent's own size (a body's toe reach, its hips' height over a seat): a perturbed
+    #: world whose agent is ``agent_size`` times the size is judged by the row scaled for that agent
+    #: (:meth:`Affordance.scaled`), as a doll's chair is judged for a doll.
+    rules_read_agent_size: ClassVar[bool] = False
 
     @abstractmethod
     def agent(self, aff: Affordance, dims: Sequence[float]) -> AgentShape:

@@ -45,6 +45,7 @@ _PLACES = (("", 0.0), ("_aside", 0.25))
 @register_kind
 class Lie(Kind):
     name = "lie"
+    rules_read_agent_size = True
     agent_description = ("An articulated human body (pelvis, torso, head, thighs, shanks, feet; Winter's "
                          "anthropometry, 1.75 m and 75 kg for a person) lying on its back, its joints held by "
                          "posture springs.")

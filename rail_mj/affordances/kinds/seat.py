@@ -84,6 +84,7 @@ _ASIDE_HEADING = "left"
 @register_kind
 class Seat(Kind):
     name = "seat"
+    rules_read_agent_size = True
     params_model = SeatParams
     agent_description = ("An articulated human body (pelvis, torso, head, thighs, shanks, feet; Winter's "
                          "anthropometry, 1.75 m and 75 kg for a person) with hips and knees at 90°, its joints held "
