@@ -237,9 +237,10 @@ class Container(Kind):
         if why:
             return [], why
         if params.stems and accepted:
-            upright = [c for c in accepted if _stem_lean(c, pose)[0] <= NEAR_AXIS_DEG]
+            leans = [_stem_lean(c, pose) for c in accepted]
+            upright = [c for c, (lean, _, _) in zip(accepted, leans, strict=True) if lean <= NEAR_AXIS_DEG]
             if not upright:
-                lean, depth, width = min(_stem_lean(c, pose) for c in accepted)
+                lean, depth, width = min(leans)
                 return [], (f"a flower stem standing in the water {depth:.3f} m below the rim and leaning on a "
                              f"{width:.3f} m wide mouth leans {lean:.0f} deg from vertical; a {aff.name} holds "
                              f"stems within {NEAR_AXIS_DEG} deg of upright (water at least 1.7 times as deep as its "
