@@ -16,7 +16,14 @@ from rail_mj.imagination import ImaginationConfig, PerturbationSet, draw, get_ba
 from rail_mj.imagination.batch import outcomes_from_states
 from rail_mj.imagination.perturb import world_models
 from rail_mj.mjcf import OWNER_OBJECT
-from rail_mj.pipeline.verdicts import candidate_slots, most_probable, pose_probabilities
+from rail_mj.pipeline.verdicts import (
+    candidate_plans,
+    candidate_slots,
+    most_probable,
+    pose_probabilities,
+    spread,
+    world_outcomes,
+)
 from rail_mj.render.explain import explain, format_explanation
 from rail_mj.stable_poses import pose_from_up
 
@@ -224,6 +231,28 @@ def test_perturbed_worlds_imagine_again_only_poses_whose_verdict_they_can_change
     assert candidate_slots(scores, 3, 2) == [0, 2]
     assert candidate_slots(scores, 3, 2, priors=[0.9, 0.9, 0.49]) == [0]
     assert candidate_slots(scores, 3, 2, priors=[0.5, 0.0, 1.0]) == [0, 2]
+
+
+def test_perturbed_worlds_imagine_only_the_candidates_and_keep_each_failed_plan_as_it_failed(cup, poses, drops,
+                                                                                              perturbed):
+    """Only the plans that scored above 0 go to the perturbed worlds; spread back, their rollouts are the ones a
+    call imagining every plan gives, and every other plan is the nominal world's failure, not blown up."""
+    ps, full = perturbed
+    nominal_scores = np.array([1.0, -1.0, -0.5, 0.4])  # pose 0: plan 0 a candidate; pose 1: plan 1
+    pairs = candidate_plans(nominal_scores, [0, 1], 2)
+    assert pairs == [(0, 0), (1, 1)]
+    again = imagine(cup, [poses[k] for k, _ in pairs], drops, [[_pour_plans(poses)[j]] for _, j in pairs],
+                    backend="native", config=FAST, perturbations=ps.perturbed)
+    assert again.batch == K * len(pairs)
+    nominal = world_outcomes(full, np.zeros(full.batch), K + 1)[0][0]
+    out, scores = spread((nominal, nominal_scores), (again, np.full(again.batch, 0.7)), pairs, [0, 1], 2, K)
+    assert out.batch == K * 4 and list(out.world) == [w for w in range(K) for _ in range(4)]
+    assert out.plan_index.tolist() == [0, 1] * 2 * K and out.pose_index.tolist() == [0, 0, 1, 1] * K
+    candidate = np.array([True, False, False, True] * K)
+    np.testing.assert_allclose(out.agent_pos[candidate], full.agent_pos[4:][candidate])
+    np.testing.assert_allclose(out.agent_pos[~candidate], np.tile(nominal.agent_pos, (K, 1, 1))[~candidate])
+    np.testing.assert_array_equal(scores, np.tile([0.7, -1.0, -0.5, 0.7], K))
+    assert out.unstable is not None and not out.unstable.any()
 
 
 def test_poses_one_world_apart_tie_and_stage_7s_pick_breaks_the_tie():

@@ -33,10 +33,12 @@ from rail_mj.mesh import load_object, mesh_notes, redecomposed
 from rail_mj.pipeline.config import ObjectInput, PoseMode, RunConfig
 from rail_mj.pipeline.parallel import ObjectTask, run_tasks
 from rail_mj.pipeline.verdicts import (
+    candidate_plans,
     candidate_slots,
     most_probable,
     pose_prior,
     pose_probabilities,
+    spread,
     undecided,
     world_outcomes,
 )
@@ -226,18 +228,20 @@ class Pipeline:
         if scores[best_b] > 0:
             result.pose_without_analyzer = pose_infos[kept[pose_plan(best_b, n_plans)[0]]]
 
-        # the perturbed worlds: every plan again in each pose with a candidate whose prior lets it be functional,
-        # all in one batched call
+        # the perturbed worlds: each candidate plan again in each pose whose prior lets it be functional, all in
+        # one batched call
         t = time.perf_counter()
         perturbations = draw(self.config.imagination)
         priors = [pose_prior(row, obj.obb_dims, poses[i]).value for i in kept]
         slots = candidate_slots(scores, len(kept), n_plans, priors)
         perturbed = None
         if slots and perturbations.perturbed is not None:
-            again = imagine(obj, [poses[kept[k]] for k in slots], agents, [trajectories[k] for k in slots],
+            pairs = candidate_plans(scores, slots, n_plans)
+            again = imagine(obj, [poses[kept[k]] for k, _ in pairs], agents, [[trajectories[k][j]] for k, j in pairs],
                             backend=self.backend, config=self.config.imagination,
                             perturbations=perturbations.perturbed)
-            perturbed = (again, scorer(again), slots)
+            perturbed = (*spread((outcomes, scores), (again, scorer(again)), pairs, slots, n_plans,
+                                 perturbations.perturbed.n_worlds), slots)
         timings["perturbed_worlds"] = time.perf_counter() - t
         t = time.perf_counter()
         verdict = self._analyse(profile, poses, kept, outcomes, scores, trajectories)

@@ -15,10 +15,12 @@ plan is the plan accepted in the most worlds (ties: stage
 7's plan for the pose, then the better nominal score). A rollout
 that blew up (``Outcomes.unstable``: a non-finite state or a MuJoCo instability warning) is a failure and is named.
 The nominal world imagines every pose and plan; the K perturbed worlds, one more batched call, imagine again
-every plan of the poses with a candidate there (a plan scored above 0) whose prior is at least
-:data:`rail_mj.affordances.prior.FUNCTIONAL`: a pose without a candidate has no success to confirm (its
+the candidates (the plans that scored above 0, :func:`candidate_plans`) of the poses with one whose prior is at
+least :data:`rail_mj.affordances.prior.FUNCTIONAL`: a pose without a candidate has no success to confirm (its
 physics is 0), and one with a smaller prior stays below it whatever its physics, so its verdict cannot change
-(its physics is the nominal world's, 0 or 1). Where the use rests in the object's concavities (a kind's
+(its physics is the nominal world's, 0 or 1). A perturbation asks whether what succeeded still succeeds in a
+slightly different world: a plan that failed in the nominal world counts as failed, as it did there, in each
+perturbed one (:func:`spread`). Where the use rests in the object's concavities (a kind's
 ``decomposition_matters``), one more world imagines again, on the object's second decomposition
 (:func:`rail_mj.mesh.second_decomposition`: CoACD's other concavity threshold), the poses whose verdict it could
 still change (:func:`undecided`), in a third batched call (its hulls differ in number and shape, so it cannot share
@@ -54,7 +56,8 @@ from rail_mj.imagination.summary import pose_candidates
 from rail_mj.llm.offline import judge_pose, rules_row
 from rail_mj.llm.schemas import FunctionalPoseVerdict
 
-__all__ = ["world_outcomes", "candidate_slots", "undecided", "pose_prior", "pose_probabilities", "most_probable"]
+__all__ = ["world_outcomes", "candidate_slots", "candidate_plans", "spread", "undecided", "pose_prior",
+           "pose_probabilities", "most_probable"]
 
 
 def world_outcomes(outcomes: Outcomes, scores: np.ndarray, n_worlds: int) -> list[tuple[Outcomes, np.ndarray]]:
@@ -65,10 +68,7 @@ def world_outcomes(outcomes: Outcomes, scores: np.ndarray, n_worlds: int) -> lis
     out = []
     for w in range(n_worlds):
         sl = slice(w * per, (w + 1) * per)
-        # every per-rollout array sliced to the world's; the segments' names (a tuple) are every world's
-        fields: dict[str, Any] = {f.name: v[sl] if isinstance(v := getattr(outcomes, f.name), np.ndarray) else v
-                                  for f in dataclasses.fields(outcomes)}
-        out.append((Outcomes(**fields), scores[sl]))
+        out.append((_take(outcomes, sl), scores[sl]))
     return out
 
 
@@ -80,6 +80,52 @@ def candidate_slots(scores: np.ndarray, n_kept: int, n_plans: int,
     the physics."""
     grid = np.asarray(scores, dtype=float).reshape(n_kept, n_plans)
     return [k for k in range(n_kept) if np.any(grid[k] > 0) and (priors is None or priors[k] >= FUNCTIONAL)]
+
+
+def candidate_plans(scores: np.ndarray, slots: Sequence[int], n_plans: int) -> list[tuple[int, int]]:
+    """The (pose slot, plan) rollouts the perturbed worlds imagine again: of the ``slots`` (:func:`candidate_slots`),
+    each plan that scored above 0 in the nominal world. A perturbation asks whether what succeeded in the
+    imagined world still succeeds when the world is a little different; a plan that failed there is taken to fail
+    the same way in every perturbed world (:func:`spread`)."""
+    grid = np.asarray(scores, dtype=float).reshape(-1, n_plans)
+    return [(k, j) for k in slots for j in range(n_plans) if grid[k, j] > 0]
+
+
+def _take(outcomes: Outcomes, index: np.ndarray | slice) -> Outcomes:
+    """The rollouts ``index`` of ``outcomes`` (every per-rollout array; the segments' names are every rollout's)."""
+    return Outcomes(**{f.name: v[index] if isinstance(v := getattr(outcomes, f.name), np.ndarray) else v
+                       for f in dataclasses.fields(outcomes)})
+
+
+def spread(nominal: tuple[Outcomes, np.ndarray], again: tuple[Outcomes, np.ndarray],
+           pairs: Sequence[tuple[int, int]], slots: Sequence[int], n_plans: int,
+           n_worlds: int) -> tuple[Outcomes, np.ndarray]:
+    """The perturbed worlds' (outcomes, scores) of every plan of the pose ``slots``, world-major and pose-major (as
+    one call imagining them all would give), from ``again``: the ``n_worlds`` worlds' rollouts of the ``pairs``
+    (:func:`candidate_plans`, world-major). Every other plan is the ``nominal`` world's rollout with its score (at
+    most 0: a failure), not blown up in the perturbed world."""
+    out0, scores0 = nominal
+    per = len(slots) * n_plans
+    base = np.array([k * n_plans + j for k in slots for j in range(n_plans)], dtype=np.int64)
+    filler = _take(out0, np.tile(base, n_worlds))
+    pos = {(k, j): s * n_plans + j for s, k in enumerate(slots) for j in range(n_plans)}
+    at = (np.arange(n_worlds)[:, None] * per + np.array([pos[p] for p in pairs])[None, :]).ravel()
+    fields: dict[str, Any] = {}
+    for f in dataclasses.fields(out0):
+        v, w = getattr(filler, f.name), getattr(again[0], f.name)
+        if isinstance(v, np.ndarray) and isinstance(w, np.ndarray):
+            v = v.copy()
+            v[at] = w
+        fields[f.name] = v
+    unstable = np.zeros(n_worlds * per, dtype=bool)
+    if again[0].unstable is not None:
+        unstable[at] = again[0].unstable
+    fields.update(pose_index=np.tile(np.repeat(np.arange(len(slots)), n_plans), n_worlds),
+                  plan_index=np.tile(np.arange(n_plans), len(slots) * n_worlds),
+                  world=np.repeat(np.arange(n_worlds), per), unstable=unstable)
+    scores = np.asarray(scores0, dtype=float)[np.tile(base, n_worlds)]
+    scores[at] = again[1]
+    return Outcomes(**fields), scores
 
 
 def undecided(verdicts: Sequence[PoseProbability], slots: Sequence[int]) -> list[int]:
