@@ -241,6 +241,8 @@ def test_perturbed_worlds_imagine_only_the_candidates_and_keep_each_failed_plan_
     nominal_scores = np.array([1.0, -1.0, -0.5, 0.4])  # pose 0: plan 0 a candidate; pose 1: plan 1
     pairs = candidate_plans(nominal_scores, [0, 1], 2)
     assert pairs == [(0, 0), (1, 1)]
+    # a plan the kind's pose rules read whatever it scored (a vessel's every pour, for a leak) goes along
+    assert candidate_plans(nominal_scores, [0, 1], 2, evidence={1}) == [(0, 0), (0, 1), (1, 1)]
     again = imagine(cup, [poses[k] for k, _ in pairs], drops, [[_pour_plans(poses)[j]] for _, j in pairs],
                     backend="native", config=FAST, perturbations=ps.perturbed)
     assert again.batch == K * len(pairs)
@@ -253,6 +255,25 @@ def test_perturbed_worlds_imagine_only_the_candidates_and_keep_each_failed_plan_
     np.testing.assert_allclose(out.agent_pos[~candidate], np.tile(nominal.agent_pos, (K, 1, 1))[~candidate])
     np.testing.assert_array_equal(scores, np.tile([0.7, -1.0, -0.5, 0.7], K))
     assert out.unstable is not None and not out.unstable.any()
+
+
+def test_kinds_name_the_plans_their_pose_rules_read_whatever_they_scored():
+    """A leak from any pour refuses a vessel's pose, the slid boxes probe a table's legroom, a chair is refused
+    where the body also sits to either side, a plate needs its centre: those plans are imagined in every world."""
+    from rail_mj.affordances.kinds import kind_of
+    from rail_mj.llm.offline import rules_row
+
+    def evidence(name: str) -> set[str]:
+        row = rules_row(name, 1.0)
+        assert row is not None
+        kind = kind_of(row)
+        return kind.evidence_plans(row, [p.name for p in kind.plans(kind.agent(row, [1.0, 0.5, 0.4]))])
+
+    assert evidence("cup") == {"above", "above_front", "above_back", "above_left", "above_right"}
+    assert evidence("table") == {"under_front", "under_back", "under_left", "under_right"}
+    assert evidence("chair") == {"facing_left_aside_front", "facing_left_aside_back"}
+    assert evidence("plate") == {"above"}
+    assert evidence("bed") == set()
 
 
 def test_poses_one_world_apart_tie_and_stage_7s_pick_breaks_the_tie():

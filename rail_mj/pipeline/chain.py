@@ -236,7 +236,9 @@ class Pipeline:
         slots = candidate_slots(scores, len(kept), n_plans, priors)
         perturbed = None
         if slots and perturbations.perturbed is not None:
-            pairs = candidate_plans(scores, slots, n_plans)
+            names = [p.name for p in profile.plans.plans]
+            evidence = kind_of(row).evidence_plans(row, names) if row is not None else set()
+            pairs = candidate_plans(scores, slots, n_plans, {names.index(p) for p in evidence})
             again = imagine(obj, [poses[kept[k]] for k, _ in pairs], agents, [[trajectories[k][j]] for k, j in pairs],
                             backend=self.backend, config=self.config.imagination,
                             perturbations=perturbations.perturbed)

@@ -15,19 +15,21 @@ plan is the plan accepted in the most worlds (ties: stage
 7's plan for the pose, then the better nominal score). A rollout
 that blew up (``Outcomes.unstable``: a non-finite state or a MuJoCo instability warning) is a failure and is named.
 The nominal world imagines every pose and plan; the K perturbed worlds, one more batched call, imagine again
-the candidates (the plans that scored above 0, :func:`candidate_plans`) of the poses with one whose prior is at
-least :data:`rail_mj.affordances.prior.FUNCTIONAL`: a pose without a candidate has no success to confirm (its
-physics is 0), and one with a smaller prior stays below it whatever its physics, so its verdict cannot change
-(its physics is the nominal world's, 0 or 1). A perturbation asks whether what succeeded still succeeds in a
-slightly different world: a plan that failed in the nominal world counts as failed, as it did there, in each
-perturbed one (:func:`spread`). Where the use rests in the object's concavities (a kind's
-``decomposition_matters``), one more world imagines again, on the object's second decomposition
-(:func:`rail_mj.mesh.second_decomposition`: CoACD's other concavity threshold), the poses whose verdict it could
-still change (:func:`undecided`), in a third batched call (its hulls differ in number and shape, so it cannot share
-the perturbed worlds' model layout). ``W`` is the number of worlds a pose was imagined in. With an
-LLM provider, a pose its stage 7 rejected in the nominal world has physics 0: common sense vetoes what the
-rules would let through. The priors are :meth:`Affordance.size_prior`
-and :meth:`Affordance.pose_prior` (1 for an affordance outside the registry).
+the candidates (the plans that scored above 0, :func:`candidate_plans`), and the plans the kind's pose rules read
+whatever they scored (``Kind.evidence_plans``: every pour, for a leak; the boxes slid under a table's top), of
+the poses with a candidate whose prior is at least :data:`rail_mj.affordances.prior.FUNCTIONAL`: a pose
+without a candidate has no success to confirm (its physics is 0), and one with a smaller prior stays below it
+whatever its physics, so its verdict cannot change (its physics is the nominal world's, 0 or 1). A perturbation
+asks whether what succeeded still succeeds in a slightly different world: any other plan failed in the nominal
+world and counts as failed, as it did there, in each perturbed one (:func:`spread`). Where the use rests in
+the object's concavities (a kind's ``decomposition_matters``), one more world imagines again, on the object's
+second decomposition (:func:`rail_mj.mesh.second_decomposition`: CoACD's other concavity threshold), every plan of
+the poses whose verdict it could still change (:func:`undecided`; its hulls may let a plan that failed on the
+first ones succeed), in a third batched call (its hulls differ in number and shape, so it cannot share the
+perturbed worlds' model layout). ``W`` is the number of worlds a pose was imagined in. With an LLM provider, a
+pose its stage 7 rejected in the nominal world has physics 0: common sense vetoes what the rules would let
+through. The priors are :meth:`Affordance.size_prior` and :meth:`Affordance.pose_prior` (1 for an affordance
+outside the registry).
 
 The result's ``probability`` is the largest pose probability; the result is functional when it is at least
 :data:`rail_mj.affordances.prior.FUNCTIONAL`, and its functional pose is the most probable pose, where a pose within
@@ -40,7 +42,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from typing import Any
 
 import numpy as np
@@ -82,13 +84,15 @@ def candidate_slots(scores: np.ndarray, n_kept: int, n_plans: int,
     return [k for k in range(n_kept) if np.any(grid[k] > 0) and (priors is None or priors[k] >= FUNCTIONAL)]
 
 
-def candidate_plans(scores: np.ndarray, slots: Sequence[int], n_plans: int) -> list[tuple[int, int]]:
+def candidate_plans(scores: np.ndarray, slots: Sequence[int], n_plans: int,
+                    evidence: Collection[int] = ()) -> list[tuple[int, int]]:
     """The (pose slot, plan) rollouts the perturbed worlds imagine again: of the ``slots`` (:func:`candidate_slots`),
-    each plan that scored above 0 in the nominal world. A perturbation asks whether what succeeded in the
-    imagined world still succeeds when the world is a little different; a plan that failed there is taken to fail
-    the same way in every perturbed world (:func:`spread`)."""
+    each plan that scored above 0 in the nominal world, and the ``evidence`` plans (indices; the kind's pose rules
+    read them whatever they scored, :meth:`Kind.evidence_plans`). A perturbation asks whether what succeeded in the
+    imagined world still succeeds when the world is a little different; any other plan failed there and is taken
+    to fail the same way in every perturbed world (:func:`spread`)."""
     grid = np.asarray(scores, dtype=float).reshape(-1, n_plans)
-    return [(k, j) for k in slots for j in range(n_plans) if grid[k, j] > 0]
+    return [(k, j) for k in slots for j in range(n_plans) if grid[k, j] > 0 or j in evidence]
 
 
 def _take(outcomes: Outcomes, index: np.ndarray | slice) -> Outcomes:

@@ -152,6 +152,13 @@ class Kind(ABC):
         its basin) as evidence: (candidates still accepted, why the pose is rejected or "")."""
         return accepted, ""
 
+    def evidence_plans(self, aff: Affordance, plans: Sequence[str]) -> set[str]:
+        """Of ``plans``, those whose rollouts :meth:`accept_pose` reads whatever they scored (a leak, a probe of the
+        room under a top): the perturbed worlds imagine them again even where they failed in the nominal world,
+        where a plan that failed otherwise counts as failed in each world (:func:`rail_mj.pipeline.verdicts.
+        candidate_plans`). None unless a kind's pose rules read such a plan."""
+        return set()
+
     def rank(self, aff: Affordance, accepted: list[CandidateInteraction], h: Sequence[float]) -> int:
         """First key in choosing the best pose (half extents ``h``), before the number of accepted plans; 0 unless
         a kind cares."""

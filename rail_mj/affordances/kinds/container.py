@@ -224,6 +224,10 @@ class Container(Kind):
         return True, (f"{s.frac_inside_bbox:.0%} of droplets from above rest inside, {depth:.0%} of the height below "
                       "the rim, walled all round")
 
+    def evidence_plans(self, aff: Affordance, plans: Sequence[str]) -> set[str]:
+        """Every pour: a leak from any of them, failed or not, refuses the pose."""
+        return set(plans)
+
     def accept_pose(
         self, aff: Affordance, accepted: list[CandidateInteraction], pose: PoseCandidates
     ) -> tuple[list[CandidateInteraction], str]:

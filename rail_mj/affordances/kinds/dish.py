@@ -45,6 +45,10 @@ class Dish(Lowering):
         # food resting low inside a plate's rim is the point: any height on the object will do
         return -math.inf, math.inf
 
+    def evidence_plans(self, aff: Affordance, plans: Sequence[str]) -> set[str]:
+        """The food put down at the centre: the pose rules need it accepted in each world."""
+        return {p for p in plans if p == "above"}
+
     def accept_pose(
         self, aff: Affordance, accepted: list[CandidateInteraction], pose: PoseCandidates
     ) -> tuple[list[CandidateInteraction], str]:

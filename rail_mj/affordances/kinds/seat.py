@@ -173,6 +173,13 @@ class Seat(Kind):
         return True, (f"the body sits {bodies[0][ROOT].height:.2f} m up, thighs level, torso upright"
                       + (", leaning on a back" if torso else ""))
 
+    def evidence_plans(self, aff: Affordance, plans: Sequence[str]) -> set[str]:
+        """A seat for one: the body put down to either side (where it sits refuses the pose); a seat for more: every
+        place side by side (the pose needs both of a heading's)."""
+        if cast(SeatParams, aff.params).persons == 1:
+            return {p for p in plans if p in {f"facing_{_ASIDE_HEADING}{side}" for side, _ in _ASIDE}}
+        return set(plans)
+
     def accept_pose(
         self, aff: Affordance, accepted: list[CandidateInteraction], pose: PoseCandidates
     ) -> tuple[list[CandidateInteraction], str]:

@@ -107,6 +107,10 @@ class Surface(Lowering):
                            "surface, it is no top with free space above it")
         return ok, why
 
+    def evidence_plans(self, aff: Affordance, plans: Sequence[str]) -> set[str]:
+        """The boxes slid in above the floor: where they stop, failed or not, is the room under the top."""
+        return {p for p in plans if p in _SLIDES} if cast(SurfaceParams, aff.params).legroom else set()
+
     def accept_pose(
         self, aff: Affordance, accepted: list[CandidateInteraction], pose: PoseCandidates
     ) -> tuple[list[CandidateInteraction], str]:
