@@ -97,8 +97,9 @@ def candidate_plans(scores: np.ndarray, slots: Sequence[int], n_plans: int,
 
 def _take(outcomes: Outcomes, index: np.ndarray | slice) -> Outcomes:
     """The rollouts ``index`` of ``outcomes`` (every per-rollout array; the segments' names are every rollout's)."""
-    return Outcomes(**{f.name: v[index] if isinstance(v := getattr(outcomes, f.name), np.ndarray) else v
-                       for f in dataclasses.fields(outcomes)})
+    fields: dict[str, Any] = {f.name: v[index] if isinstance(v := getattr(outcomes, f.name), np.ndarray) else v
+                              for f in dataclasses.fields(outcomes)}
+    return Outcomes(**fields)
 
 
 def spread(nominal: tuple[Outcomes, np.ndarray], again: tuple[Outcomes, np.ndarray],
