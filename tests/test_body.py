@@ -17,10 +17,11 @@ import trimesh
 
 from rail_mj.affordances import get
 from rail_mj.affordances.kinds import kind_of
+from rail_mj.affordances.prior import FUNCTIONAL, NEGLIGIBLE
 from rail_mj.core.errors import FragmentError, ImaginationError
 from rail_mj.core.profile import CandidateInteraction, PoseCandidates
 from rail_mj.core.types import AgentSetup, RailObject
-from rail_mj.imagination import ImaginationConfig, draw, imagine, prepare
+from rail_mj.imagination import ImaginationConfig, PerturbationSet, draw, imagine, prepare
 from rail_mj.imagination.batch import outcomes_from_states
 from rail_mj.imagination.inputs import agent_setup, trajectory_array
 from rail_mj.imagination.perturb import Perturbation, world_model
@@ -28,7 +29,8 @@ from rail_mj.imagination.summary import result_summary
 from rail_mj.llm import generate_profile
 from rail_mj.mjcf import check_fragment, compose_scene, segment_state
 from rail_mj.mjcf.body import SEGMENTS, body_fragment, body_size
-from rail_mj.pipeline.verdicts import world_outcomes
+from rail_mj.pipeline.verdicts import pose_probabilities, world_outcomes
+from rail_mj.scoring import compile_scoring
 from rail_mj.stable_poses import pose_from_up
 
 DROPLET = ('<mujoco><worldbody><body name="drop"><geom type="sphere" size="0.006" mass="0.001"/></body>'
@@ -59,9 +61,10 @@ def _stool() -> RailObject:
     return _object("stool", [([-0.175, -0.175, 0.43], [0.175, 0.175, 0.46]), *_legs(0.15, 0.15, 0.43)])
 
 
-def _bed() -> RailObject:
-    """A bed: a 2.0 x 1.4 m mattress, its top 0.5 m up, on a base."""
-    return _object("bed", [([-1.0, -0.7, 0.3], [1.0, 0.7, 0.5]), ([-0.95, -0.65, 0.0], [0.95, 0.65, 0.3])])
+def _bed(top: float = 0.5) -> RailObject:
+    """A bed: a 2.0 x 1.4 m mattress 0.2 m thick, its top ``top`` m up, on a base."""
+    return _object(f"bed{top}", [([-1.0, -0.7, top - 0.2], [1.0, 0.7, top]),
+                                 ([-0.95, -0.65, 0.0], [0.95, 0.65, top - 0.2])])
 
 
 def _bathtub() -> RailObject:
@@ -72,14 +75,21 @@ def _bathtub() -> RailObject:
                                ([-L, W - t, 0.0], [L, W, H])])
 
 
-def _judged(obj: RailObject, affordance: str) -> list[tuple[CandidateInteraction, bool, str]]:
-    """Every plan of ``affordance``'s offline profile imagined on ``obj`` standing upright, with stage 7's verdict
-    on it by the kind's rules."""
+def _imagined(obj: RailObject, affordance: str):
+    """``affordance``'s offline profile, ``obj``'s upright pose, and every plan imagined on it."""
     pose = pose_from_up(obj, np.array([0.0, 0.0, 1.0]), 1.0)
     h = [float(v) for v in pose.half_extents]
     profile = generate_profile(affordance, obj.obb_dims)
     out = imagine(obj, [pose], agent_setup(profile.agent.mjcf, profile.layout),
                   trajectory_array(profile.trajectories.trajectories, h), backend="native")
+    return profile, pose, out
+
+
+def _judged(obj: RailObject, affordance: str) -> list[tuple[CandidateInteraction, bool, str]]:
+    """Every plan of ``affordance``'s offline profile imagined on ``obj`` standing upright, with stage 7's verdict
+    on it by the kind's rules."""
+    profile, pose, out = _imagined(obj, affordance)
+    h = [float(v) for v in pose.half_extents]
     aff = get(affordance)
     kind = kind_of(aff)
     judged = []
@@ -156,6 +166,24 @@ def test_the_body_lies_in_a_bed_and_a_bathtub_holds_it_lying_down():
         carried = not any(s.on_ground for s in seg.values()) and seg["torso"].touching_object
         held += lying and inside and carried and c.summary.object_tilt_deg < 15
     assert held
+
+
+def test_a_bed_higher_than_any_bed_is_weighed_by_its_rest_prior_not_vetoed():
+    """The bed row's typical rest is 0.15-0.9 m; a mattress 1 m up is unusual, not impossible: the body lies on it,
+    the rules accept it, and the pose's prior carries the rest height's plausibility. Past the rules' limit
+    (where that prior is negligible) the rules still refuse."""
+    bed = get("bed")
+    assert bed.rest_limits()[1] > 1.0 > bed.envelope.rest[1]
+    profile, pose, out = _imagined(_bed(1.0), "bed")
+    scores = compile_scoring(profile.scoring.source)(out)
+    assert np.any(scores > 0), "the scoring refuses a rest height the rules let through"
+    trajectories = [trajectory_array(profile.trajectories.trajectories, [float(v) for v in pose.half_extents])]
+    v, = pose_probabilities("bed", 1.0, _bed(1.0).obb_dims, profile.plans.plans, [pose], [0], (out, scores),
+                            trajectories, PerturbationSet())
+    assert v.physics == 1.0 and "rest height 1" in v.prior_factors
+    assert v.prior == pytest.approx(bed.rest_prior(1.0).value, abs=0.05) and NEGLIGIBLE < v.prior < FUNCTIONAL
+    high = _judged(_bed(1.6), "bed")
+    assert not any(ok for _, ok, _ in high) and any("the hips rest" in why for _, _, why in high)
 
 
 def test_mjx_refuses_the_body_and_names_the_native_backend():

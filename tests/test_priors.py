@@ -33,6 +33,18 @@ def test_every_prior_is_continuous_at_its_ranges_edges(name):
             assert inside == 1.0 and min(outside) > 0.999, (name, value, bound)
 
 
+@pytest.mark.parametrize("name", sorted(n for n in REGISTRY if get(n).envelope.rest[1] < math.inf))
+def test_a_rest_height_is_a_prior_continuous_at_its_windows_edges_and_vetoed_only_where_negligible(name):
+    row = get(name)
+    (lo, hi), (low, high) = row.envelope.rest, row.rest_limits()
+    assert low < lo and high > hi
+    for bound in (lo, hi):
+        near = [row.rest_prior(bound * (1 + s * _EPS)).value for s in (-1, 1)]
+        assert min(near) > 0.999, (name, bound)
+    for limit in (low, high):
+        assert row.rest_prior(limit).value == pytest.approx(NEGLIGIBLE)
+
+
 def test_the_dimension_check_has_no_step_at_a_ranges_edge():
     """A bowl 11.9 cm across against a typical 12.5 cm at least is nearly as plausible as a 12.5 cm one (stage 1
     said no), and the prior falls smoothly past the edge."""

@@ -2,9 +2,10 @@
 
 One stable pose's task-frame box (half extents ``h``) has ``H = 2 h_z``, ``W`` / ``L`` the smaller / larger
 horizontal full extent, and ``aspect = H / W``. ``rest`` is the agent's bottom height above the ground for
-the seat and lie kinds (their physics checks it; it is no size of the object's box). The ranges are typical
-ranges, never vetoes: :meth:`Affordance.pose_prior <rail_mj.affordances.row.Affordance.pose_prior>` turns
-them into a plausibility (:mod:`rail_mj.affordances.prior`). A vessel's aspect is judged at its rim (the pose's
+the seat and lie kinds (measured where the physics puts the agent down; it is no size of the object's box). The
+ranges are typical ranges, never vetoes: :meth:`Affordance.pose_prior <rail_mj.affordances.row.Affordance.pose_prior>`
+and :meth:`~rail_mj.affordances.row.Affordance.rest_prior` turn them into a plausibility
+(:mod:`rail_mj.affordances.prior`). A vessel's aspect is judged at its rim (the pose's
 spill level over ``W``), which a handle rising above the rim does not raise.
 """
 
@@ -24,8 +25,9 @@ Range = tuple[float, float]
 ANY: Range = (0.0, math.inf)
 #: The envelope's sizes of the object's box (``rest`` is the agent's, not the box's).
 BOX = ("height", "width", "length", "height/width")
-#: Every quantity a prior weighs: the envelope's box sizes and the OBB's largest and smallest dims.
-QUANTITIES = (*BOX, "largest dim", "smallest dim")
+#: Every quantity a prior weighs: the envelope's box sizes, the OBB's largest and smallest dims, and the agent's rest
+#: height (``rest``, measured in the rollouts).
+QUANTITIES = (*BOX, "largest dim", "smallest dim", "rest height")
 
 
 @dataclass(frozen=True)

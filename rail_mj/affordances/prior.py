@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from rail_mj.core.errors import ConfigError
 
 __all__ = ["DEFAULT_WIDTH", "ASPECT_WIDTH", "NEGLIGIBLE", "FUNCTIONAL", "WIDTH_RANGE", "Factor", "Prior",
-           "plausibility", "check_width", "width_of"]
+           "plausibility", "check_width", "width_of", "reach"]
 
 #: Half the plausibility of a length is gone this far past its range, as a fraction of the bound. Things of
 #: everyday use are sized to the body that uses them (a hand, a seat, a lying person), and their typical range
@@ -55,6 +55,13 @@ def width_of(name: str) -> float:
     """The width of a quantity by its name: :data:`ASPECT_WIDTH` for a ratio (``height/width``), else
     :data:`DEFAULT_WIDTH`."""
     return ASPECT_WIDTH if "/" in name else DEFAULT_WIDTH
+
+
+def reach(width: float = DEFAULT_WIDTH) -> float:
+    """The factor past a range's bound at which the plausibility falls to :data:`NEGLIGIBLE` (1.28 for the default
+    width): ``(1 + width) ** sqrt(log2(1 / NEGLIGIBLE))``. A rule that must bound a size the physics measures (a
+    sitter's hips above the ground) bounds it here; inside, the size is a prior, not a veto."""
+    return float((1.0 + check_width(width)) ** math.sqrt(math.log2(1.0 / NEGLIGIBLE)))
 
 
 def plausibility(value: float, lo: float, hi: float, width: float = DEFAULT_WIDTH) -> float:

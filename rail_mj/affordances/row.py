@@ -13,7 +13,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, replace
 
 from rail_mj.affordances.envelope import ANY, Envelope, Range
-from rail_mj.affordances.prior import FUNCTIONAL, Prior, width_of
+from rail_mj.affordances.prior import FUNCTIONAL, Prior, reach, width_of
 from rail_mj.core.errors import ConfigError
 
 __all__ = ["KindParams", "KIND_PARAMS", "Affordance"]
@@ -113,6 +113,21 @@ class Affordance:
             return True, ""
         return False, "; ".join(f"in this pose its {f.name} is {f.value:.3f}; a {self.name} typically has "
                                 f"{f.lo:g}-{f.hi:g} (plausibility {f.plausibility:.2f})" for f in out)
+
+    def rest_prior(self, height: float) -> Prior:
+        """The envelope's ``rest`` as a prior over the agent's rest height (m) where the physics put it down (no
+        factor for a row without one)."""
+        if self.envelope.rest == ANY:
+            return Prior()
+        return Prior.of([("rest height", height, self.envelope.rest, self._width("rest height"))])
+
+    def rest_limits(self) -> Range:
+        """The rest heights (m) the seat and lie kinds' rules let through: the envelope's typical ``rest`` widened on
+        each side to where its :meth:`rest_prior` falls to NEGLIGIBLE (:func:`~rail_mj.affordances.prior.reach`).
+        A rest height a real object of the use can give is a prior, not a veto."""
+        lo, hi = self.envelope.rest
+        f = reach(self._width("rest height"))
+        return lo / f, hi * f
 
     def scaled(self, factor: float) -> Affordance:
         """The row for an agent ``factor`` times the size of the one it is for ("put the doll on the chair": a

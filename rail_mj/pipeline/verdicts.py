@@ -4,7 +4,8 @@ For each imagined stable pose of an object, with ``W`` worlds (the nominal one, 
 :mod:`rail_mj.imagination.perturb`, and the second decomposition where it matters)::
 
     physics(pose)     = #{worlds in which the pose succeeds} / W
-    probability(pose) = size_prior(object's OBB) * pose_prior(pose's box, its basin's rim) * physics(pose)
+    probability(pose) = size_prior(object's OBB) * pose_prior(pose's box, its basin's rim)
+                        * rest_prior(where its best plan's agent came to rest) * physics(pose)
 
 A pose succeeds in a world when the Functional Pose Analyzer's rules accept it there
 (:func:`rail_mj.llm.offline.judge_pose`: the kind's rules on each candidate, a rollout that scored above 0
@@ -28,8 +29,10 @@ the poses whose verdict it could still change (:func:`undecided`; its hulls may 
 first ones succeed), in a third batched call (its hulls differ in number and shape, so it cannot share the
 perturbed worlds' model layout). ``W`` is the number of worlds a pose was imagined in. With an LLM provider, a
 pose its stage 7 rejected in the nominal world has physics 0: common sense vetoes what the rules would let
-through. The priors are :meth:`Affordance.size_prior` and :meth:`Affordance.pose_prior` (1 for an affordance
-outside the registry).
+through. The priors are :meth:`Affordance.size_prior`, :meth:`Affordance.pose_prior` and, for a seat or a bed,
+:meth:`Affordance.rest_prior` of the median height (at the object's nominal scale) at which the best plan's agent
+came to rest in the worlds that accepted it: the envelope's ``rest`` window is a prior like its box sizes, and the
+rules refuse only a rest height past :meth:`Affordance.rest_limits` (1 for an affordance outside the registry).
 
 The result's ``probability`` is the largest pose probability; the result is functional when it is at least
 :data:`rail_mj.affordances.prior.FUNCTIONAL`, and its functional pose is the most probable pose, where a pose within
@@ -158,10 +161,16 @@ def pose_prior(aff: Affordance | None, obb_dims: Sequence[float] | np.ndarray, p
 
 def _accepted(aff: Affordance | None, plans: Sequence[MotionPlan], poses: Sequence[StablePose],
               kept: Sequence[int], outcomes: Outcomes, scores: np.ndarray,
-              trajectories: Sequence[Sequence[np.ndarray]]) -> dict[int, set[str]]:
-    """Per stable pose with a candidate: the plans stage 7's rules accept in this world's rollouts."""
-    return {pc.pose_index: {c.plan for c in judge_pose(aff, pc)[0]}
-            for pc in pose_candidates(plans, poses, kept, outcomes, scores, trajectories)}
+              trajectories: Sequence[Sequence[np.ndarray]]) -> dict[int, dict[str, float | None]]:
+    """Per stable pose with a candidate: the plans stage 7's rules accept in this world's rollouts, each with the
+    height its agent came to rest at where the kind measures one (:meth:`Kind.rest_height`)."""
+    kind = kind_of(aff) if aff is not None else None
+    out: dict[int, dict[str, float | None]] = {}
+    for pc in pose_candidates(plans, poses, kept, outcomes, scores, trajectories):
+        h = list(pc.half_extents)
+        out[pc.pose_index] = {c.plan: kind.rest_height(aff, c, h) if kind is not None and aff is not None else None
+                              for c in judge_pose(aff, pc)[0]}
+    return out
 
 
 def _blown(outcomes: Outcomes, names: Sequence[str], where: str) -> dict[int, list[str]]:
@@ -203,17 +212,20 @@ def pose_probabilities(
     aff = rules_row(affordance, scale)
     names = [p.name for p in plans]
     wins: list[dict[str, int]] = [{} for _ in kept]
+    rests: list[dict[str, list[float]]] = [{} for _ in kept]  # per plan: its rest heights at the nominal scale
     worlds_ok = np.zeros(len(kept), dtype=np.int64)
     blew_up: list[list[str]] = [[] for _ in kept]
     slot = {i: k for k, i in enumerate(kept)}
     again = set() if perturbed is None else set(perturbed[2])
 
-    def count(accepted: dict[int, set[str]]) -> None:
+    def count(accepted: dict[int, dict[str, float | None]], scale: float = 1.0) -> None:
         for i, plans_ok in accepted.items():
             if plans_ok:
                 worlds_ok[slot[i]] += 1
-                for name in plans_ok:
+                for name, rest in plans_ok.items():
                     wins[slot[i]][name] = wins[slot[i]].get(name, 0) + 1
+                    if rest is not None:
+                        rests[slot[i]].setdefault(name, []).append(rest / scale)
 
     out0, scores0 = world_outcomes(*nominal, 1)[0]
     count(_accepted(aff, plans, poses, kept, out0, scores0, trajectories))
@@ -229,7 +241,7 @@ def pose_probabilities(
             trajectories_w = [[world_trajectory(t, np.asarray(poses[kept[k]].half_extents), world)
                                for t in trajectories[k]] for k in slots]
             count(_accepted(_agent_row(aff, affordance, scale, world.agent_size), plans, poses_w, sub, out_w,
-                            scores_w, trajectories_w))
+                            scores_w, trajectories_w), world.scale)
             for k, lines in _blown(out_w, names, f"world {w} ({world.doc()})").items():
                 blew_up[slots[k]] += lines
     second: set[int] = set()
@@ -245,13 +257,15 @@ def pose_probabilities(
     vetoed = ({v.pose_index for v in stage7.poses if not v.accept} if llm_veto and stage7 is not None else set())
     out = []
     for k, i in enumerate(kept):
-        p = pose_prior(aff, obb_dims, poses[i])
-        prior, doc = p.value, (p.doc() if aff is not None else "outside the registry: no size prior")
         successes = 0 if i in vetoed else int(worlds_ok[k])
         # ties: stage 7's plan for the pose, then the better nominal score
         chosen, row = stage7_plans.get(i), scores0[k * len(names) : (k + 1) * len(names)]
         best = (max(wins[k], key=lambda name: (wins[k][name], name == chosen, float(row[names.index(name)])))
                 if successes else None)
+        p = pose_prior(aff, obb_dims, poses[i])
+        if aff is not None and best is not None and rests[k].get(best):
+            p = p * aff.rest_prior(float(np.median(rests[k][best])))
+        prior, doc = p.value, (p.doc() if aff is not None else "outside the registry: no size prior")
         imagined = (perturbations.n_worlds if k in again else 1) + (k in second)
         physics = successes / imagined
         out.append(PoseProbability(

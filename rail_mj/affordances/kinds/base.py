@@ -159,6 +159,12 @@ class Kind(ABC):
         candidate_plans`). None unless a kind's pose rules read such a plan."""
         return set()
 
+    def rest_height(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float]) -> float | None:
+        """The height (m) above the ground at which an accepted candidate's agent came to rest, for a row whose
+        envelope has a ``rest`` window (its :meth:`Affordance.rest_prior` weighs it); None for a kind that measures
+        none."""
+        return None
+
     def rank(self, aff: Affordance, accepted: list[CandidateInteraction], h: Sequence[float]) -> int:
         """First key in choosing the best pose (half extents ``h``), before the number of accepted plans; 0 unless
         a kind cares."""
@@ -230,20 +236,22 @@ def judge_unregistered(c: CandidateInteraction) -> tuple[bool, str]:
 
 
 def rest_words(aff: Affordance) -> str:
-    """The rest-height window of a seat, lie or surface affordance in words."""
-    return f"at {aff.envelope.rest[0]:g}-{aff.envelope.rest[1]:g} m above the ground"
+    """The rest heights of the agent's bottom the rules let through, and the typical ones, in words."""
+    lo, hi = aff.rest_limits()
+    return f"at {lo:.2f}-{hi:.2f} m above the ground (typically {aff.envelope.rest[0]:g}-{aff.envelope.rest[1]:g} m)"
 
 
 def rest_bounds(aff: Affordance) -> tuple[str, str]:
-    """The rest-height window of the agent's bottom as task-frame z expressions (``h`` broadcast over agents)."""
-    lo, hi = aff.envelope.rest
+    """The rest heights of the agent's bottom the rules let through (:meth:`Affordance.rest_limits`: the typical
+    window is a prior) as task-frame z expressions (``h`` broadcast over agents)."""
+    lo, hi = aff.rest_limits()
     return f"-h[:, :, 2] + {lo:g}", f"-h[:, :, 2] + {hi:g}"
 
 
 def rest_window(aff: Affordance, agent_half_z: float) -> tuple[float, float]:
-    """The rest-height window of the agent's centre above the ground (m), for an agent of half height
-    ``agent_half_z``: what the analyzer checks, as :func:`rest_bounds` is what the scoring checks."""
-    lo, hi = aff.envelope.rest
+    """The rest heights of the agent's centre above the ground (m) the rules let through, for an agent of half
+    height ``agent_half_z``: what the analyzer checks, as :func:`rest_bounds` is what the scoring checks."""
+    lo, hi = aff.rest_limits()
     return lo + agent_half_z, hi + agent_half_z
 
 

@@ -77,14 +77,16 @@ class Lie(Kind):
         return rest_scoring(aff, shape, *rest_bounds(aff), _PELVIS_DEG, MAX_OBJECT_TILT_DEG, f"lying {rest_words(aff)}")
 
     def accept(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float]) -> tuple[bool, str]:
-        lo, hi = rest_window(aff, self.agent(aff, h).half_z)
+        shape = self.agent(aff, h)
+        lo, hi = rest_window(aff, shape.half_z)
         bodies = agents_segments(c)
         if not bodies:
             return False, "no body segments were reported: the lie kind needs its articulated body"
         seg = bodies[0]
         pelvis = seg[ROOT]
         if not lo <= pelvis.height <= hi:
-            return False, f"the hips rest {pelvis.height:.2f} m above the ground; lying: {lo:.2f}-{hi:.2f} m"
+            return False, (f"the hips rest {pelvis.height - shape.half_z:.2f} m above the ground; lying "
+                           f"{rest_words(aff)}")
         if not (pelvis.touching_object and seg["torso"].touching_object):
             return False, "the pelvis and torso do not both rest on the object"
         grounded = [name for name, s in seg.items() if s.on_ground]
@@ -94,3 +96,8 @@ class Lie(Kind):
         if why:
             return False, why
         return True, f"the body lies on the object, hips {pelvis.height:.2f} m above the ground"
+
+    def rest_height(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float]) -> float | None:
+        """The back's underside above the ground (the height the sleeper lies at)."""
+        bodies = agents_segments(c)
+        return bodies[0][ROOT].height - self.agent(aff, h).half_z if bodies else None

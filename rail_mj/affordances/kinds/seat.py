@@ -153,7 +153,8 @@ class Seat(Kind):
             who = f"body {i + 1}: " if len(bodies) > 1 else ""
             pelvis = seg[ROOT]
             if not lo <= pelvis.height <= hi:
-                return False, f"{who}the hips rest {pelvis.height:.2f} m above the ground; sitting: {lo:.2f}-{hi:.2f} m"
+                return False, (f"{who}the hips rest {pelvis.height - shape.half_z:.2f} m above the ground; sitting "
+                               f"{rest_words(aff)}")
             if not pelvis.touching_object:
                 return False, f"{who}the pelvis does not rest on the object"
             if not any(seg[t].touching_object for t in LEGS):  # both level with the buttocks: either may bear
@@ -172,6 +173,13 @@ class Seat(Kind):
         torso = all(seg["torso"].touching_object for seg in bodies)
         return True, (f"the body sits {bodies[0][ROOT].height:.2f} m up, thighs level, torso upright"
                       + (", leaning on a back" if torso else ""))
+
+    def rest_height(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float]) -> float | None:
+        """The thighs' undersides above the ground (the seat height the sitter found), over the bodies."""
+        bodies = agents_segments(c)
+        if not bodies:
+            return None
+        return sum(seg[ROOT].height for seg in bodies) / len(bodies) - self.agent(aff, h).half_z
 
     def evidence_plans(self, aff: Affordance, plans: Sequence[str]) -> set[str]:
         """A seat for one: the body put down to either side (where it sits refuses the pose); a seat for more: every
