@@ -195,7 +195,8 @@ def test_seat_scoring_height_and_uprightness():
     dims, h = [0.9, 0.5, 0.48], [0.25, 0.24, 0.45]
     seated = [[0.0, 0.0, -0.45 + 0.45 + 0.05]]  # pelvis bottom 0.45 m above the ground
     assert _score("chair", dims, _outcomes(seated, h)) > 0
-    assert _score("chair", dims, _outcomes([[0.0, 0.0, 0.45]], h)) < 0  # on top of a 0.9 m back: too high
+    high = [0.25, 0.24, 0.55]  # on top of a 1.1 m back: past where a chair's rest prior is negligible
+    assert _score("chair", dims, _outcomes([[0.0, 0.0, 0.55]], high)) < 0
     tipped = [math.cos(math.radians(40)), math.sin(math.radians(40)), 0.0, 0.0]
     assert _score("chair", dims, _outcomes(seated, h, quat=tipped)) < 0
 
@@ -250,7 +251,7 @@ def test_functional_pose_rules_for_a_chair_and_no_valid_pose():
     off_centre = [_candidate(p, [0.0, 0.0, 0.8], score=0.3, frac_touching_object=1.0, mean_height=0.0,
                              segments=_sitting(0.52)) for p in ("facing_left", "facing_back")]
     too_high = _candidate("facing_right", [0.0, 0.0, 0.8], frac_touching_object=1.0, mean_height=1.1,
-                          segments=_sitting(0.97))
+                          segments=_sitting(1.17))  # the buttocks 1.1 m up
     request = FunctionalPoseRequest(affordance="chair", expected_outcome="seated", poses=[
         PoseCandidates(pose_index=0, probability=0.6, half_extents=h, candidates=[too_high]),
         PoseCandidates(pose_index=1, probability=0.4, half_extents=h, candidates=[too_high, seat, *off_centre]),
