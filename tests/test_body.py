@@ -37,8 +37,10 @@ DROPLET = ('<mujoco><worldbody><body name="drop"><geom type="sphere" size="0.006
            '</worldbody></mujoco>')
 
 
-def _object(name: str, boxes: list[tuple[list[float], list[float]]], density: float = 500.0) -> RailObject:
-    hulls = [trimesh.creation.box(bounds=[lo, hi]).vertices for lo, hi in boxes]
+def _object(name: str, boxes: list[tuple[list[float], list[float]]], density: float = 500.0,
+            hulls: tuple[np.ndarray, ...] = ()) -> RailObject:
+    """An object of axis-aligned ``boxes`` and other convex ``hulls`` (vertices)."""
+    hulls = (*(np.asarray(trimesh.creation.box(bounds=[lo, hi]).vertices) for lo, hi in boxes), *hulls)
     mesh = cast(trimesh.Trimesh, trimesh.util.concatenate([trimesh.convex.convex_hull(h) for h in hulls]))
     return RailObject(name=name, mesh=mesh, hulls=tuple(np.asarray(h) for h in hulls), mesh_hash=f"test-{name}",
                       obb_dims=np.sort(mesh.extents)[::-1], com=mesh.center_mass, mass=float(mesh.volume * density),
@@ -149,6 +151,72 @@ def test_the_body_sits_upright_in_a_plain_chair_and_on_a_stool():
                for c, ok, _ in _judged(_chair(), "chair") if ok)
 
 
+def _bar_stool(footrest: str = "rungs") -> RailObject:
+    """A bar stool: a 0.4 m square seat 0.72 m high on four legs; ``footrest``: "rungs" between the legs 0.27 m up (a
+    footrest 0.45 m under the seat, as a counter stool's is: below the soles of a sitter with knees at 90°), "none",
+    or a "panel" closing each side from 0.1 m to 0.6 m up (vertical faces a foot slides down)."""
+    if footrest == "rungs":
+        parts = [([-0.2, sy * 0.18 - 0.01, 0.25], [0.2, sy * 0.18 + 0.01, 0.27]) for sy in (-1, 1)]
+        parts += [([sx * 0.18 - 0.01, -0.2, 0.25], [sx * 0.18 + 0.01, 0.2, 0.27]) for sx in (-1, 1)]
+    elif footrest == "panel":
+        parts = [([-0.2, sy * 0.18 - 0.01, 0.1], [0.2, sy * 0.18 + 0.01, 0.6]) for sy in (-1, 1)]
+        parts += [([sx * 0.18 - 0.01, -0.2, 0.1], [sx * 0.18 + 0.01, 0.2, 0.6]) for sx in (-1, 1)]
+    else:
+        parts = []
+    return _object(f"bar_stool_{footrest}", [([-0.2, -0.2, 0.69], [0.2, 0.2, 0.72]), *_legs(0.18, 0.18, 0.69),
+                                             *parts])
+
+
+def test_the_body_sits_on_a_bar_stool_its_feet_reaching_the_rung_and_not_without_one():
+    """The feet hang 0.35 m up, above and ahead of the rungs; bent on at the knee, they rest on one. Without rungs,
+    or with only vertical panels below the seat, the same seat is too high for the feet (a sitter's toes reach the
+    floor from 0.17 m)."""
+    sat = [c for c, ok, _ in _judged(_bar_stool(), "stool") if ok]
+    assert sat, "the body sits nowhere on the bar stool"
+    for c in sat:
+        seg = {s.name: s for s in c.summary.segments}
+        assert not seg["foot_l"].on_ground and seg["foot_l"].height > 0.3
+        assert seg["foot_l"].reaches_object or seg["foot_r"].reaches_object
+    for footrest in ("none", "panel"):
+        judged = _judged(_bar_stool(footrest), "stool")
+        assert not any(ok for _, ok, _ in judged), footrest
+        assert sum("the feet hang" in why for _, _, why in judged) >= 4, footrest
+
+
+def _tilted(lo: list[float], hi: list[float], deg: float, pivot: list[float]) -> np.ndarray:
+    """The vertices of the box ``lo``-``hi`` turned back (its +x end up) by ``deg`` about a y axis through ``pivot``."""
+    turn = trimesh.transformations.rotation_matrix(np.radians(-deg), [0.0, 1.0, 0.0], pivot)
+    return trimesh.transform_points(trimesh.creation.box(bounds=[lo, hi]).vertices, turn)
+
+
+def _easy_chair() -> RailObject:
+    """An easy chair on a pedestal: a 0.5 m square seat 0.4 m high at its front edge, tilted back 8°, its back
+    reclined 20° at -x, on a 0.76 m square plinth."""
+    seat = _tilted([-0.25, -0.25, 0.35], [0.25, 0.25, 0.4], 8.0, [0.25, 0.0, 0.4])
+    back = _tilted([-0.3, -0.25, 0.28], [-0.25, 0.25, 0.9], 20.0, [-0.27, 0.0, 0.3])
+    return _object("easy_chair", [([-0.03, -0.03, 0.06], [0.03, 0.03, 0.3]), ([-0.38, -0.38, 0.0], [0.38, 0.38, 0.06])],
+                   hulls=(seat, back))
+
+
+def test_the_body_sits_in_a_low_chair_and_an_easy_chair():
+    """A seat lower than the knees (0.36 m, a chair's typical lowest): the feet on the floor hold the knees above the
+    hips, and the body sits with its thighs risen off the seat, the seat still under them; on a rail as high nothing
+    is under them. An easy chair's seat tilts back: the body sits in it leaning on its back, its pelvis tilted back
+    with the seat."""
+    sat = [c for c, ok, _ in _judged(_chair(0.36), "chair") if ok]
+    assert len(sat) >= 4, f"the body sits in {len(sat)} of the low chair's plans"
+    assert any({s.name: s for s in c.summary.segments}["thigh_l"].reaches_object for c in sat)
+    # a rail as high, 5 cm deep: nothing under the thighs
+    rail = _object("rail", [([-0.3, -0.025, 0.33], [0.3, 0.025, 0.36]), ([-0.3, -0.025, 0.0], [-0.26, 0.025, 0.33]),
+                            ([0.26, -0.025, 0.0], [0.3, 0.025, 0.33])])
+    assert not any(ok for _, ok, _ in _judged(rail, "stool"))
+    leaning = [c for c, ok, _ in _judged(_easy_chair(), "chair")
+               if ok and {s.name: s for s in c.summary.segments}["torso"].touching_object]
+    assert leaning, "the body does not sit leaning on the easy chair's back"
+    pelvis = {s.name: s for s in leaning[0].summary.segments}["pelvis"]
+    assert pelvis.up < np.cos(np.radians(10))  # tilted back with the seat, past an office seat's 10°
+
+
 def test_the_body_does_not_sit_on_a_seat_1_2_m_up():
     judged = _judged(_chair(1.2), "chair")
     assert not any(ok for _, ok, _ in judged)
@@ -240,17 +308,18 @@ def test_a_body_that_blew_up_reports_finite_segments():
     qpos = batch.initial_qpos(scene)
     qpos[1, :3] = np.nan
     n, s = 2, len(SEGMENTS)
-    segments = (np.full((n, 1, s), 0.4), np.full((n, 1, s), 0.9), np.ones((n, 1, s, 3), dtype=np.int64))
+    segments = (np.full((n, 1, s), 0.4), np.full((n, 1, s), 0.9), np.ones((n, 1, s, 3), dtype=np.int64),
+                np.ones((n, 1, s), dtype=bool))
     segments[0][1] = np.nan
     segments[1][1] = np.nan
     out = outcomes_from_states(scene, batch.placement, qpos, np.zeros((n, scene.model.nv)),
                                np.zeros((n, 1, 3), dtype=np.int64), np.zeros((n, 1), dtype=bool),
                                np.ones(n, dtype=bool), None, segments)
     assert out.unstable is not None and out.unstable.tolist() == [False, True]
-    for name in ("segment_height", "segment_up", "segment_contacts"):
+    for name in ("segment_height", "segment_up", "segment_contacts", "segment_reach"):
         assert np.all(np.isfinite(getattr(out, name))), name
     blown = result_summary(out, 1).segments
-    assert not any(x.touching_object or x.on_ground for x in blown)
+    assert not any(x.touching_object or x.on_ground or x.reaches_object for x in blown)
     assert result_summary(out, 0).segments[0].height == pytest.approx(0.4)
 
 

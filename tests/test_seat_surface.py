@@ -37,20 +37,24 @@ def _pose(index: int, probability: float, h: list[float], plans: tuple[str, ...]
 
 
 def _sits(plan: str, h: list[float], hips: float, *, agent: int = 0, torso_on: bool = False,
-          feet: str = "ground") -> list[SegmentState]:
+          feet: str = "ground", thighs: str = "seat") -> list[SegmentState]:
     """The sitting body's segments, its hip joints ``hips`` m up on the object, thighs level, torso upright (on the
-    object when ``torso_on``); its feet on the ``ground``, on the ``object`` (a rung) or hanging in the air."""
+    object when ``torso_on``); its feet on the ``ground``, on the ``object`` (a rung), hanging where a ``rung`` is
+    within their reach as the knees bend, or hanging in the ``air``; ``thighs`` level on the ``seat``, or with the knees
+    10° above the hips, ``over`` a seat pan or ``off`` the object (nothing under them)."""
     seg = [SegmentState(agent=agent, name="pelvis", height=hips, up=1.0, touching_object=True, on_ground=False),
            SegmentState(agent=agent, name="torso", height=hips + 0.14, up=0.96, touching_object=torso_on,
                         on_ground=False),
            SegmentState(agent=agent, name="head", height=hips + 0.5, up=0.96, touching_object=False, on_ground=False)]
     for side in ("l", "r"):
-        seg += [SegmentState(agent=agent, name=f"thigh_{side}", height=hips, up=0.0, touching_object=True,
-                             on_ground=False),
+        seg += [SegmentState(agent=agent, name=f"thigh_{side}", height=hips,
+                             up=0.0 if thighs == "seat" else -np.sin(np.radians(10)),
+                             touching_object=thighs == "seat", on_ground=False, reaches_object=thighs == "over"),
                 SegmentState(agent=agent, name=f"shank_{side}", height=hips, up=1.0, touching_object=False,
                              on_ground=False),
                 SegmentState(agent=agent, name=f"foot_{side}", height=max(0.07, hips - 0.43), up=1.0,
-                             touching_object=feet == "object", on_ground=feet == "ground")]
+                             touching_object=feet == "object", on_ground=feet == "ground",
+                             reaches_object=feet == "rung")]
     return seg
 
 
@@ -177,16 +181,29 @@ def test_a_desk_deeper_than_high_is_a_table_a_bathtub_on_its_side_is_not():
 
 def test_a_high_seat_the_feet_do_not_reach_is_no_seat():
     """A round pedestal table 0.71 m high carries the body, whose feet hang in the air; a bar chair's seat as high
-    has a rung its feet rest on; a 0.5 m low table is as high as a chair's seat, and the feet reach the floor."""
+    has a rung its feet rest on, or reach as the knees bend; a 0.5 m low table is as high as a chair's seat, and the
+    feet reach the floor."""
     top = [0.59, 0.59, 0.357]
     up = body_size().thigh_radius
     for name in ("chair", "stool"):
         verdict = _verdict(name, _seated(0, 0.5, top, SITS, 0.714 + up, feet="air"))
         assert verdict.best_pose is None and "the feet hang" in verdict.poses[0].reason
     bar = [0.23, 0.22, 0.53]
-    assert _verdict("chair", _seated(0, 0.3, bar, SITS, 0.72 + up, feet="object")).best_pose == 0
+    for feet in ("object", "rung"):
+        assert _verdict("chair", _seated(0, 0.3, bar, SITS, 0.72 + up, feet=feet)).best_pose == 0
     low = [0.59, 0.59, 0.25]
     assert _verdict("chair", _seated(0, 0.5, low, SITS, 0.5 + up)).best_pose == 0
+
+
+def test_on_a_seat_lower_than_the_knees_the_thighs_rise_off_the_seat_still_under_them():
+    """On a 0.36 m seat the feet on the floor hold the knees above the hips and the thighs rise off the seat's front,
+    the seat still under them: a low seat. Thighs with nothing under them (an edge or a rail) are carried by nothing
+    the object offers."""
+    low = [0.25, 0.25, 0.25]
+    up = body_size().thigh_radius
+    assert _verdict("chair", _seated(0, 0.5, low, SITS, 0.36 + up, thighs="over")).best_pose == 0
+    verdict = _verdict("chair", _seated(0, 0.5, low, SITS, 0.36 + up, thighs="off"))
+    assert verdict.best_pose is None and "does not carry the thighs" in verdict.poses[0].reason
 
 
 def test_the_seat_kind_needs_its_body():

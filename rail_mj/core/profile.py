@@ -146,6 +146,9 @@ class SegmentState(ProfileModel):
                                                "vertical (1: upright, 0: level)")
     touching_object: bool
     on_ground: bool
+    reaches_object: bool = Field(default=False, description="touching nothing, the segment reaches the object: a "
+                                                            "foot by bending the knee on to its limit (a rung), a "
+                                                            "thigh over a seat pan it rose off (a low seat)")
 
 
 class ResultSummary(ProfileModel):

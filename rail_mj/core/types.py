@@ -171,10 +171,12 @@ class Outcomes:
     unstable: np.ndarray | None = None
     # An articulated agent's segments (S of them, the root first; names in ``segment_names``), None for one-body
     # agents: (B, N, S) height of each segment's origin above the ground, m; (B, N, S) cosine of the angle between
-    # its own z axis and the vertical; (B, N, S, 3) its contact points with (object, other agents, ground)
+    # its own z axis and the vertical; (B, N, S, 3) its contact points with (object, other agents, ground); (B, N, S)
+    # bool, a foot or a thigh touching nothing that reaches the object (rail_mj.mjcf.body.toes_reach, seat_under)
     segment_height: np.ndarray | None = None
     segment_up: np.ndarray | None = None
     segment_contacts: np.ndarray | None = None
+    segment_reach: np.ndarray | None = None
     segment_names: tuple[str, ...] | None = None
 
     @property

@@ -302,7 +302,7 @@ def assemble_outcomes(
     settled: np.ndarray,
     open_sector: np.ndarray | None = None,
     unstable: np.ndarray | None = None,
-    segments: tuple[tuple[str, ...], np.ndarray, np.ndarray, np.ndarray] | None = None,
+    segments: tuple[tuple[str, ...], np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> Outcomes:
     """Final world poses → task-frame Outcomes.
 
@@ -331,7 +331,8 @@ def assemble_outcomes(
         world=None if placement.world is None else placement.world.astype(np.int64),
         unstable=None if unstable is None else unstable.astype(bool),
         **({} if segments is None else {"segment_names": segments[0], "segment_height": segments[1],
-                                        "segment_up": segments[2], "segment_contacts": segments[3]}),
+                                        "segment_up": segments[2], "segment_contacts": segments[3],
+                                        "segment_reach": segments[4].astype(bool)}),
     )
 
 
@@ -344,7 +345,7 @@ def outcomes_from_states(
     released_early: np.ndarray,
     settled: np.ndarray,
     unstable: np.ndarray | None = None,
-    segments: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+    segments: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> Outcomes:
     """Final world states (B, nq)/(B, nv) of ``scene`` → task-frame Outcomes; ``segments`` stacks an articulated
     agent's :func:`rail_mj.mjcf.segment_state` over the batch.
@@ -365,10 +366,11 @@ def outcomes_from_states(
             qpos[~finite, a : a + 3] = placement.origin[~finite]
             qpos[~finite, a + 3 : a + 7] = (1.0, 0.0, 0.0, 0.0)
         qvel[~finite] = 0.0
-        if segments is not None:  # a blown-up body's segments: at the ground, level, touching nothing
-            height, up, touching = segments
+        if segments is not None:  # a blown-up body's segments: at the ground, level, touching and reaching nothing
+            height, up, touching, reach = segments
             keep = finite[:, None, None]
-            segments = (np.where(keep, height, 0.0), np.where(keep, up, 0.0), np.where(keep[..., None], touching, 0))
+            segments = (np.where(keep, height, 0.0), np.where(keep, up, 0.0), np.where(keep[..., None], touching, 0),
+                        keep & reach.astype(bool))
     o = scene.object_qpos
     return assemble_outcomes(
         placement,

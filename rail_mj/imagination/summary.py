@@ -56,9 +56,11 @@ def _segments(outcomes: Outcomes, b: int) -> list[SegmentState]:
     names = outcomes.segment_names
     if height is None or up is None or contacts is None or names is None:
         return []
+    reach = outcomes.segment_reach
     return [SegmentState(agent=i, name=name, height=float(height[b, i, k]),
                          up=float(np.clip(up[b, i, k], -1.0, 1.0)), touching_object=bool(contacts[b, i, k, 0] > 0),
-                         on_ground=bool(contacts[b, i, k, 2] > 0))
+                         on_ground=bool(contacts[b, i, k, 2] > 0),
+                         reaches_object=reach is not None and bool(reach[b, i, k]))
             for i in range(height.shape[1]) for k, name in enumerate(names)]
 
 

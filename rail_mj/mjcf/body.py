@@ -19,11 +19,13 @@ import math
 from dataclasses import dataclass
 from typing import Literal
 
+import mujoco
 import numpy as np
 
 from rail_mj.core.errors import ConfigError
 
-__all__ = ["Posture", "POSTURES", "SEGMENTS", "SEGMENT_AXES", "BodySize", "body_size", "body_fragment"]
+__all__ = ["Posture", "POSTURES", "SEGMENTS", "SEGMENT_AXES", "FEET", "THIGHS", "TOE_REACH", "BodySize",
+           "body_size", "body_fragment", "toes_reach", "seat_under"]
 
 Posture = Literal["sit", "lie"]
 POSTURES: tuple[str, ...] = ("sit", "lie")
@@ -33,6 +35,19 @@ SEGMENTS = ("pelvis", "torso", "head", "thigh_l", "shank_l", "foot_l", "thigh_r"
 SEGMENT_AXES = {"pelvis": (0.0, 0.0, 1.0), "torso": (0.0, 0.0, 1.0), "head": (0.0, 0.0, 1.0),
                 "thigh_l": (0.0, 0.0, -1.0), "shank_l": (0.0, 0.0, -1.0), "foot_l": (1.0, 0.0, 0.0),
                 "thigh_r": (0.0, 0.0, -1.0), "shank_r": (0.0, 0.0, -1.0), "foot_r": (1.0, 0.0, 0.0)}
+
+FEET = ("foot_l", "foot_r")
+THIGHS = ("thigh_l", "thigh_r")
+#: A hanging foot's toes reach this far (units of the foot's length) below the ankle's standing height: the three
+#: quarters of the foot ahead of the ankle (Winter Fig. 4.1) hanging at a relaxed foot's 30° of plantar flexion
+#: (the ankle's resting angle with the foot unloaded, within the AAOS 0-50° range; tiptoe, 50°, is no sitting).
+TOE_REACH = 0.75 * math.sin(math.radians(30))
+#: Steps (deg) of the knee's swing in which a hanging foot's reach is probed: a rung 2 cm across, 0.5 m from the
+#: knee, spans 2.3°; half of that misses none.
+_SWING_STEP = 1.0
+#: A foot or a thigh rests on a surface whose normal is within 45° of vertical: friction on it (μ ≤ 1) holds it there;
+#: a steeper face (a panel, a drawer front) it slides down.
+_BEARING_COS = math.cos(math.radians(45))
 
 STATURE = 1.75  # m, the adult the table is read for
 BODY_MASS = 75.0  # kg
@@ -233,3 +248,63 @@ def body_fragment(posture: Posture, scale: float = 1.0, name: str = "pelvis") ->
                   "</body></body></body>"]
     parts.append("</body>")
     return f'<mujoco><worldbody>{"".join(parts)}</worldbody></mujoco>'
+
+
+def toes_reach(m: mujoco.MjModel, data: mujoco.MjData, foot: int, geoms: np.ndarray) -> bool:
+    """Whether a hanging foot (body id ``foot``, its parent the shank) can rest on one of ``geoms``: the knee bent on
+    from where it rests towards its flexion limit (AAOS), the sole and the relaxed toes (:data:`TOE_REACH`), swept
+    along the shank's line, meet a face of it a foot can stand on before the shank itself meets the object (the
+    seat's front stops the knee there). A sitter high above the floor puts the feet on a rung or a ring so;
+    ``data`` holds the world's kinematics (``mj_kinematics``)."""
+    shank = int(m.body_parentid[foot])
+    joint, geom, sole = int(m.body_jntadr[shank]), int(m.body_geomadr[shank]), int(m.body_geomadr[foot])
+    ankle, length = 2 * float(m.geom_size[sole][2]), 2 * float(m.geom_size[sole][0])
+    shin = 2 * float(m.geom_size[geom][1])  # knee to ankle
+    reach = shin + ankle + TOE_REACH * length  # knee to the toes along the shank's line
+    knee, frame = data.xpos[shank], data.xmat[shank].reshape(3, 3)
+    near = [int(g) for g in geoms
+            if np.linalg.norm(data.geom_xpos[g] - knee) <= reach + float(m.geom_rbound[g])]
+    if not near:
+        return False
+    swing = float(m.jnt_range[joint][1] - data.qpos[m.jnt_qposadr[joint]])
+    for phi in np.arange(0.0, max(swing, 0.0) + 1e-9, math.radians(_SWING_STEP)):
+        # knee flexion turns the shank back, about its +y: its distal axis (0, 0, -1) goes to (-sin, 0, -cos)
+        ray = frame @ np.array([-math.sin(phi), 0.0, -math.cos(phi)])
+        hits = [hit for g in near if (hit := _ray(m, data, g, knee, ray))[0] >= 0.0]
+        if not hits:
+            continue
+        distance, normal_z = min(hits)
+        if distance < shin:
+            return False
+        if distance <= reach and normal_z >= _BEARING_COS:
+            return True
+    return False
+
+
+def _ray(m: mujoco.MjModel, data: mujoco.MjData, g: int, pnt: np.ndarray, vec: np.ndarray) -> tuple[float, float]:
+    """(distance along the unit ``vec`` from ``pnt`` to geom ``g``, -1 when the ray misses it; the vertical part of
+    the surface's normal where it meets it)."""
+    normal = np.zeros(3)
+    if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
+        distance = mujoco.mj_rayMesh(m, data, g, pnt, vec, normal)
+    else:
+        distance = mujoco.mju_rayGeom(data.geom_xpos[g], data.geom_xmat[g], m.geom_size[g], pnt, vec,
+                                      int(m.geom_type[g]), normal)
+    return distance, float(normal[2])
+
+
+def seat_under(m: mujoco.MjModel, data: mujoco.MjData, thigh: int, geoms: np.ndarray) -> bool:
+    """Whether one of ``geoms`` lies under a thigh (body id ``thigh``) that does not touch it: straight below the
+    thigh's middle, a face within 45° of level no lower than the buttocks less a thigh's thickness. On a seat lower
+    than the knees the feet hold the knees above the hips and the thighs rise off the seat's front; over an edge or a
+    rail nothing is under them but the floor. ``data`` holds the world's kinematics (``mj_kinematics``)."""
+    geom = int(m.body_geomadr[thigh])
+    radius = float(m.geom_size[geom][0])
+    middle = data.geom_xpos[geom]
+    lowest = data.xpos[thigh][2] - 2 * radius  # the buttocks (a thigh's radius under the hip joint), less a radius
+    down = np.array([0.0, 0.0, -1.0])
+    for g in geoms:
+        distance, normal_z = _ray(m, data, int(g), middle, down)
+        if 0.0 <= distance <= middle[2] - lowest and normal_z >= _BEARING_COS:
+            return True
+    return False

@@ -32,6 +32,7 @@ from scipy.spatial import ConvexHull
 
 from rail_mj.core.errors import SceneError
 from rail_mj.core.types import AgentSetup, RailObject
+from rail_mj.mjcf.body import FEET, THIGHS, seat_under, toes_reach
 from rail_mj.mjcf.scene import (
     AGENT_BIT,
     FRICTION,
@@ -182,11 +183,13 @@ def count_contacts(geom_owner: np.ndarray, geom_pairs: np.ndarray, n_agents: int
 
 
 def segment_state(scene: Scene, data: mujoco.MjData, geom_pairs: np.ndarray,
-                  model: mujoco.MjModel | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                  model: mujoco.MjModel | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Where each agent's segments ended, from ``data.qpos`` and the (ncon, 2) contact geom pairs: (N, S) height
     (m) of each segment's origin above the ground, (N, S) ``up`` (the cosine of the angle between its own z axis
-    and the vertical) and (N, S, 3) its contact points with (object, other agents, ground). ``model``: the
-    rollout's own model when it is not ``scene.model`` (a perturbed world's, the same layout)."""
+    and the vertical), (N, S, 3) its contact points with (object, other agents, ground) and (N, S) whether a foot
+    or a thigh touching nothing reaches the object: a foot by bending its knee, a thigh over a seat pan it rose off
+    (:func:`rail_mj.mjcf.body.toes_reach`, :func:`rail_mj.mjcf.body.seat_under`; False for every other segment).
+    ``model``: the rollout's own model when it is not ``scene.model`` (a perturbed world's, the same layout)."""
     m = scene.model if model is None else model
     mujoco.mj_kinematics(m, data)
     bodies = scene.agent_bodies
@@ -205,7 +208,16 @@ def segment_state(scene: Scene, data: mujoco.MjData, geom_pairs: np.ndarray,
                                                                       np.where(owner[:, y] >= 0, 1, -1)))
             counted = (owner[:, x] >= 0) & (kind >= 0)
             np.add.at(contacts, (owner[counted, x], seg[counted, x], kind[counted]), 1)
-    return height, up, contacts
+    reach = np.zeros((n, s), dtype=bool)
+    probes = [(k, toes_reach if name in FEET else seat_under) for k, name in enumerate(scene.segment_names)
+              if name in FEET or name in THIGHS]
+    if probes:
+        geoms = np.nonzero(scene.geom_owner == OWNER_OBJECT)[0]
+        for i in range(n):
+            for k, probe in probes:
+                if not contacts[i, k].any():
+                    reach[i, k] = probe(m, data, int(bodies[i, k]), geoms)
+    return height, up, contacts, reach
 
 
 def _contact(geom: mujoco.MjsGeom, solref: list[float], contype: int, conaffinity: int) -> None:

@@ -1,21 +1,21 @@
 """``seat``: an articulated human body, hips and knees at 90°, lowered onto the object facing each way.
 
-Success: the body comes to rest carried by the object: its pelvis level and on the object with its thighs (a seat
-pan bears the thighs; an edge or a rail bears the pelvis alone) at seat height, its thighs near level, its torso
-upright or leaning on a back, its feet on the floor or on the object (a rung) or within a relaxed toe's reach of the
-floor, nothing but its shanks and feet on the ground, and the object not tipped. A seat for more than one (a bench)
-seats the body at two places side by side along its length, half a shoulder breadth either side of its centre.
+Success: the body comes to rest carried by the object: its pelvis level or tilted back with an easy chair's seat and
+on the object with its thighs (a seat pan bears the thighs, or lies under them where the feet lift the knees off a
+low seat; an edge or a rail bears the pelvis alone) at seat height, its thighs near level, its torso
+upright or leaning on a back, its feet on the floor or on the object, or within a relaxed toe's reach of the floor or
+of a rung as the knees bend (a bar stool's sitter), nothing but its shanks and feet on the ground, and the object not
+tipped. A seat for more than one (a bench) seats the body at two places side by side along its length, half a
+shoulder breadth either side of its centre.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import cast
 
 from rail_mj.affordances.kinds.base import (
-    LEVEL_DEG,
     MAX_OBJECT_TILT_DEG,
     NEAR_AXIS_DEG,
     AgentShape,
@@ -39,6 +39,7 @@ from rail_mj.affordances.kinds.body import (
 )
 from rail_mj.affordances.row import Affordance, KindParams
 from rail_mj.core.profile import AgentLayout, CandidateInteraction, MotionPlan, PoseCandidates, ScoringCode, ViaPose
+from rail_mj.mjcf.body import FEET, TOE_REACH
 
 __all__ = ["SeatParams", "Seat"]
 
@@ -57,16 +58,11 @@ _THIGH_DEG = NEAR_AXIS_DEG
 _TORSO_DEG = 45
 #: The pelvis (the scoring's agent) within this of its posture (deg), the same relaxed limit.
 _PELVIS_DEG = 45
-#: The pelvis resting within this of upright (deg): a seat pan slopes 0-10° (ISO 9241-5), and LEVEL_DEG (15°) is
-#: the level every kind's resting agent keeps; on a steeper slope the sitter slides or perches on an edge.
-_SEAT_PAN_DEG = LEVEL_DEG
+#: The pelvis resting within this of upright (deg): an easy chair's seat tilts back up to 24° (Grandjean, easy chairs
+#: 14-24°; a work chair's 0-10°, ISO 9241-5) and the sitter's pelvis with it; on a steeper slope it slides or lies.
+_SEAT_PAN_DEG = 24
 #: Of the body, only these may touch the ground: a sitter's feet stand on the floor.
 _ON_FLOOR = ("shank_l", "foot_l", "shank_r", "foot_r")
-_FEET = ("foot_l", "foot_r")
-#: A sitter's toes reach this far (units of the foot's length) below the ankle's standing height: the three
-#: quarters of the foot ahead of the ankle (Winter Fig. 4.1) hanging at a relaxed foot's 30° of plantar flexion
-#: (the ankle's resting angle with the foot unloaded, within the AAOS 0-50° range; tiptoe, 50°, is no sitting).
-_TOE_REACH = 0.75 * math.sin(math.radians(30))
 #: Where the hip joints are put down along the heading (units of h): the box's centre, and a quarter of the way to
 #: its back (a sitter sits back towards a backrest; half-way, a seat 0.45 m deep puts the back inside the sitter).
 _PLACES = (("", 0.0), ("_back", -0.25))
@@ -148,7 +144,7 @@ class Seat(Kind):
         bodies = agents_segments(c)
         if not bodies or shape.body is None:
             return False, "no body segments were reported: the seat kind needs its articulated body"
-        reach = shape.body.ankle + _TOE_REACH * shape.body.foot  # the ankle's height when the toes touch down
+        reach = shape.body.ankle + TOE_REACH * shape.body.foot  # the ankle's height when the toes touch down
         for i, seg in enumerate(bodies):
             who = f"body {i + 1}: " if len(bodies) > 1 else ""
             pelvis = seg[ROOT]
@@ -157,7 +153,9 @@ class Seat(Kind):
                                f"{rest_words(aff)}")
             if not pelvis.touching_object:
                 return False, f"{who}the pelvis does not rest on the object"
-            if not any(seg[t].touching_object for t in LEGS):  # both level with the buttocks: either may bear
+            # both level with the buttocks: either may bear; on a seat lower than the knees the feet hold the knees
+            # up and the thighs rise off the seat's front, the seat still under them
+            if not any(seg[t].touching_object or seg[t].reaches_object for t in LEGS):
                 return False, (f"{who}the object does not carry the thighs: the pelvis rests on an edge or a rail, "
                                "not a seat")
             grounded = [name for name, s in seg.items() if s.on_ground and name not in _ON_FLOOR]
@@ -166,10 +164,12 @@ class Seat(Kind):
             why = upright(pelvis, _SEAT_PAN_DEG) or level(seg, LEGS, _THIGH_DEG) or upright(seg["torso"], _TORSO_DEG)
             if why:
                 return False, f"{who}{why}"
-            dangling = [f for f in _FEET if not (seg[f].on_ground or seg[f].touching_object or seg[f].height <= reach)]
+            dangling = [f for f in FEET if not (seg[f].on_ground or seg[f].touching_object or seg[f].height <= reach
+                                                or seg[f].reaches_object)]
             if dangling:
                 return False, (f"{who}the feet hang {seg[dangling[0]].height:.2f} m up, touching nothing (a sitter's "
-                               f"toes reach the floor from {reach:.2f} m): a seat too high for the feet")
+                               f"toes reach the floor from {reach:.2f} m) and finding no rung as the knees bend: a "
+                               "seat too high for the feet")
         torso = all(seg["torso"].touching_object for seg in bodies)
         return True, (f"the body sits {bodies[0][ROOT].height:.2f} m up, thighs level, torso upright"
                       + (", leaning on a back" if torso else ""))
