@@ -37,12 +37,14 @@ def _pose(index: int, probability: float, h: list[float], plans: tuple[str, ...]
 
 
 def _sits(plan: str, h: list[float], hips: float, *, agent: int = 0, torso_on: bool = False,
-          feet: str = "ground", thighs: str = "seat") -> list[SegmentState]:
+          feet: str = "ground", thighs: str = "seat", pelvis_deg: float = 0.0) -> list[SegmentState]:
     """The sitting body's segments, its hip joints ``hips`` m up on the object, thighs level, torso upright (on the
     object when ``torso_on``); its feet on the ``ground``, on the ``object`` (a rung), hanging where a ``rung`` is
     within their reach as the knees bend, or hanging in the ``air``; ``thighs`` level on the ``seat``, or with the knees
-    10° above the hips, ``over`` a seat pan or ``off`` the object (nothing under them)."""
-    seg = [SegmentState(agent=agent, name="pelvis", height=hips, up=1.0, touching_object=True, on_ground=False),
+    10° above the hips, ``over`` a seat pan or ``off`` the object (nothing under them); the pelvis tilted back
+    ``pelvis_deg``."""
+    seg = [SegmentState(agent=agent, name="pelvis", height=hips, up=float(np.cos(np.radians(pelvis_deg))),
+                        touching_object=True, on_ground=False),
            SegmentState(agent=agent, name="torso", height=hips + 0.14, up=0.96, touching_object=torso_on,
                         on_ground=False),
            SegmentState(agent=agent, name="head", height=hips + 0.5, up=0.96, touching_object=False, on_ground=False)]
@@ -204,6 +206,17 @@ def test_on_a_seat_lower_than_the_knees_the_thighs_rise_off_the_seat_still_under
     assert _verdict("chair", _seated(0, 0.5, low, SITS, 0.36 + up, thighs="over")).best_pose == 0
     verdict = _verdict("chair", _seated(0, 0.5, low, SITS, 0.36 + up, thighs="off"))
     assert verdict.best_pose is None and "does not carry the thighs" in verdict.poses[0].reason
+
+
+def test_a_pelvis_tilted_back_past_a_work_seats_tilt_sits_only_against_a_back():
+    """An easy chair's seat tilts back 14-24° and its back bears the reclined trunk: the pelvis rests 20° back with the
+    torso on the object. Without a back, or 30° back, the sitter slides."""
+    seat = [0.25, 0.25, 0.25]
+    up = body_size().thigh_radius
+    assert _verdict("chair", _seated(0, 0.5, seat, SITS, 0.42 + up, pelvis_deg=20, torso_on=True)).best_pose == 0
+    for deg, back in ((20, False), (30, True)):
+        verdict = _verdict("chair", _seated(0, 0.5, seat, SITS, 0.42 + up, pelvis_deg=deg, torso_on=back))
+        assert verdict.best_pose is None and "the pelvis leans" in verdict.poses[0].reason
 
 
 def test_the_seat_kind_needs_its_body():

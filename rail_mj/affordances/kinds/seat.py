@@ -1,12 +1,12 @@
 """``seat``: an articulated human body, hips and knees at 90°, lowered onto the object facing each way.
 
-Success: the body comes to rest carried by the object: its pelvis level or tilted back with an easy chair's seat and
-on the object with its thighs (a seat pan bears the thighs, or lies under them where the feet lift the knees off a
-low seat; an edge or a rail bears the pelvis alone) at seat height, its thighs near level, its torso
-upright or leaning on a back, its feet on the floor or on the object, or within a relaxed toe's reach of the floor or
-of a rung as the knees bend (a bar stool's sitter), nothing but its shanks and feet on the ground, and the object not
-tipped. A seat for more than one (a bench) seats the body at two places side by side along its length, half a
-shoulder breadth either side of its centre.
+Success: the body comes to rest carried by the object: its pelvis level, or tilted back with an easy chair's seat
+against its back, and on the object with its thighs (a seat pan bears the thighs, or lies under them where the feet
+lift the knees off a low seat; an edge or a rail bears the pelvis alone) at seat height, its thighs near level, its
+torso upright or leaning on a back, its feet on the floor or on the object, or within a relaxed toe's reach of the
+floor or of a rung as the knees bend (a bar stool's sitter), nothing but its shanks and feet on the ground, and the
+object not tipped. A seat for more than one (a bench) seats the body at two places side by side along its length,
+half a shoulder breadth either side of its centre.
 """
 
 from __future__ import annotations
@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from typing import cast
 
 from rail_mj.affordances.kinds.base import (
+    LEVEL_DEG,
     MAX_OBJECT_TILT_DEG,
     NEAR_AXIS_DEG,
     AgentShape,
@@ -58,9 +59,11 @@ _THIGH_DEG = NEAR_AXIS_DEG
 _TORSO_DEG = 45
 #: The pelvis (the scoring's agent) within this of its posture (deg), the same relaxed limit.
 _PELVIS_DEG = 45
-#: The pelvis resting within this of upright (deg): an easy chair's seat tilts back up to 24° (Grandjean, easy chairs
-#: 14-24°; a work chair's 0-10°, ISO 9241-5) and the sitter's pelvis with it; on a steeper slope it slides or lies.
-_SEAT_PAN_DEG = 24
+#: The pelvis resting within this of upright (deg) with its torso leaning on a back: an easy chair's seat tilts back up
+#: to 24° (Grandjean, easy chairs 14-24°, their back bearing the reclined trunk) and the pelvis with it; steeper, the
+#: sitter slides or lies. Without a back, LEVEL_DEG (15°), the level every kind's resting agent keeps (a work
+#: chair's seat tilts 0-10°, ISO 9241-5).
+_EASY_PAN_DEG = 24
 #: Of the body, only these may touch the ground: a sitter's feet stand on the floor.
 _ON_FLOOR = ("shank_l", "foot_l", "shank_r", "foot_r")
 #: Where the hip joints are put down along the heading (units of h): the box's centre, and a quarter of the way to
@@ -161,7 +164,8 @@ class Seat(Kind):
             grounded = [name for name, s in seg.items() if s.on_ground and name not in _ON_FLOOR]
             if grounded:
                 return False, f"{who}the {grounded[0]} touches the ground: the body fell"
-            why = upright(pelvis, _SEAT_PAN_DEG) or level(seg, LEGS, _THIGH_DEG) or upright(seg["torso"], _TORSO_DEG)
+            pan = _EASY_PAN_DEG if seg["torso"].touching_object else LEVEL_DEG
+            why = upright(pelvis, pan) or level(seg, LEGS, _THIGH_DEG) or upright(seg["torso"], _TORSO_DEG)
             if why:
                 return False, f"{who}{why}"
             dangling = [f for f in FEET if not (seg[f].on_ground or seg[f].touching_object or seg[f].height <= reach
