@@ -24,8 +24,8 @@ import numpy as np
 
 from rail_mj.core.errors import ConfigError
 
-__all__ = ["Posture", "POSTURES", "SEGMENTS", "SEGMENT_AXES", "FEET", "THIGHS", "TOE_REACH", "BodySize",
-           "body_size", "body_fragment", "toes_reach", "seat_under"]
+__all__ = ["Posture", "POSTURES", "SEGMENTS", "SEGMENT_AXES", "FEET", "THIGHS", "TOE_REACH", "REACH_PROBES",
+           "BodySize", "body_size", "body_fragment", "toes_reach", "seat_under"]
 
 Posture = Literal["sit", "lie"]
 POSTURES: tuple[str, ...] = ("sit", "lie")
@@ -308,3 +308,7 @@ def seat_under(m: mujoco.MjModel, data: mujoco.MjData, thigh: int, geoms: np.nda
         if 0.0 <= distance <= middle[2] - lowest and normal_z >= _BEARING_COS:
             return True
     return False
+
+
+#: Each segment whose reach of the object is probed when it touches nothing, with its probe.
+REACH_PROBES = {**dict.fromkeys(FEET, toes_reach), **dict.fromkeys(THIGHS, seat_under)}

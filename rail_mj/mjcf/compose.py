@@ -32,7 +32,7 @@ from scipy.spatial import ConvexHull
 
 from rail_mj.core.errors import SceneError
 from rail_mj.core.types import AgentSetup, RailObject
-from rail_mj.mjcf.body import FEET, THIGHS, seat_under, toes_reach
+from rail_mj.mjcf.body import REACH_PROBES
 from rail_mj.mjcf.scene import (
     AGENT_BIT,
     FRICTION,
@@ -209,8 +209,7 @@ def segment_state(scene: Scene, data: mujoco.MjData, geom_pairs: np.ndarray,
             counted = (owner[:, x] >= 0) & (kind >= 0)
             np.add.at(contacts, (owner[counted, x], seg[counted, x], kind[counted]), 1)
     reach = np.zeros((n, s), dtype=bool)
-    probes = [(k, toes_reach if name in FEET else seat_under) for k, name in enumerate(scene.segment_names)
-              if name in FEET or name in THIGHS]
+    probes = [(k, REACH_PROBES[name]) for k, name in enumerate(scene.segment_names) if name in REACH_PROBES]
     if probes:
         geoms = np.nonzero(scene.geom_owner == OWNER_OBJECT)[0]
         for i in range(n):

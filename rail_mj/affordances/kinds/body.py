@@ -8,7 +8,7 @@ from collections.abc import Sequence
 
 from rail_mj.affordances.kinds.base import GAP, AgentShape
 from rail_mj.core.profile import CandidateInteraction, SegmentState, ViaPose
-from rail_mj.mjcf.body import Posture, body_fragment, body_size
+from rail_mj.mjcf.body import THIGHS, Posture, body_fragment, body_size
 
 __all__ = ["HEADINGS", "ROOT", "LEGS", "body_agent", "heading_axes", "heading_vias", "agents_segments", "level",
            "upright"]
@@ -17,7 +17,7 @@ __all__ = ["HEADINGS", "ROOT", "LEGS", "body_agent", "heading_axes", "heading_vi
 HEADINGS = (("front", 0.0), ("left", 90.0), ("back", 180.0), ("right", 270.0))
 #: The body's root segment (the pelvis) as the fragment names it.
 ROOT = "pelvis"
-LEGS = ("thigh_l", "thigh_r")
+LEGS = THIGHS
 
 
 def body_agent(posture: Posture, scale: float, count: int = 1) -> AgentShape:
