@@ -135,9 +135,14 @@ def bar_chair(rng: np.random.Generator) -> Built:
     tb, hb = _u(rng, 0.02, 0.03), _u(rng, 0.28, 0.38)
     parts.append(_box((-w / 2, d / 2 - tb, s - ts), (w / 2, d / 2, s + hb)))
     ha = _u(rng, 0.2, 0.25)
+    # the hips pass between the armrests: at least 46 cm clear (ANSI/HFES 100-2007), so on a narrower seat the
+    # posts stand beside it on brackets under the seat
+    clear = _u(rng, 0.46, 0.52)
     for sx in (-1, 1):
-        x = sx * (w / 2 - 0.02)
-        parts.append(_box((x - 0.015, -d / 2 + 0.03, s - 0.01), (x + 0.015, -d / 2 + 0.06, s + ha)))
+        x = sx * (clear / 2 + 0.022)
+        parts.append(_box((x - 0.015, -d / 2 + 0.03, s - ts), (x + 0.015, -d / 2 + 0.06, s + ha)))
+        parts.append(_box((min(x, sx * (w / 2 - 0.03)) - 0.015, -d / 2 + 0.03, s - ts),
+                          (max(x, sx * (w / 2 - 0.03)) + 0.015, -d / 2 + 0.06, s - ts + 0.02)))
         parts.append(_box((x - 0.022, -d / 2 + 0.02, s + ha - 0.025), (x + 0.022, d / 2 - 0.01, s + ha)))
     desc = (f"bar chair, seat {_cm(w)} x {_cm(d)} at {_cm(s)}, footrest rungs at {_cm(fr)} "
             f"({_cm(s - fr)} below the seat), splayed legs, backrest {_cm(hb)}, armrests")
