@@ -606,3 +606,20 @@ def test_an_object_that_is_itself_upside_down_is_functional_either_way_up():
     assert not eval_summary._pose_correct(upside_down, eval_summary._mesh_ups(plain))
     with pytest.raises(ValueError, match="equivalent_ups"):
         LabelRecord(mesh="m.obj", class_name="box", affordances={"chair": False}, equivalent_ups=[up])
+
+
+def test_a_bar_chairs_armrests_let_the_hips_between_them():
+    """At least 46 cm clear between the armrests (ANSI/HFES 100-2007), wider than most adults' hips; the first
+    generator put them 32-38 cm apart, over the seat."""
+    from rail_mj.dataset.shapes.world import bar_chair
+
+    for i in range(6):
+        built = bar_chair(np.random.default_rng([11, i]))
+        seat = float(built.notes.split(" at ")[1].split(" cm")[0]) / 100
+        # across the chair 10 cm over the seat, in front of the backrest: the armrests' posts
+        hits = built.mesh.section(plane_origin=(0.0, 0.0, seat + 0.1), plane_normal=(0.0, 0.0, 1.0))
+        assert hits is not None
+        front = np.asarray(hits.vertices)
+        xs = front[front[:, 1] < 0, 0]
+        inner = np.min(xs[xs > 0]) - np.max(xs[xs < 0])
+        assert inner >= 0.46, (i, inner)

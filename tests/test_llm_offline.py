@@ -285,10 +285,8 @@ def test_table_needs_a_wide_top_and_plate_a_solid_centre():
     h = [0.5, 0.5, 0.375]  # 1 m across, 0.75 m high: the box centre rests 0.765 m up
     placed = {p: _candidate(p, [0.0, 0.0, 1.0], frac_touching_object=1.0, mean_height=1.04)
               for p in ("above", "above_front", "above_back", "above_left", "above_right")}
-    legs = _candidate("under_front", [1.0, 0.0, -0.3], score=-0.5, frac_inside_bbox=1.0, frac_on_ground=1.0,
-                      frac_touching_object=0.0, mean_height=-0.9, frac_beneath_middle=1.0)  # slid in between its legs
     top = PoseCandidates(pose_index=0, probability=0.2, half_extents=h, candidates=list(placed.values()),
-                         failed=[legs])
+                         toe_room=0.4)  # feet get in between its legs
     foot = PoseCandidates(pose_index=1, probability=0.8, half_extents=h, candidates=[placed["above"]])
     verdict = analyze_functional_poses(FunctionalPoseRequest(affordance="table", expected_outcome="held",
                                                              poses=[foot, top]))

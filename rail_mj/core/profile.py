@@ -199,6 +199,9 @@ class PoseCandidates(ProfileModel):
                                                               "stands in this pose: its spill level (the rim's lowest "
                                                               "point, below a rising handle), opening and length; "
                                                               "null without a basin")
+    toe_room: float | None = Field(default=None, description="the widest foot (m) that gets under the middle of the "
+                                                             "object at toe height from beside it (0: a wall all "
+                                                             "round at the floor); null where not mapped")
     candidates: list[CandidateInteraction]
     failed: list[CandidateInteraction] = Field(
         default_factory=list, description="the pose's plans that the scoring function called failures: evidence"

@@ -44,6 +44,8 @@ class PoseInfo(BaseModel):
     up_in_mesh_frame: list[float] = Field(description="mesh-frame unit vector pointing up in this pose")
     basin: BasinInfo | None = Field(default=None, description="where poured water stands in this pose; None "
                                     "without a basin")
+    toe_room: float | None = Field(default=None, description="the widest foot (m) that gets under the middle of "
+                                   "the object at toe height from beside it; None where not mapped")
 
     @classmethod
     def from_pose(cls, index: int, pose: StablePose) -> PoseInfo:
@@ -56,13 +58,14 @@ class PoseInfo(BaseModel):
             half_extents=[float(v) for v in pose.half_extents],
             up_in_mesh_frame=[float(v) for v in pose.up_in_mesh_frame],
             basin=BasinInfo.of(pose.basin),
+            toe_room=pose.toe_room,
         )
 
     def to_pose(self) -> StablePose:
         """The :class:`StablePose` this record holds (render, the robot, the stable-pose cache)."""
         return StablePose(pos=np.asarray(self.pos, dtype=np.float64), quat=np.asarray(self.quat, dtype=np.float64),
                           probability=self.probability, half_extents=np.asarray(self.half_extents, dtype=np.float64),
-                          basin=None if self.basin is None else self.basin.to_basin())
+                          basin=None if self.basin is None else self.basin.to_basin(), toe_room=self.toe_room)
 
 
 class PlanInfo(BaseModel):

@@ -83,6 +83,7 @@ class StablePose:
     probability: float  # fraction of drops that ended in this pose
     half_extents: np.ndarray  # (3,) half-sizes of the world-aligned bounding box in this pose
     basin: Basin | None = None  # the pose's deepest basin; None without one
+    toe_room: float | None = None  # the widest foot (m) that gets under its middle at toe height; None: not mapped
 
     @property
     def up_in_mesh_frame(self) -> np.ndarray:

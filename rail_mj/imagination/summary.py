@@ -110,6 +110,7 @@ def pose_candidates(
                 probability=float(poses[i].probability),
                 half_extents=[float(v) for v in poses[i].half_extents],
                 basin=BasinInfo.of(poses[i].basin),
+                toe_room=poses[i].toe_room,
                 candidates=[c for c in tried if c.score > 0],
                 failed=[c for c in tried if c.score <= 0],
             )

@@ -105,6 +105,11 @@ class BodySize:
         return _L_FOOT * self.stature
 
     @property
+    def foot_breadth(self) -> float:
+        """The foot's breadth (m)."""
+        return _W_FOOT * self.stature
+
+    @property
     def lumbar(self) -> float:
         """Hip joints to the lumbar joint (m): the trunk's length shared by pelvis and torso in proportion to their
         mass (a uniform trunk)."""
@@ -205,7 +210,7 @@ def body_fragment(posture: Posture, scale: float = 1.0, name: str = "pelvis") ->
     torso_half = np.array(b.torso_half)
     back = torso_half[0] - pelvis_half[0]  # the pelvis's back flush with the torso's: one straight back
     head_r = (3 * head_m / (4 * math.pi * DENSITY)) ** (1 / 3)
-    foot_half = np.array([_L_FOOT * b.stature / 2, _W_FOOT * b.stature / 2, b.ankle / 2])
+    foot_half = np.array([b.foot / 2, b.foot_breadth / 2, b.ankle / 2])
     foot_m, shank_m, thigh_m = _M_FOOT * m, _M_SHANK * m, _M_THIGH * m
 
     def child(pos: np.ndarray, quat: np.ndarray) -> str:

@@ -35,6 +35,8 @@ class PoseExplanation(BaseModel):
                                       "its plausibility, and their product")
     basin: str = Field(default="", description="seen from above, where poured water stands: its spill level and "
                                                "length, 'none' without a basin")
+    toe_room: str = Field(default="", description="how wide a foot gets under the object's middle at toe height "
+                                                  "from beside it, '' where not mapped")
     scores: dict[str, float] = Field(description="plan -> score (> 0 succeeded; -1 also when not imagined)")
     analyzer: str = Field(description="the Functional Pose Analyzer's reasons for this pose, '' when none")
     functional: bool = Field(description="whether this is the functional pose")
@@ -110,6 +112,7 @@ def explain(r: AffordanceResult) -> Explanation:
             box_size_m=[round(2.0 * v, 4) for v in p.half_extents],
             envelope=_envelope(r.affordance, p.half_extents, None if p.basin is None else p.basin.rim),
             basin="none" if p.basin is None else f"water stands up to {p.basin.rim:.3f} m, {p.basin.length:.2f} m long",
+            toe_room="" if p.toe_room is None else f"a foot up to {p.toe_room:.3f} m broad gets under the middle",
             scores={name: round(s, 4) for name, s in zip(r.plans, row, strict=False)},
             analyzer="; ".join(per_pose.get(p.index, [])), functional=p.index == best,
             factors=_factors(verdicts[p.index]) if p.index in verdicts else "",
@@ -143,6 +146,8 @@ def format_explanation(e: Explanation) -> str:
         lines.append(f"    envelope prior: {p.envelope}")
         if p.basin:
             lines.append(f"    basin: {p.basin}")
+        if p.toe_room:
+            lines.append(f"    toe room: {p.toe_room}")
         if p.scores:
             lines.append("    scores: " + ", ".join(f"{k} {v:+.2f}" for k, v in p.scores.items()))
         if p.analyzer:

@@ -37,12 +37,13 @@ from rail_mj.stable_poses.basin import spill_basin, surface_samples
 from rail_mj.stable_poses.cluster import CONGRUENT, cluster_ups, merge_symmetric
 from rail_mj.stable_poses.config import StablePoseConfig, drop_physics
 from rail_mj.stable_poses.drop import drop, quasi_static, uniform_quats, verified
+from rail_mj.stable_poses.legroom import toe_room
 
 __all__ = ["find_stable_poses", "pose_from_up"]
 
 #: bump when the algorithm changes, so old cache entries are ignored (4: poses carry their spill level, 6: and
-#: where their basin opens, and how long it is)
-_CACHE_VERSION = 7
+#: where their basin opens, and how long it is, 8: how wide a foot gets under them)
+_CACHE_VERSION = 8
 
 
 def _footprint_yaw(xy: np.ndarray) -> float:
@@ -84,9 +85,11 @@ def pose_from_up(obj: RailObject, up: np.ndarray, probability: float,
     samples = surface_samples(obj) if samples is None else samples
     basin = spill_basin(samples @ rot.reshape(3, 3).T - lo)
     half = (hi - lo) / 2
+    room = toe_room(samples @ rot.reshape(3, 3).T - lo, half)
     if basin is not None:  # its opening from the box centre, as the task frame has it
         basin = dataclasses.replace(basin, opening=basin.opening - half[:2])
-    return StablePose(pos=pos, quat=quat, probability=probability, half_extents=half, basin=basin)
+    return StablePose(pos=pos, quat=quat, probability=probability, half_extents=half, basin=basin,
+                      toe_room=room)
 
 
 def _cache_path(obj: RailObject, params: dict) -> Path:
