@@ -561,6 +561,25 @@ def test_concave_bodies_share_the_hull_cap(monkeypatch: pytest.MonkeyPatch, tmp_
     assert len(hulls) == 2
 
 
+def test_stray_triangles_take_no_hull_and_the_cap_is_shared_whole(monkeypatch: pytest.MonkeyPatch,
+                                                                    tmp_path: Path) -> None:
+    # an open seam leaves loose triangles, bodies of their own with no volume: each used to take a hull of the cap,
+    # and flooring each concave body's share lost more, so a small concave body got one hull (a bar chair's seat
+    # and back made one wedge that filled the seat)
+    calls = _spy_coacd(monkeypatch, tmp_path)
+    big, small = small_cup(), small_cup()
+    big.apply_scale(2.0)
+    small.apply_translation([0.3, 0.0, 0.0])
+    strays = [trimesh.Trimesh([[0.5 + 0.05 * i, 0, 0], [0.52 + 0.05 * i, 0, 0], [0.5 + 0.05 * i, 0.02, 0]],
+                              [[0, 1, 2]]) for i in range(20)]
+    mesh = trimesh.util.concatenate([big, small, *strays])
+    hulls = decompose(mesh, DecompositionConfig(max_convex_hull=32))
+    caps = [cap for _, cap in calls]
+    assert len(caps) == 2 and sum(caps) == 32  # the strays take none, rounding loses none
+    assert caps[0] > caps[1] >= 4  # by hull volume: the cup twice the size has eight times the share
+    assert len(hulls) == 2
+
+
 def test_a_single_body_goes_to_coacd_whole(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     calls = _spy_coacd(monkeypatch, tmp_path)
     decompose(repair_mesh(small_cup()))

@@ -159,6 +159,7 @@ def _cache_key(digest: str, config: DecompositionConfig, n_bodies: int) -> str:
     payload = {"mesh": digest, "config": fields}
     if n_bodies > 1:
         payload["bodies"] = n_bodies
+        payload["shares"] = 2  # version of _hull_caps: bodies without volume take no hull
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
 
 
@@ -260,21 +261,43 @@ def _point_hull_volume(points: np.ndarray) -> float:
         return 0.0
 
 
+def _hull_caps(weights: list[float], convex: list[bool], cap: int) -> list[int]:
+    """Each body's share of the hull cap: 0 for a body with no volume (a stray triangle of an open seam, a flat
+    patch: dropped as a sliver, so it takes no hull), 1 for a convex one, and the rest shared by the concave bodies
+    in proportion to their hull volume, by largest remainder, so no hull of the cap is lost to rounding."""
+    solid = [w >= _MIN_HULL_VOLUME for w in weights]
+    caps = [int(s) for s in solid]
+    concave = [i for i, (s, c) in enumerate(zip(solid, convex, strict=True)) if s and not c]
+    total = sum(weights[i] for i in concave)
+    spare = cap - sum(caps)
+    if not concave or total <= 0 or spare <= 0:
+        return caps
+    share = {i: spare * weights[i] / total for i in concave}
+    for i in concave:
+        caps[i] += int(share[i])
+    left = spare - sum(int(v) for v in share.values())
+    for i in sorted(concave, key=lambda i: share[i] - int(share[i]), reverse=True)[:left]:
+        caps[i] += 1
+    return caps
+
+
 def _decompose_bodies(bodies: list[trimesh.Trimesh], config: DecompositionConfig) -> list[np.ndarray]:
     """Raw parts of a mesh made of separate bodies, each body decomposed on its own.
 
     CoACD given the bodies together treats them as one surface: on overlapping closed bodies
     (a teddy made of 15 convex pieces, a tray of 5 boxes) it ran for minutes or exhausted memory.
-    A convex body is its own hull; the others share what the hull cap leaves, by their hull volume.
+    A convex body is its own hull; the concave ones share what the hull cap leaves (:func:`_hull_caps`). A
+    scan's or an exporter's open seams leave stray triangles as bodies of their own: when each took a hull of the
+    cap, a bar chair of 4 pieces and 20 such triangles had its seat and back made one hull, a wedge that filled
+    the seat.
     """
     convex = [config.convex_shortcut and body.is_convex for body in bodies]
     weights = [_point_hull_volume(np.asarray(body.vertices)) for body in bodies]
-    concave = sum(w for w, c in zip(weights, convex, strict=True) if not c)
-    spare = config.max_convex_hull - len(bodies)
     raw: list[np.ndarray] = []
-    for body, is_convex, weight in zip(bodies, convex, weights, strict=True):
-        cap = 1 if is_convex or concave <= 0 else 1 + int(spare * weight / concave)
-        if cap == 1:
+    for body, is_convex, cap in zip(bodies, convex, _hull_caps(weights, convex, config.max_convex_hull), strict=True):
+        if cap == 0:
+            continue
+        if cap == 1 or is_convex:
             raw.append(np.asarray(body.vertices, dtype=np.float64))
         else:
             raw.extend(_run_coacd(body, replace(config, max_convex_hull=cap)))
