@@ -328,6 +328,13 @@ def _bench() -> RailObject:
     return _object("bench", [([-0.6, -0.175, 0.42], [0.6, 0.175, 0.45]), *_legs(0.55, 0.15, 0.42)])
 
 
+def _bench_with_back(side: float) -> RailObject:
+    """A bench for two with a 0.4 m back along its length, at +y (``side`` 1) or -y (-1): a settee's shape."""
+    back = ([-0.6, 0.145, 0.45], [0.6, 0.175, 0.85]) if side > 0 else ([-0.6, -0.175, 0.45], [0.6, -0.145, 0.85])
+    return _object(f"settee{side:+.0f}", [([-0.6, -0.175, 0.42], [0.6, 0.175, 0.45]), back,
+                                          *_legs(0.55, 0.15, 0.42)])
+
+
 def _seat_for_one(obj: RailObject, affordance: str) -> tuple[bool, str]:
     """A seat row's pose verdict on ``obj`` upright: its accepted plans after the kind's rules for the whole pose."""
     judged = _judged(obj, affordance)
@@ -343,3 +350,10 @@ def test_a_seat_for_one_has_no_room_for_a_second_sitter_beside_the_first():
     for affordance in ("chair", "stool"):
         ok, why = _seat_for_one(_bench(), affordance)
         assert not ok and "room for a second sitter" in why
+
+
+def test_a_settee_is_no_chair_whichever_side_its_back_is_on():
+    # the body put down to either side faced one way only: a settee whose back was on that side refused it nowhere
+    for side in (1.0, -1.0):
+        ok, why = _seat_for_one(_bench_with_back(side), "chair")
+        assert not ok and "room for a second sitter" in why, (side, why)

@@ -258,8 +258,9 @@ def test_perturbed_worlds_imagine_only_the_candidates_and_keep_each_failed_plan_
 
 
 def test_kinds_name_the_plans_their_pose_rules_read_whatever_they_scored():
-    """A leak from any pour refuses a vessel's pose, a chair is refused
-    where the body also sits to either side, a plate needs its centre: those plans are imagined in every world."""
+    """A leak from any pour refuses a vessel's pose, a bench needs both places side by side, a plate needs its
+    centre: those plans are imagined in every world. A chair's places to either side are not: where the body did not
+    sit in the nominal world it counts as not sitting in each perturbed one, as every failed plan does."""
     from rail_mj.affordances.kinds import kind_of
     from rail_mj.llm.offline import rules_row
 
@@ -271,7 +272,8 @@ def test_kinds_name_the_plans_their_pose_rules_read_whatever_they_scored():
 
     assert evidence("cup") == {"above", "above_front", "above_back", "above_left", "above_right"}
     assert evidence("table") == set()
-    assert evidence("chair") == {"facing_left_aside_front", "facing_left_aside_back"}
+    assert evidence("chair") == set()
+    assert len(evidence("bench")) == 8  # two places side by side x two headings x two depths
     assert evidence("plate") == {"above"}
     assert evidence("bed") == set()
 

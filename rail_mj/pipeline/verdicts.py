@@ -17,7 +17,7 @@ plan is the plan accepted in the most worlds (ties: stage
 that blew up (``Outcomes.unstable``: a non-finite state or a MuJoCo instability warning) is a failure and is named.
 The nominal world imagines every pose and plan; the K perturbed worlds, one more batched call, imagine again
 the candidates (the plans that scored above 0, :func:`candidate_plans`), and the plans the kind's pose rules read
-whatever they scored (``Kind.evidence_plans``: every pour, for a leak; a chair's body put down to either side), of
+whatever they scored (``Kind.evidence_plans``: every pour, for a leak; a bench's places side by side), of
 the poses with a candidate whose prior is at least :data:`rail_mj.affordances.prior.FUNCTIONAL`: a pose
 without a candidate has no success to confirm (its physics is 0), and one with a smaller prior stays below it
 whatever its physics, so its verdict cannot change (its physics is the nominal world's, 0 or 1). A perturbation

@@ -76,9 +76,10 @@ _MANY_HEADINGS = ("left", "right")
 _BESIDE = (("_beside_front", 1.0), ("_beside_back", -1.0))
 #: A seat for one has no room for a second sitter beside the first: the body put down facing across the object's
 #: length one hip breadth (Winter Fig. 4.1, 0.191 H: a sitter's width) to either side of the centre sits at both
-#: places on a bench or a bed, and falls off or meets an armrest or a back on a chair or a stool.
+#: places on a bench or a bed, and falls off or meets an armrest or a back on a chair or a stool. Facing both ways
+#: across the length: a sofa's or a bench's back may be on either side, and the body facing it sits nowhere.
 _ASIDE = (("_aside_front", 1.0), ("_aside_back", -1.0))
-_ASIDE_HEADING = "left"
+_ASIDE_HEADINGS = ("left", "right")
 
 @register_kind
 class Seat(Kind):
@@ -107,7 +108,7 @@ class Seat(Kind):
             return []
         if shape.count == 1:
             return ([(f"facing_{h}{suffix}", h, place, 0.0) for h, _ in HEADINGS for suffix, place in _PLACES]
-                    + [(f"facing_{_ASIDE_HEADING}{side}", _ASIDE_HEADING, 0.0, sign * body.hip_breadth)
+                    + [(f"facing_{h}{side}", h, 0.0, sign * body.hip_breadth) for h in _ASIDE_HEADINGS
                        for side, sign in _ASIDE])
         return [(f"facing_{h}{suffix}{side}", h, place, sign * body.shoulder_breadth / 2) for h in _MANY_HEADINGS
                 for suffix, place in _PLACES for side, sign in _BESIDE]
@@ -186,20 +187,19 @@ class Seat(Kind):
         return sum(seg[ROOT].height for seg in bodies) / len(bodies) - self.agent(aff, h).half_z
 
     def evidence_plans(self, aff: Affordance, plans: Sequence[str]) -> set[str]:
-        """A seat for one: the body put down to either side (where it sits refuses the pose); a seat for more: every
-        place side by side (the pose needs both of a heading's)."""
-        if cast(SeatParams, aff.params).persons == 1:
-            return {p for p in plans if p in {f"facing_{_ASIDE_HEADING}{side}" for side, _ in _ASIDE}}
-        return set(plans)
+        """A seat for more: every place side by side (the pose needs both of a heading's). A seat for one: none; the
+        body put down to either side refuses the pose where it sits at both places, and a place where it did not sit
+        in the nominal world counts as failed in each perturbed one, as every failed plan does."""
+        return set(plans) if cast(SeatParams, aff.params).persons > 1 else set()
 
     def accept_pose(
         self, aff: Affordance, accepted: list[CandidateInteraction], pose: PoseCandidates
     ) -> tuple[list[CandidateInteraction], str]:
         """A seat for more seats the body at both places side by side, facing the same way; a seat for one does not
-        seat it one hip breadth to either side of the centre (room for a second sitter)."""
+        seat it one hip breadth to either side of the centre, facing the same way (room for a second sitter)."""
         if cast(SeatParams, aff.params).persons == 1:
             plans = {c.plan for c in accepted}
-            if all(f"facing_{_ASIDE_HEADING}{side}" in plans for side, _ in _ASIDE):
+            if any(all(f"facing_{h}{side}" in plans for side, _ in _ASIDE) for h in _ASIDE_HEADINGS):
                 return [], ("the body also sits one hip breadth to either side of the centre: room for a second "
                             f"sitter beside the first, a seat for more than one, not a {aff.name}")
             return accepted, ""
