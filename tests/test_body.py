@@ -223,6 +223,21 @@ def test_the_body_does_not_sit_on_a_seat_1_2_m_up():
     assert any("the hips rest" in why or "the feet hang" in why for _, _, why in judged)
 
 
+def _upturned_stool() -> RailObject:
+    """A stool upside down: its 0.35 m square seat on the floor, four 4 cm legs rising 0.43 m, their ends 0.3 m apart
+    (the legs of the stool of _stool, seen from above)."""
+    return _object("upturned_stool", [([-0.175, -0.175, 0.0], [0.175, 0.175, 0.03]),
+                                      *[([lo[0], lo[1], 0.03], [hi[0], hi[1], 0.46]) for lo, hi in
+                                        _legs(0.15, 0.15, 0.43)]])
+
+
+def test_the_body_does_not_sit_on_an_upturned_stools_leg_ends():
+    # the pelvis rests on the four leg ends with the thighs over two of them; nothing bears the sitting bones
+    judged = _judged(_upturned_stool(), "chair")
+    assert not any(ok for _, ok, _ in judged), [why for _, ok, why in judged if ok]
+    assert any("sitting bones" in why for _, _, why in judged)
+
+
 def test_the_body_lies_in_a_bed_and_a_bathtub_holds_it_lying_down():
     assert any(ok for _, ok, _ in _judged(_bed(), "bed"))
     # a bathtub is no bed (its floor is below a bed's height), but it holds the body lying on its back, inside

@@ -237,7 +237,8 @@ def test_functional_pose_rules_for_a_cup():
 def _sitting(hips: float) -> list[SegmentState]:
     """The seat kind's body sitting with its hip joints ``hips`` m up, feet on the floor."""
     def seg(name: str, height: float, up: float, on_object: bool, on_ground: bool = False) -> SegmentState:
-        return SegmentState(agent=0, name=name, height=height, up=up, touching_object=on_object, on_ground=on_ground)
+        return SegmentState(agent=0, name=name, height=height, up=up, touching_object=on_object, on_ground=on_ground,
+                            reaches_object=name == "pelvis")  # a seat under the sitting bones
     legs = [s for side in "lr" for s in (seg(f"thigh_{side}", hips, 0.0, True), seg(f"shank_{side}", hips, 1.0, False),
                                          seg(f"foot_{side}", 0.07, 1.0, False, True))]
     return [seg("pelvis", hips, 1.0, True), seg("torso", hips + 0.14, 1.0, False), seg("head", hips + 0.5, 1.0, False),

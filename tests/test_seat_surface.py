@@ -37,14 +37,15 @@ def _pose(index: int, probability: float, h: list[float], plans: tuple[str, ...]
 
 
 def _sits(plan: str, h: list[float], hips: float, *, agent: int = 0, torso_on: bool = False,
-          feet: str = "ground", thighs: str = "seat", pelvis_deg: float = 0.0) -> list[SegmentState]:
+          feet: str = "ground", thighs: str = "seat", pelvis_deg: float = 0.0,
+          bones: bool = True) -> list[SegmentState]:
     """The sitting body's segments, its hip joints ``hips`` m up on the object, thighs level, torso upright (on the
     object when ``torso_on``); its feet on the ``ground``, on the ``object`` (a rung), hanging where a ``rung`` is
     within their reach as the knees bend, or hanging in the ``air``; ``thighs`` level on the ``seat``, or with the knees
     10° above the hips, ``over`` a seat pan or ``off`` the object (nothing under them); the pelvis tilted back
-    ``pelvis_deg``."""
+    ``pelvis_deg``; the object under both sitting bones unless not ``bones``."""
     seg = [SegmentState(agent=agent, name="pelvis", height=hips, up=float(np.cos(np.radians(pelvis_deg))),
-                        touching_object=True, on_ground=False),
+                        touching_object=True, on_ground=False, reaches_object=bones),
            SegmentState(agent=agent, name="torso", height=hips + 0.14, up=0.96, touching_object=torso_on,
                         on_ground=False),
            SegmentState(agent=agent, name="head", height=hips + 0.5, up=0.96, touching_object=False, on_ground=False)]

@@ -148,7 +148,8 @@ class SegmentState(ProfileModel):
     on_ground: bool
     reaches_object: bool = Field(default=False, description="touching nothing, the segment reaches the object: a "
                                                             "foot by bending the knee on to its limit (a rung), a "
-                                                            "thigh over a seat pan it rose off (a low seat)")
+                                                            "thigh over a seat pan it rose off (a low seat); for a "
+                                                            "pelvis touching it: the object bears both sitting bones")
 
 
 class ResultSummary(ProfileModel):

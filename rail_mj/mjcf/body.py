@@ -25,7 +25,7 @@ import numpy as np
 from rail_mj.core.errors import ConfigError
 
 __all__ = ["Posture", "POSTURES", "SEGMENTS", "SEGMENT_AXES", "FEET", "THIGHS", "TOE_REACH", "REACH_PROBES",
-           "BodySize", "body_size", "body_fragment", "toes_reach", "seat_under"]
+           "BEARING_PROBES", "BodySize", "body_size", "body_fragment", "toes_reach", "seat_under", "sit_bones"]
 
 Posture = Literal["sit", "lie"]
 POSTURES: tuple[str, ...] = ("sit", "lie")
@@ -315,5 +315,38 @@ def seat_under(m: mujoco.MjModel, data: mujoco.MjData, thigh: int, geoms: np.nda
     return False
 
 
+#: The sitting bones (ischial tuberosities), which bear a sitter's weight, lie about 12 cm apart in adults (the
+#: bi-ischial breadth, 10-14 cm): 0.36 of Winter's hip breadth (0.191 H, 33 cm at 1.75 m), under the hip joints.
+_SIT_BONES = 0.36
+#: The soft tissue under a sitting bone gives about 2 cm under a sitter's weight (MRI of seated adults): a quarter of
+#: a thigh's radius (7 cm at 1.75 m and 75 kg). A face farther below the buttocks does not bear the bone.
+_SIT_TISSUE = 0.25
+
+
+def sit_bones(m: mujoco.MjModel, data: mujoco.MjData, pelvis: int, geoms: np.ndarray) -> bool:
+    """Whether one of ``geoms`` bears both sitting bones of a pelvis (body id ``pelvis``) that touches it: straight
+    below each, at the hip joints' line or a thigh's radius ahead of or behind it (the loaded tissue under a sit
+    bone), a face within 45° of level no lower than the buttocks less the tissue's give (:data:`_SIT_TISSUE`). A seat
+    pan, a shell, a bench's slats bear them; an upturned stool's leg ends, a pouf's feet, a rail or an edge under the
+    hips do not. ``data`` holds the world's kinematics (``mj_kinematics``)."""
+    pelvis_geom, thigh_geom = int(m.body_geomadr[pelvis]), int(m.body_geomadr[pelvis + SEGMENTS.index(THIGHS[0])])
+    half = _SIT_BONES * float(m.geom_size[pelvis_geom][1])  # the pelvis box's half breadth is the hips'
+    radius = float(m.geom_size[thigh_geom][0])
+    frame = data.xmat[pelvis].reshape(3, 3)
+    down = np.array([0.0, 0.0, -1.0])
+
+    def borne(point: np.ndarray) -> bool:
+        for g in geoms:
+            distance, normal_z = _ray(m, data, int(g), point, down)
+            if 0.0 <= distance <= (1 + _SIT_TISSUE) * radius and normal_z >= _BEARING_COS:
+                return True
+        return False
+
+    return all(any(borne(data.xpos[pelvis] + frame @ np.array([ahead, side, 0.0])) for ahead in (0.0, radius, -radius))
+               for side in (half, -half))
+
+
 #: Each segment whose reach of the object is probed when it touches nothing, with its probe.
 REACH_PROBES = {**dict.fromkeys(FEET, toes_reach), **dict.fromkeys(THIGHS, seat_under)}
+#: Each segment whose bearing is probed when it touches the object, with its probe (its ``reaches_object``).
+BEARING_PROBES = {"pelvis": sit_bones}

@@ -32,7 +32,7 @@ from scipy.spatial import ConvexHull
 
 from rail_mj.core.errors import SceneError
 from rail_mj.core.types import AgentSetup, RailObject
-from rail_mj.mjcf.body import REACH_PROBES
+from rail_mj.mjcf.body import BEARING_PROBES, REACH_PROBES
 from rail_mj.mjcf.scene import (
     AGENT_BIT,
     FRICTION,
@@ -188,7 +188,8 @@ def segment_state(scene: Scene, data: mujoco.MjData, geom_pairs: np.ndarray,
     (m) of each segment's origin above the ground, (N, S) ``up`` (the cosine of the angle between its own z axis
     and the vertical), (N, S, 3) its contact points with (object, other agents, ground) and (N, S) whether a foot
     or a thigh touching nothing reaches the object: a foot by bending its knee, a thigh over a seat pan it rose off
-    (:func:`rail_mj.mjcf.body.toes_reach`, :func:`rail_mj.mjcf.body.seat_under`; False for every other segment).
+    (:func:`rail_mj.mjcf.body.toes_reach`, :func:`rail_mj.mjcf.body.seat_under`), and whether a pelvis touching the
+    object has both sitting bones over it (:func:`rail_mj.mjcf.body.sit_bones`); False for every other segment.
     ``model``: the rollout's own model when it is not ``scene.model`` (a perturbed world's, the same layout)."""
     m = scene.model if model is None else model
     mujoco.mj_kinematics(m, data)
@@ -209,12 +210,13 @@ def segment_state(scene: Scene, data: mujoco.MjData, geom_pairs: np.ndarray,
             counted = (owner[:, x] >= 0) & (kind >= 0)
             np.add.at(contacts, (owner[counted, x], seg[counted, x], kind[counted]), 1)
     reach = np.zeros((n, s), dtype=bool)
-    probes = [(k, REACH_PROBES[name]) for k, name in enumerate(scene.segment_names) if name in REACH_PROBES]
+    probes = [(k, REACH_PROBES[name], False) for k, name in enumerate(scene.segment_names) if name in REACH_PROBES]
+    probes += [(k, BEARING_PROBES[name], True) for k, name in enumerate(scene.segment_names) if name in BEARING_PROBES]
     if probes:
         geoms = np.nonzero(scene.geom_owner == OWNER_OBJECT)[0]
         for i in range(n):
-            for k, probe in probes:
-                if not contacts[i, k].any():
+            for k, probe, touching in probes:
+                if bool(contacts[i, k, 0]) if touching else not contacts[i, k].any():
                     reach[i, k] = probe(m, data, int(bodies[i, k]), geoms)
     return height, up, contacts, reach
 

@@ -1,12 +1,12 @@
 """``seat``: an articulated human body, hips and knees at 90°, lowered onto the object facing each way.
 
 Success: the body comes to rest carried by the object: its pelvis level, or tilted back with an easy chair's seat
-against its back, and on the object with its thighs (a seat pan bears the thighs, or lies under them where the feet
-lift the knees off a low seat; an edge or a rail bears the pelvis alone) at seat height, its thighs near level, its
-torso upright or leaning on a back, its feet on the floor or on the object, or within a relaxed toe's reach of the
-floor or of a rung as the knees bend (a bar stool's sitter), nothing but its shanks and feet on the ground, and the
-object not tipped. A seat for more than one (a bench) seats the body at two places side by side along its length,
-half a shoulder breadth either side of its centre.
+against its back, on the object with a seat under both sitting bones, and with its thighs (a seat pan bears the
+thighs, or lies under them where the feet lift the knees off a low seat; an edge or a rail bears the pelvis alone)
+at seat height, its thighs near level, its torso upright or leaning on a back, its feet on the floor or on the
+object, or within a relaxed toe's reach of the floor or of a rung as the knees bend (a bar stool's sitter), nothing
+but its shanks and feet on the ground, and the object not tipped. A seat for more than one (a bench) seats the
+body at two places side by side along its length, half a shoulder breadth either side of its centre.
 """
 
 from __future__ import annotations
@@ -157,6 +157,9 @@ class Seat(Kind):
                                f"{rest_words(aff)}")
             if not pelvis.touching_object:
                 return False, f"{who}the pelvis does not rest on the object"
+            if not pelvis.reaches_object:
+                return False, (f"{who}the sitting bones are not both over a seat: the pelvis rests on posts, an edge "
+                               "or a rail")
             # both level with the buttocks: either may bear; on a seat lower than the knees the feet hold the knees
             # up and the thighs rise off the seat's front, the seat still under them
             if not any(seg[t].touching_object or seg[t].reaches_object for t in LEGS):
