@@ -17,8 +17,10 @@ import trimesh
 
 from rail_mj.affordances import get
 from rail_mj.affordances.kinds import kind_of
+from rail_mj.affordances.kinds.body import HEADINGS, heading_axes
 from rail_mj.affordances.prior import FUNCTIONAL, NEGLIGIBLE
 from rail_mj.core.errors import FragmentError, ImaginationError
+from rail_mj.core.geometry import quat_rotate
 from rail_mj.core.profile import CandidateInteraction, PoseCandidates
 from rail_mj.core.types import AgentSetup, RailObject
 from rail_mj.imagination import ImaginationConfig, PerturbationSet, draw, imagine, prepare
@@ -215,6 +217,26 @@ def test_the_body_sits_in_a_low_chair_and_an_easy_chair():
     assert leaning, "the body does not sit leaning on the easy chair's back"
     pelvis = {s.name: s for s in leaning[0].summary.segments}["pelvis"]
     assert pelvis.up < np.cos(np.radians(10))  # tilted back with the seat, past an office seat's 10°
+
+
+def _deep_armchair() -> RailObject:
+    """An upholstered armchair of blocks, facing +x: 0.8 m deep and wide, its seat 0.43 m up and 0.6 m deep from the
+    back's front face to its front edge, arms 0.65 m up, the back 0.2 m thick and 0.86 m up."""
+    return _object("deep_armchair", [([-0.4, -0.3, 0.0], [0.4, 0.3, 0.43]), ([-0.4, -0.4, 0.0], [0.4, -0.3, 0.65]),
+                                     ([-0.4, 0.3, 0.0], [0.4, 0.4, 0.65]), ([-0.4, -0.3, 0.43], [-0.2, 0.3, 0.86])])
+
+
+def test_the_body_sits_in_a_deep_armchair_its_feet_put_down_ahead_of_the_knees():
+    """With the knees at 90° the heels came down on the seat's front edge, 0.43 m ahead of the hips, and held the body
+    up off the seat in every heading; a sitter's feet go down a little ahead of the knees, clear of it."""
+    obj = _deep_armchair()
+    pose = pose_from_up(obj, np.array([0.0, 0.0, 1.0]), 1.0)
+    # the heading that faces the chair's front (its +x) in the upright pose's task frame
+    front = quat_rotate(np.asarray(pose.quat), np.array([1.0, 0.0, 0.0]))[:2]
+    facing = next(h for h, _ in HEADINGS if np.allclose(heading_axes(h)[0], front, atol=1e-6))
+    sat = [c for c, ok, _ in _judged(obj, "chair") if ok]
+    assert sat, "the body does not sit in the deep armchair"
+    assert all(c.plan.startswith(f"facing_{facing}") for c in sat), [c.plan for c in sat]
 
 
 def test_the_body_does_not_sit_on_a_seat_1_2_m_up():

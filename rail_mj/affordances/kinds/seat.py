@@ -1,4 +1,4 @@
-"""``seat``: an articulated human body, hips and knees at 90°, lowered onto the object facing each way.
+"""``seat``: an articulated human body, hips at 90° and knees at 105°, lowered onto the object facing each way.
 
 Success: the body comes to rest carried by the object: its pelvis level, or tilted back with an easy chair's seat
 against its back, on the object with a seat under both sitting bones, and with its thighs (a seat pan bears the
@@ -87,8 +87,8 @@ class Seat(Kind):
     rules_read_agent_size = True
     params_model = SeatParams
     agent_description = ("An articulated human body (pelvis, torso, head, thighs, shanks, feet; Winter's "
-                         "anthropometry, 1.75 m and 75 kg for a person) with hips and knees at 90°, its joints held "
-                         "by posture springs.")
+                         "anthropometry, 1.75 m and 75 kg for a person) with hips at 90° and knees at 105°, its joints "
+                         "held by posture springs.")
     interaction_description = ("The sitting body is lowered straight down onto the object facing each way, with its "
                                "hips over the object's centre and a quarter of the way to its back; it is released at "
                                "the first contact and left to settle. On a seat for more, it is lowered at two "
