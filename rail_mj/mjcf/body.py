@@ -25,8 +25,9 @@ import numpy as np
 
 from rail_mj.core.errors import ConfigError
 
-__all__ = ["Posture", "POSTURES", "SEGMENTS", "SEGMENT_AXES", "FEET", "THIGHS", "TOE_REACH", "REACH_PROBES",
-           "BEARING_PROBES", "BodySize", "body_size", "body_fragment", "toes_reach", "seat_under", "sit_bones"]
+__all__ = ["Posture", "POSTURES", "SEGMENTS", "SEGMENT_AXES", "FEET", "THIGHS", "SIT_KNEE", "TOE_REACH",
+           "REACH_PROBES", "BEARING_PROBES", "BodySize", "body_size", "body_fragment", "toes_reach", "seat_under",
+           "sit_bones"]
 
 Posture = Literal["sit", "lie"]
 POSTURES: tuple[str, ...] = ("sit", "lie")
@@ -71,11 +72,11 @@ _LUMBAR_RANGE = (-25.0, 80.0)
 #: The lumbar spring's rest (deg of flexion; negative: the trunk reclined): a relaxed sitter reclines the trunk 15° past
 #: upright, a 105° trunk-thigh angle (Keegan 1953, the relaxed sitting posture; ANSI/HFES 100: backrests 100-110°).
 _LUMBAR_REST = -15.0
-#: Knee flexion sitting (deg): a sitter's knees open past a right angle, the feet put down a little ahead of the
-#: knees before the seat takes the weight; 105° between thigh and shank, the middle of the 90-120° that seating
-#: guides give (OSHA's computer workstations eTool: "feet slightly forward"). A 90° knee drops the heels on a deep
-#: seat's front edge, which then holds the body up.
-_SIT_KNEE = 75.0
+#: The knee angle sitting (deg between thigh and shank): a sitter's knees open past a right angle, the feet put down
+#: a little ahead of the knees before the seat takes the weight; the middle of the 90-120° that seating guides give
+#: (OSHA's computer workstations eTool: "feet slightly forward"). A 90° knee drops the heels on a deep seat's front
+#: edge, which then holds the body up.
+SIT_KNEE = 105.0
 #: The posture spring lets a joint sag at most this far (deg) under the gravity moment of what it carries
 #: held out horizontally: a carried body keeps its posture, a load on it bends it.
 _SAG_DEG = 10.0
@@ -203,7 +204,7 @@ def body_fragment(posture: Posture, scale: float = 1.0, name: str = "pelvis") ->
         raise ConfigError(f"a body posture must be one of {', '.join(POSTURES)}; got {posture!r}")
     b = body_size(scale)
     m = b.mass
-    hip_deg, knee_deg = (90.0, _SIT_KNEE) if posture == "sit" else (0.0, 0.0)
+    hip_deg, knee_deg = (90.0, 180.0 - SIT_KNEE) if posture == "sit" else (0.0, 0.0)
     # lying is standing turned about y by -90 deg: the spine along -x, the front facing up
     turn = 0.0 if posture == "sit" else -90.0
     turn_q = _quat_y(turn)

@@ -40,7 +40,7 @@ from rail_mj.affordances.kinds.body import (
 )
 from rail_mj.affordances.row import Affordance, KindParams
 from rail_mj.core.profile import AgentLayout, CandidateInteraction, MotionPlan, PoseCandidates, ScoringCode, ViaPose
-from rail_mj.mjcf.body import FEET, TOE_REACH
+from rail_mj.mjcf.body import FEET, SIT_KNEE, TOE_REACH
 
 __all__ = ["SeatParams", "Seat"]
 
@@ -87,8 +87,8 @@ class Seat(Kind):
     rules_read_agent_size = True
     params_model = SeatParams
     agent_description = ("An articulated human body (pelvis, torso, head, thighs, shanks, feet; Winter's "
-                         "anthropometry, 1.75 m and 75 kg for a person) with hips at 90° and knees at 105°, its joints "
-                         "held by posture springs.")
+                         f"anthropometry, 1.75 m and 75 kg for a person) with hips at 90° and knees at {SIT_KNEE:g}°, "
+                         "its joints held by posture springs.")
     interaction_description = ("The sitting body is lowered straight down onto the object facing each way, with its "
                                "hips over the object's centre and a quarter of the way to its back; it is released at "
                                "the first contact and left to settle. On a seat for more, it is lowered at two "
