@@ -111,6 +111,33 @@ def test_box_dropped_on_a_table_rests_on_its_top():
     assert out.contacts_object[0, 0] > 0 and out.contacts_ground[0, 0] == 0
 
 
+def _steps_to_rest(config: ImaginationConfig) -> tuple[int, float, float]:
+    """A block lowered from 0.6 m towards 3 m below the ground onto the table's top (released there, a fifth of the
+    way down): (the last step simulated, the drive's steps, the block's rest height above the top)."""
+    table = _table()
+    pose = pose_from_up(table, np.array([0.0, 0.0, 1.0]), 1.0)
+    block = AgentSetup(fragment=BLOCK.format(s=0.02, m=0.1), offsets=np.zeros((1, 3)))
+    plan = np.array([[0.0, 0.0, 0.6, 1, 0, 0, 0], [0.0, 0.0, -3.0, 1, 0, 0, 0]])
+    seen: list[int] = []
+    out = imagine(table, [pose], block, [plan], backend="native", config=config,
+                  progress=lambda done, total: seen.append(done))
+    return seen[-1], 3.6 / config.agent_speed / config.timestep, out.agent_pos[0, 0, 2] - pose.half_extents[2]
+
+
+def test_a_settled_world_is_stepped_no_more_though_its_drive_goes_on():
+    last, drive, rest = _steps_to_rest(FAST)
+    assert rest == pytest.approx(0.02, abs=2e-3)  # on the top
+    # released at the top after 0.9 s, at rest 1 s (min_settle_time) later: the drive's last 5 s are not simulated
+    assert last < 0.5 * drive
+
+
+def test_rest_counts_only_a_hold_after_the_release():
+    held, _, _ = _steps_to_rest(FAST)
+    quick, _, rest = _steps_to_rest(FAST.model_copy(update={"min_settle_time": 0.0}))
+    assert rest == pytest.approx(0.02, abs=2e-3)
+    assert held - quick >= FAST.min_settle_time / FAST.timestep - 2 * FAST.check_every
+
+
 def test_agent_released_on_collision_knocks_a_light_object_over():
     post = _object("post", [_box([-0.01, -0.01, 0], [0.01, 0.01, 0.2])], density=50.0)
     pose = pose_from_up(post, np.array([0.0, 0.0, 1.0]), 1.0)

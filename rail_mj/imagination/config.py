@@ -69,6 +69,12 @@ class ImaginationConfig(BaseModel):
     agent_angular_speed: float = Field(default=3.0, gt=0,
                                        description="angular speed of the driven layout centre, rad/s")
     settle_time: float = Field(default=3.0, gt=0, description="longest simulated time after the drive, s")
+    min_settle_time: float = Field(
+        default=1.0, ge=0,
+        description="rest sooner than this after a world's agents are all released does not count, s: a body set "
+                    "down on a balance point starts at rest and needs a moment to topple (1 s is three toppling time "
+                    "constants sqrt(L/g) of a 1 m tall body)",
+    )
     settle_speed: float = Field(default=0.02, gt=0,
                                 description="a body is at rest when no point of it moves faster, m/s")
     check_every: int = Field(default=20, ge=1, description="steps between settle checks")

@@ -85,9 +85,12 @@ def _at_rest(qvel, layout: _Layout, radius, settle_speed):
     return jnp.all(jnp.linalg.norm(lin, axis=-1) + jnp.linalg.norm(ang, axis=-1) * radius < settle_speed)
 
 
-def _rollout(m, fields, world, layout: _Layout, qpos0, pose_table, vel_table, n_drive, limit, radius, settle_speed):
+def _rollout(m, fields, world, layout: _Layout, qpos0, pose_table, vel_table, n_drive, limit, hold, radius,
+             settle_speed):
     """Batched rollout; pose_table (B, S, N, 7) and vel_table (B, S, 6) are per-world drive rows; ``fields`` the
-    model fields that differ between perturbed worlds, (W, ...) each, and ``world`` (B,) each rollout's world."""
+    model fields that differ between perturbed worlds, (W, ...) each, and ``world`` (B,) each rollout's world. Rest
+    counts ``hold`` steps after a world's agents are all released, at the latest once the batch's drive is over (as
+    the native backend counts it)."""
     n_worlds, n_agents = qpos0.shape[0], len(layout.agent_qpos)
     data0 = jax.vmap(lambda q: mjx.make_data(m).replace(qpos=q))(qpos0)
     last = pose_table.shape[1] - 1
@@ -101,18 +104,19 @@ def _rollout(m, fields, world, layout: _Layout, qpos0, pose_table, vel_table, n_
     rest_all = jax.vmap(lambda qv: _at_rest(qv, layout, radius, settle_speed))
 
     def cond(carry):
-        k, _, _, _, settled, _ = carry
+        k, _, _, _, settled, _, _ = carry
         return (k < limit.max()) & ~jnp.all(settled | (k >= limit))
 
     def body(carry):
-        k, d, driven, early, settled, quiet = carry
+        k, d, driven, early, settled, quiet, free_since = carry
         d, driven, new_early = step_all(d, k, driven, n_drive, pose_table, vel_table, world)
         k = k + 1
-        check = (k % layout.check_every == 0) & (k >= n_drive) & (k <= limit)
+        free_since = jnp.where(~driven.any(axis=1), jnp.minimum(free_since, k), free_since)
+        check = (k % layout.check_every == 0) & (k >= jnp.minimum(free_since + hold, n_drive.max())) & (k <= limit)
         rest = rest_all(d.qvel)
         settled = settled | (check & rest & quiet)
         quiet = jnp.where(check, rest, quiet)
-        return k, d, driven, early | new_early, settled, quiet
+        return k, d, driven, early | new_early, settled, quiet, free_since
 
     init = (
         jnp.int32(0),
@@ -121,8 +125,9 @@ def _rollout(m, fields, world, layout: _Layout, qpos0, pose_table, vel_table, n_
         jnp.zeros((n_worlds, n_agents), bool),
         jnp.zeros(n_worlds, bool),
         jnp.zeros(n_worlds, bool),
+        n_drive,
     )
-    _, d, _, early, settled, _ = jax.lax.while_loop(cond, body, init)
+    _, d, _, early, settled, _, _ = jax.lax.while_loop(cond, body, init)
     contact = d._impl.contact
     return d.qpos, d.qvel, contact.geom, contact.dist, early, settled
 
@@ -147,10 +152,11 @@ class MjxBackend(Backend):
         """Traces (= compiles) of the rollout by this backend so far."""
         return self._compiles
 
-    def _traced_rollout(self, m, fields, world, layout: _Layout, qpos0, pose_table, vel_table, n_drive, limit, radius,
-                        settle_speed):
+    def _traced_rollout(self, m, fields, world, layout: _Layout, qpos0, pose_table, vel_table, n_drive, limit, hold,
+                        radius, settle_speed):
         self._compiles += 1  # runs only while tracing, i.e. once per compile
-        return _rollout(m, fields, world, layout, qpos0, pose_table, vel_table, n_drive, limit, radius, settle_speed)
+        return _rollout(m, fields, world, layout, qpos0, pose_table, vel_table, n_drive, limit, hold, radius,
+                        settle_speed)
 
     def scene(self, obj: RailObject, agents: AgentSetup) -> Scene:
         """The box scene of obj's bucket, weighing what the hull-mesh scene weighs."""
@@ -217,7 +223,8 @@ class MjxBackend(Backend):
             m, self.world_fields(scene, m, batch), jnp.asarray(placement.worlds, dtype=jnp.int32), layout,
             jnp.asarray(batch.initial_qpos(scene)), jnp.asarray(pose_table),
             jnp.asarray(vel_table), jnp.asarray(n_drive, dtype=jnp.int32), jnp.asarray(limit, dtype=jnp.int32),
-            jnp.asarray(scene.free_radius), jnp.float32(cfg.settle_speed),
+            jnp.int32(np.ceil(cfg.min_settle_time / cfg.timestep)), jnp.asarray(scene.free_radius),
+            jnp.float32(cfg.settle_speed),
         )
         geom, dist = np.asarray(geom), np.asarray(dist)
         contacts = np.stack([count_contacts(scene.geom_owner, geom[b][dist[b] < 0], scene.n_agents)

@@ -29,7 +29,7 @@ class NativeBackend(Backend):
         return self._compose(obj, agents, self.config.physics)
 
     def run(self, batch: RolloutBatch, *, progress: Progress | None = None) -> Outcomes:
-        """Drive, release and settle every rollout."""
+        """Drive, release and settle every rollout; a world that has settled is stepped no more."""
         cfg = self.config
         scene = self.scene(batch.obj, batch.agents)
         table, placement, offsets = batch.table, batch.placement, batch.world_offsets
@@ -53,36 +53,42 @@ class NativeBackend(Backend):
         vcols = scene.agent_dof[:, None] + np.arange(6)
         driven = np.ones((n_worlds, n_agents), dtype=bool)
         released_early = np.zeros((n_worlds, n_agents), dtype=bool)
-        limit = n_drive + int(np.ceil(cfg.settle_time / cfg.timestep))
-        total = int(limit.max())
-        for k in range(int(n_drive.max())):
-            rows, agents = np.nonzero(driven & (k < n_drive)[:, None])
-            p = plan[rows]
-            qpos[rows[:, None], qcols[agents]] = np.concatenate(
-                [placement.origin[rows] + table.pos[p, k] + offsets[rows, agents], table.quat[p, k]], axis=1
-            )
-            qvel[rows[:, None], vcols[agents]] = np.concatenate([table.linvel[p, k], table.angvel[p, k]], axis=1)
-            sim.step()
-            touching = np.abs(qfrc[rows[:, None], vcols[agents]]).max(axis=1) > _CONTACT_FORCE
-            released_early[rows[touching], agents[touching]] = (k < n_drive[rows] - 1)[touching]
-            driven[rows[touching], agents[touching]] = False
-            if progress is not None:
-                progress(k + 1, total)
-        steps = n_drive.copy()
+        free_since = n_drive.copy()  # the step from which no agent of the world is driven (released or done)
+        hold = int(np.ceil(cfg.min_settle_time / cfg.timestep))
+        n_max = int(n_drive.max())
+        total = n_max + int(np.ceil(cfg.settle_time / cfg.timestep))
         settled = np.zeros(n_worlds, dtype=bool)
-        rested_once = np.zeros(n_worlds, dtype=bool)
+        quiet = np.zeros(n_worlds, dtype=bool)
+        k = 0
         while True:
-            rest = scene.at_rest(qvel, cfg.settle_speed)
-            # two quiet checks in a row, so a bounce's apex does not count as rest
-            settled |= rest & rested_once
-            rested_once = rest
-            running = np.nonzero(~settled & (steps < limit))[0]
+            if k % cfg.check_every == 0:
+                # rest counts from a hold after the release, and at the latest once the batch's drive is over
+                rest = scene.at_rest(qvel, cfg.settle_speed) & (k >= np.minimum(free_since + hold, n_max))
+                # two quiet checks in a row, so a bounce's apex does not count as rest
+                settled |= rest & quiet
+                quiet = rest
+            running = np.nonzero(~settled)[0] if k < total else np.zeros(0, dtype=np.int64)
             if len(running) == 0:
                 break
-            sim.step(ids=running, nstep=cfg.check_every)
-            steps[running] += cfg.check_every
+            if k >= n_max:  # nothing is driven any more: step to the next check
+                n = cfg.check_every - k % cfg.check_every
+                sim.step(ids=running, nstep=n)
+                k += n
+            else:
+                rows, agents = np.nonzero(driven & (k < n_drive)[:, None])
+                p = plan[rows]
+                qpos[rows[:, None], qcols[agents]] = np.concatenate(
+                    [placement.origin[rows] + table.pos[p, k] + offsets[rows, agents], table.quat[p, k]], axis=1
+                )
+                qvel[rows[:, None], vcols[agents]] = np.concatenate([table.linvel[p, k], table.angvel[p, k]], axis=1)
+                sim.step(ids=running)
+                touching = np.abs(qfrc[rows[:, None], vcols[agents]]).max(axis=1) > _CONTACT_FORCE
+                released_early[rows[touching], agents[touching]] = (k < n_drive[rows] - 1)[touching]
+                driven[rows[touching], agents[touching]] = False
+                k += 1
+                free_since = np.where(~driven.any(axis=1), np.minimum(free_since, k), free_since)
             if progress is not None:
-                progress(int(min(steps.max(), total)), total)
+                progress(min(k, total), total)
 
         contacts = np.zeros((n_worlds, n_agents, 3), dtype=np.int64)
         unstable = np.zeros(n_worlds, dtype=bool)
