@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 from typing import Any
 
@@ -114,6 +115,16 @@ class ImaginationConfig(BaseModel):
         # config's nested dict, reports the same range as pydantic's ValidationError)
         _check_ranges(data)
         super().__init__(**data)
+
+    @property
+    def settle_steps(self) -> int:
+        """``settle_time`` in steps: the longest a world runs after the batch's drive."""
+        return math.ceil(self.settle_time / self.timestep)
+
+    @property
+    def hold_steps(self) -> int:
+        """``min_settle_time`` in steps: how long after its release a world's rest starts to count."""
+        return math.ceil(self.min_settle_time / self.timestep)
 
     @property
     def physics(self) -> ScenePhysics:

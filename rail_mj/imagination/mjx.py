@@ -102,6 +102,7 @@ def _rollout(m, fields, world, layout: _Layout, qpos0, pose_table, vel_table, n_
 
     step_all = jax.vmap(one, in_axes=(0, None, 0, 0, 0, 0, 0))
     rest_all = jax.vmap(lambda qv: _at_rest(qv, layout, radius, settle_speed))
+    n_max = n_drive.max()
 
     def cond(carry):
         k, _, _, _, settled, _, _ = carry
@@ -112,7 +113,7 @@ def _rollout(m, fields, world, layout: _Layout, qpos0, pose_table, vel_table, n_
         d, driven, new_early = step_all(d, k, driven, n_drive, pose_table, vel_table, world)
         k = k + 1
         free_since = jnp.where(~driven.any(axis=1), jnp.minimum(free_since, k), free_since)
-        check = (k % layout.check_every == 0) & (k >= jnp.minimum(free_since + hold, n_drive.max())) & (k <= limit)
+        check = (k % layout.check_every == 0) & (k >= jnp.minimum(free_since + hold, n_max)) & (k <= limit)
         rest = rest_all(d.qvel)
         settled = settled | (check & rest & quiet)
         quiet = jnp.where(check, rest, quiet)
@@ -211,7 +212,7 @@ class MjxBackend(Backend):
         )
         vel_table = np.concatenate([table.linvel[plan], table.angvel[plan]], axis=-1)
         n_drive = table.n_drive[plan]
-        limit = n_drive + int(np.ceil(cfg.settle_time / cfg.timestep))
+        limit = n_drive + cfg.settle_steps
         layout = _Layout(
             agent_qpos=tuple(int(a) for a in scene.agent_qpos),
             agent_dof=tuple(int(a) for a in scene.agent_dof),
@@ -223,7 +224,7 @@ class MjxBackend(Backend):
             m, self.world_fields(scene, m, batch), jnp.asarray(placement.worlds, dtype=jnp.int32), layout,
             jnp.asarray(batch.initial_qpos(scene)), jnp.asarray(pose_table),
             jnp.asarray(vel_table), jnp.asarray(n_drive, dtype=jnp.int32), jnp.asarray(limit, dtype=jnp.int32),
-            jnp.int32(np.ceil(cfg.min_settle_time / cfg.timestep)), jnp.asarray(scene.free_radius),
+            jnp.int32(cfg.hold_steps), jnp.asarray(scene.free_radius),
             jnp.float32(cfg.settle_speed),
         )
         geom, dist = np.asarray(geom), np.asarray(dist)

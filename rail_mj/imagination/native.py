@@ -54,22 +54,21 @@ class NativeBackend(Backend):
         driven = np.ones((n_worlds, n_agents), dtype=bool)
         released_early = np.zeros((n_worlds, n_agents), dtype=bool)
         free_since = n_drive.copy()  # the step from which no agent of the world is driven (released or done)
-        hold = int(np.ceil(cfg.min_settle_time / cfg.timestep))
         n_max = int(n_drive.max())
-        total = n_max + int(np.ceil(cfg.settle_time / cfg.timestep))
+        total = n_max + cfg.settle_steps
         settled = np.zeros(n_worlds, dtype=bool)
         quiet = np.zeros(n_worlds, dtype=bool)
         k = 0
         while True:
             if k % cfg.check_every == 0:
                 # rest counts from a hold after the release, and at the latest once the batch's drive is over
-                rest = scene.at_rest(qvel, cfg.settle_speed) & (k >= np.minimum(free_since + hold, n_max))
+                rest = scene.at_rest(qvel, cfg.settle_speed) & (k >= np.minimum(free_since + cfg.hold_steps, n_max))
                 # two quiet checks in a row, so a bounce's apex does not count as rest
                 settled |= rest & quiet
                 quiet = rest
-            running = np.nonzero(~settled)[0] if k < total else np.zeros(0, dtype=np.int64)
-            if len(running) == 0:
+            if k >= total or settled.all():
                 break
+            running = np.nonzero(~settled)[0]
             if k >= n_max:  # nothing is driven any more: step to the next check
                 n = cfg.check_every - k % cfg.check_every
                 sim.step(ids=running, nstep=n)
