@@ -377,7 +377,8 @@ def _seat_for_one(obj: RailObject, affordance: str) -> tuple[bool, str]:
     judged = _judged(obj, affordance)
     accepted = [c for c, ok, _ in judged if ok]
     aff = get(affordance)
-    pose = PoseCandidates(pose_index=0, probability=1.0, half_extents=[0.3, 0.3, 0.3], candidates=accepted)
+    pose = PoseCandidates(pose_index=0, probability=1.0, half_extents=[0.3, 0.3, 0.3],
+                          candidates=[c for c, _, _ in judged])
     kept, why = kind_of(aff).accept_pose(aff, accepted, pose)
     return bool(kept), why
 
@@ -394,3 +395,20 @@ def test_a_settee_is_no_chair_whichever_side_its_back_is_on():
     for side in (1.0, -1.0):
         ok, why = _seat_for_one(_bench_with_back(side), "chair")
         assert not ok and "room for a second sitter" in why, (side, why)
+
+
+def _counter_bench() -> RailObject:
+    """A bar-height bench for two: a 1.2 x 0.4 m seat 0.72 m high (the bar stool's), its footrest rungs 0.27 m up
+    only under the middle 0.3 m of its length, on both long sides."""
+    rungs = [([-0.15, sy * 0.18 - 0.01, 0.25], [0.15, sy * 0.18 + 0.01, 0.27]) for sy in (-1, 1)]
+    return _object("counter_bench", [([-0.6, -0.2, 0.69], [0.6, 0.2, 0.72]), *_legs(0.55, 0.18, 0.69), *rungs])
+
+
+def test_room_for_a_second_sitter_is_the_seats_the_feet_aside_find_their_own_rest():
+    """In the middle the feet reach the rung and the body sits; one hip breadth to either side the feet hang past the
+    rung's ends, but the seat carries the body there: a seat for two, whatever its footrest."""
+    judged = {c.plan: (ok, why) for c, ok, why in _judged(_counter_bench(), "chair")}
+    assert any(ok for plan, (ok, _) in judged.items() if "_aside" not in plan), judged
+    assert all("the feet hang" in why for plan, (_, why) in judged.items() if "_aside" in plan), judged
+    ok, why = _seat_for_one(_counter_bench(), "chair")
+    assert not ok and "room for a second sitter" in why

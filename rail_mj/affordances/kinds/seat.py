@@ -75,9 +75,10 @@ _PLACES = (("", 0.0), ("_back", -0.25))
 _MANY_HEADINGS = ("left", "right")
 _BESIDE = (("_beside_front", 1.0), ("_beside_back", -1.0))
 #: A seat for one has no room for a second sitter beside the first: the body put down facing across the object's
-#: length one hip breadth (Winter Fig. 4.1, 0.191 H: a sitter's width) to either side of the centre sits at both
-#: places on a bench or a bed, and falls off or meets an armrest or a back on a chair or a stool. Facing both ways
-#: across the length: a sofa's or a bench's back may be on either side, and the body facing it sits nowhere.
+#: length one hip breadth (Winter Fig. 4.1, 0.191 H: a sitter's width) to either side of the centre is carried as a
+#: sitter at both places on a bench or a bed (its feet aside, which a sitter finds a rest for), and falls off or meets
+#: an armrest or a back on a chair or a stool. Facing both ways across the length: a sofa's or a bench's back may be
+#: on either side, and the body facing it sits nowhere.
 _ASIDE = (("_aside_front", 1.0), ("_aside_back", -1.0))
 _ASIDE_HEADINGS = ("left", "right")
 
@@ -144,34 +145,14 @@ class Seat(Kind):
 
     def accept(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float]) -> tuple[bool, str]:
         shape = self.agent(aff, h)
-        lo, hi = rest_window(aff, shape.half_z)
+        why = self._unseated(aff, c, h)
+        if why:
+            return False, why
         bodies = agents_segments(c)
-        if not bodies or shape.body is None:
-            return False, "no body segments were reported: the seat kind needs its articulated body"
+        assert shape.body is not None  # _unseated refuses a row without its body
         reach = shape.body.ankle + TOE_REACH * shape.body.foot  # the ankle's height when the toes touch down
         for i, seg in enumerate(bodies):
             who = f"body {i + 1}: " if len(bodies) > 1 else ""
-            pelvis = seg[ROOT]
-            if not lo <= pelvis.height <= hi:
-                return False, (f"{who}the hips rest {pelvis.height - shape.half_z:.2f} m above the ground; sitting "
-                               f"{rest_words(aff)}")
-            if not pelvis.touching_object:
-                return False, f"{who}the pelvis does not rest on the object"
-            if not pelvis.reaches_object:
-                return False, (f"{who}the sitting bones are not both over a seat: the pelvis rests on posts, an edge "
-                               "or a rail")
-            # both level with the buttocks: either may bear; on a seat lower than the knees the feet hold the knees
-            # up and the thighs rise off the seat's front, the seat still under them
-            if not any(seg[t].touching_object or seg[t].reaches_object for t in LEGS):
-                return False, (f"{who}the object does not carry the thighs: the pelvis rests on an edge or a rail, "
-                               "not a seat")
-            grounded = [name for name, s in seg.items() if s.on_ground and name not in _ON_FLOOR]
-            if grounded:
-                return False, f"{who}the {grounded[0]} touches the ground: the body fell"
-            pan = _EASY_PAN_DEG if seg["torso"].touching_object else LEVEL_DEG
-            why = upright(pelvis, pan) or level(seg, LEGS, _THIGH_DEG) or upright(seg["torso"], _TORSO_DEG)
-            if why:
-                return False, f"{who}{why}"
             dangling = [f for f in FEET if not (seg[f].on_ground or seg[f].touching_object or seg[f].height <= reach
                                                 or seg[f].reaches_object)]
             if dangling:
@@ -181,6 +162,38 @@ class Seat(Kind):
         torso = all(seg["torso"].touching_object for seg in bodies)
         return True, (f"the body sits {bodies[0][ROOT].height:.2f} m up, thighs level, torso upright"
                       + (", leaning on a back" if torso else ""))
+
+    def _unseated(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float]) -> str:
+        """Why the object does not carry the sitting body as a seat does (pelvis, thighs and torso; not the feet),
+        or "" where it does."""
+        shape = self.agent(aff, h)
+        lo, hi = rest_window(aff, shape.half_z)
+        bodies = agents_segments(c)
+        if not bodies or shape.body is None:
+            return "no body segments were reported: the seat kind needs its articulated body"
+        for i, seg in enumerate(bodies):
+            who = f"body {i + 1}: " if len(bodies) > 1 else ""
+            pelvis = seg[ROOT]
+            if not lo <= pelvis.height <= hi:
+                return (f"{who}the hips rest {pelvis.height - shape.half_z:.2f} m above the ground; sitting "
+                        f"{rest_words(aff)}")
+            if not pelvis.touching_object:
+                return f"{who}the pelvis does not rest on the object"
+            if not pelvis.reaches_object:
+                return (f"{who}the sitting bones are not both over a seat: the pelvis rests on posts, an edge or a "
+                        "rail")
+            # both level with the buttocks: either may bear; on a seat lower than the knees the feet hold the knees
+            # up and the thighs rise off the seat's front, the seat still under them
+            if not any(seg[t].touching_object or seg[t].reaches_object for t in LEGS):
+                return f"{who}the object does not carry the thighs: the pelvis rests on an edge or a rail, not a seat"
+            grounded = [name for name, s in seg.items() if s.on_ground and name not in _ON_FLOOR]
+            if grounded:
+                return f"{who}the {grounded[0]} touches the ground: the body fell"
+            pan = _EASY_PAN_DEG if seg["torso"].touching_object else LEVEL_DEG
+            why = upright(pelvis, pan) or level(seg, LEGS, _THIGH_DEG) or upright(seg["torso"], _TORSO_DEG)
+            if why:
+                return f"{who}{why}"
+        return ""
 
     def rest_height(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float]) -> float | None:
         """The thighs' undersides above the ground (the seat height the sitter found), over the bodies."""
@@ -199,12 +212,16 @@ class Seat(Kind):
         self, aff: Affordance, accepted: list[CandidateInteraction], pose: PoseCandidates
     ) -> tuple[list[CandidateInteraction], str]:
         """A seat for more seats the body at both places side by side, facing the same way; a seat for one does not
-        seat it one hip breadth to either side of the centre, facing the same way (room for a second sitter)."""
+        carry it one hip breadth to either side of the centre, facing the same way (room for a second sitter), its
+        pelvis, thighs and torso judged as in :meth:`accept` and its feet not."""
         if cast(SeatParams, aff.params).persons == 1:
-            plans = {c.plan for c in accepted}
+            # room is the seat's: a second sitter's feet find their own rest, so a place where only the feet hang
+            # still seats one (a counter 1.3 m long with a footrest under its middle seats two)
+            half = list(pose.half_extents)
+            plans = {c.plan for c in pose.candidates if "_aside" in c.plan and not self._unseated(aff, c, half)}
             if any(all(f"facing_{h}{side}" in plans for side, _ in _ASIDE) for h in _ASIDE_HEADINGS):
-                return [], ("the body also sits one hip breadth to either side of the centre: room for a second "
-                            f"sitter beside the first, a seat for more than one, not a {aff.name}")
+                return [], ("the seat also carries the body one hip breadth to either side of the centre: room for a "
+                            f"second sitter beside the first, a seat for more than one, not a {aff.name}")
             return accepted, ""
         plans = {c.plan for c in accepted}
         both = [h for h in _MANY_HEADINGS
