@@ -203,6 +203,24 @@ class Pipeline:
             result.timings = timings
             return result
 
+        # A pose whose own prior is below NEGLIGIBLE is no use worth imagining either: whatever its physics, its
+        # probability stays below it. Its verdict is the same imagined or not, so it is not.
+        skipped: list[str] = []
+        if row is not None:
+            pose_priors = {i: pose_prior(row, obj.obb_dims, poses[i]) for i in kept}
+            skipped = [f"pose {i}: not imagined: its prior {pose_priors[i].value:.3f} is below {NEGLIGIBLE:g} "
+                       f"({pose_priors[i].doc()}), so no physics could make it functional"
+                       for i in kept if pose_priors[i].value < NEGLIGIBLE]
+            worth = [i for i in kept if pose_priors[i].value >= NEGLIGIBLE]
+            if not worth:
+                top = max(kept, key=lambda i: pose_priors[i].value)
+                result.analyzer_reasons = [*skipped, analysis.reason]
+                result.probability = pose_priors[top].value
+                result.prior = pose_priors[top].doc()
+                result.timings = timings
+                return result
+            kept = worth
+
         agents = agent_setup(profile.agent.mjcf, profile.layout)
         result.agent_offsets = agents.offsets.tolist()
         trajectories = [trajectory_array(profile.trajectories.trajectories, poses[i].half_extents, poses[i].basin)
@@ -266,9 +284,9 @@ class Pipeline:
             timings["second_decomposition"] = time.perf_counter() - t
         result.timings = timings
         if verdict is None:
-            result.analyzer_reasons = ["no plan scored above 0 in any stable pose"]
+            result.analyzer_reasons = [*skipped, "no plan scored above 0 in any imagined stable pose"]
         else:
-            result.analyzer_reasons = ([f"pose {v.pose_index}: {v.reason}" for v in verdict.poses]
+            result.analyzer_reasons = ([f"pose {v.pose_index}: {v.reason}" for v in verdict.poses] + skipped
                                        + [verdict.reason])
         best = most_probable(result.pose_verdicts, pose_list, None if verdict is None else verdict.best_pose)
         if best is None:
