@@ -8,6 +8,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+import trimesh
 
 from rail_mj.affordances import REGISTRY, Envelope, get
 from rail_mj.affordances.prior import FUNCTIONAL, NEGLIGIBLE, WIDTH_RANGE, plausibility
@@ -16,6 +17,7 @@ from rail_mj.core.types import Outcomes, RailObject
 from rail_mj.llm import generate_profile
 from rail_mj.mesh import mesh_hash
 from rail_mj.pipeline.chain import classify
+from rail_mj.render.explain import explain
 from rail_mj.robot.demo import make_object
 from rail_mj.scoring import compile_scoring
 
@@ -145,3 +147,20 @@ def test_a_size_is_weighed_once_in_a_poses_prior():
     assert cup.dims_prior([0.2, 0.2, 0.2]).value == pytest.approx(cube) and cube < 1.0
     chair = get("chair")
     assert [f.name for f in chair.size_prior([1.6, 0.6, 0.5]).factors] == ["largest dim", "smallest dim"]
+
+
+def test_a_stable_pose_whose_prior_is_negligible_is_not_imagined(tmp_path):
+    """A 20 x 16 x 3 cm block as a plate: lying flat it is one (3 cm tall); standing on an edge it is 16-20 cm tall,
+    far past a plate's 4 cm, so that pose's prior is below NEGLIGIBLE and no physics could make it functional."""
+    path = tmp_path / "block.stl"
+    trimesh.creation.box(extents=(0.2, 0.16, 0.03)).export(path)
+    r = classify([path], ["plate"], provider="offline", progress=False, workers=1)[0]
+    assert r.error is None
+    standing = [p.index for p in r.stable_poses if p.half_extents[2] > 0.05]
+    flat = [p.index for p in r.stable_poses if p.half_extents[2] < 0.02]
+    assert standing and flat
+    assert {v.index for v in r.pose_verdicts} == set(flat)
+    for i in standing:
+        assert all(s == -1.0 for s in r.scores[i])
+        assert any(reason.startswith(f"pose {i}: not imagined: its prior") for reason in r.analyzer_reasons)
+        assert explain(r).poses[i].analyzer.startswith("not imagined: its prior")

@@ -9,9 +9,10 @@ Gaussian in log-size, so that a size ``1 + width`` times past an edge keeps half
 It is continuous at the edges (no cliff), and a size far outside the range (a 2 m "cup") is near 0 without
 ever being a veto. The prior of several sizes is the product of their plausibilities.
 
-How the pipeline uses a prior (:mod:`rail_mj.pipeline.chain`): below :data:`NEGLIGIBLE` the physics is not
-run (the probability, at most the prior, is reported as the prior); otherwise a pose's probability is the
-prior times its physics, and a use is functional when that is at least :data:`FUNCTIONAL`.
+How the pipeline uses a prior (:mod:`rail_mj.pipeline.chain`): where the object's prior is below
+:data:`NEGLIGIBLE` the physics is not run (the probability, at most the prior, is reported as the prior), nor for a
+stable pose whose own prior is; otherwise a pose's probability is the prior times its physics, and a use is
+functional when that is at least :data:`FUNCTIONAL`.
 """
 
 from __future__ import annotations

@@ -117,8 +117,8 @@ class AffordanceResult(BaseModel):
     probability: float = Field(
         default=0.0, ge=0.0, le=1.0, allow_inf_nan=False,
         description="how likely the object affords the use, in [0, 1]: the most probable pose's size prior x pose "
-                    "prior x physics (rail_mj.pipeline.verdicts); the OBB's prior alone when it is negligible "
-                    "(< 0.01) and nothing was imagined",
+                    "prior x physics (rail_mj.pipeline.verdicts); the OBB's prior, or the most plausible pose's, alone "
+                    "when it is negligible (< 0.01) and nothing was imagined",
     )
     prior: str = Field(default="", description="the prior's factors in words (each size, its typical range and "
                                                "width, its plausibility), for the most probable pose")

@@ -1,7 +1,9 @@
 """Per-pose verdicts as probabilities: a size prior times what the physics says under perturbation.
 
-For each imagined stable pose of an object, with ``W`` worlds (the nominal one, K perturbed ones,
-:mod:`rail_mj.imagination.perturb`, and the second decomposition where it matters)::
+For each imagined stable pose of an object (a pose whose prior is below
+:data:`rail_mj.affordances.prior.NEGLIGIBLE` is not imagined: its probability stays below it whatever its physics),
+with ``W`` worlds (the nominal one, K perturbed ones, :mod:`rail_mj.imagination.perturb`, and the second
+decomposition where it matters)::
 
     physics(pose)     = #{worlds in which the pose succeeds} / W
     probability(pose) = size_prior(object's OBB) * pose_prior(pose's box, its basin's rim)
