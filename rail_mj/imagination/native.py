@@ -54,6 +54,7 @@ class NativeBackend(Backend):
         driven = np.ones((n_worlds, n_agents), dtype=bool)
         released_early = np.zeros((n_worlds, n_agents), dtype=bool)
         free_since = n_drive.copy()  # the step from which no agent of the world is driven (released or done)
+        hold = cfg.hold_steps
         n_max = int(n_drive.max())
         total = n_max + cfg.settle_steps
         settled = np.zeros(n_worlds, dtype=bool)
@@ -62,7 +63,7 @@ class NativeBackend(Backend):
         while True:
             if k % cfg.check_every == 0:
                 # rest counts from a hold after the release, and at the latest once the batch's drive is over
-                rest = scene.at_rest(qvel, cfg.settle_speed) & (k >= np.minimum(free_since + cfg.hold_steps, n_max))
+                rest = scene.at_rest(qvel, cfg.settle_speed) & (k >= np.minimum(free_since + hold, n_max))
                 # two quiet checks in a row, so a bounce's apex does not count as rest
                 settled |= rest & quiet
                 quiet = rest

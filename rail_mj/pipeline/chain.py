@@ -205,21 +205,20 @@ class Pipeline:
 
         # A pose whose own prior is below NEGLIGIBLE is no use worth imagining either: whatever its physics, its
         # probability stays below it. Its verdict is the same imagined or not, so it is not.
-        skipped: list[str] = []
-        if row is not None:
-            pose_priors = {i: pose_prior(row, obj.obb_dims, poses[i]) for i in kept}
-            skipped = [f"pose {i}: not imagined: its prior {pose_priors[i].value:.3f} is below {NEGLIGIBLE:g} "
-                       f"({pose_priors[i].doc()}), so no physics could make it functional"
-                       for i in kept if pose_priors[i].value < NEGLIGIBLE]
-            worth = [i for i in kept if pose_priors[i].value >= NEGLIGIBLE]
-            if not worth:
-                top = max(kept, key=lambda i: pose_priors[i].value)
-                result.analyzer_reasons = [*skipped, analysis.reason]
-                result.probability = pose_priors[top].value
-                result.prior = pose_priors[top].doc()
-                result.timings = timings
-                return result
-            kept = worth
+        # (No row, no prior: 1, and every pose is imagined.)
+        pose_priors = {i: pose_prior(row, obj.obb_dims, poses[i]) for i in kept}
+        skipped = [f"pose {i}: not imagined: its prior {pose_priors[i].value:.3f} is below {NEGLIGIBLE:g} "
+                   f"({pose_priors[i].doc()}), so no physics could make it functional"
+                   for i in kept if pose_priors[i].value < NEGLIGIBLE]
+        worth = [i for i in kept if pose_priors[i].value >= NEGLIGIBLE]
+        if not worth:
+            top = max(kept, key=lambda i: pose_priors[i].value)
+            result.analyzer_reasons = [*skipped, analysis.reason]
+            result.probability = pose_priors[top].value
+            result.prior = pose_priors[top].doc()
+            result.timings = timings
+            return result
+        kept = worth
 
         agents = agent_setup(profile.agent.mjcf, profile.layout)
         result.agent_offsets = agents.offsets.tolist()
@@ -250,7 +249,7 @@ class Pipeline:
         # one batched call
         t = time.perf_counter()
         perturbations = draw(self.config.imagination)
-        priors = [pose_prior(row, obj.obb_dims, poses[i]).value for i in kept]
+        priors = [pose_priors[i].value for i in kept]
         slots = candidate_slots(scores, len(kept), n_plans, priors)
         perturbed = None
         if slots and perturbations.perturbed is not None:

@@ -39,7 +39,15 @@ from rail_mj.affordances.kinds.body import (
     upright,
 )
 from rail_mj.affordances.row import Affordance, KindParams
-from rail_mj.core.profile import AgentLayout, CandidateInteraction, MotionPlan, PoseCandidates, ScoringCode, ViaPose
+from rail_mj.core.profile import (
+    AgentLayout,
+    CandidateInteraction,
+    MotionPlan,
+    PoseCandidates,
+    ScoringCode,
+    SegmentState,
+    ViaPose,
+)
 from rail_mj.mjcf.body import FEET, SIT_KNEE, TOE_REACH
 
 __all__ = ["SeatParams", "Seat"]
@@ -144,11 +152,10 @@ class Seat(Kind):
                             f"sitting {rest_words(aff)}", ground=False)
 
     def accept(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float]) -> tuple[bool, str]:
-        shape = self.agent(aff, h)
-        why = self._unseated(aff, c, h)
+        shape, bodies = self.agent(aff, h), agents_segments(c)
+        why = self._unseated(aff, shape, bodies)
         if why:
             return False, why
-        bodies = agents_segments(c)
         assert shape.body is not None  # _unseated refuses a row without its body
         reach = shape.body.ankle + TOE_REACH * shape.body.foot  # the ankle's height when the toes touch down
         for i, seg in enumerate(bodies):
@@ -163,12 +170,10 @@ class Seat(Kind):
         return True, (f"the body sits {bodies[0][ROOT].height:.2f} m up, thighs level, torso upright"
                       + (", leaning on a back" if torso else ""))
 
-    def _unseated(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float]) -> str:
-        """Why the object does not carry the sitting body as a seat does (pelvis, thighs and torso; not the feet),
-        or "" where it does."""
-        shape = self.agent(aff, h)
+    def _unseated(self, aff: Affordance, shape: AgentShape, bodies: list[dict[str, SegmentState]]) -> str:
+        """Why the object does not carry the sitting ``bodies`` (a candidate's :func:`agents_segments`) as a seat does
+        (pelvis, thighs and torso; not the feet), or "" where it does."""
         lo, hi = rest_window(aff, shape.half_z)
-        bodies = agents_segments(c)
         if not bodies or shape.body is None:
             return "no body segments were reported: the seat kind needs its articulated body"
         for i, seg in enumerate(bodies):
@@ -217,8 +222,9 @@ class Seat(Kind):
         if cast(SeatParams, aff.params).persons == 1:
             # room is the seat's: a second sitter's feet find their own rest, so a place where only the feet hang
             # still seats one (a counter 1.3 m long with a footrest under its middle seats two)
-            half = list(pose.half_extents)
-            plans = {c.plan for c in pose.candidates if "_aside" in c.plan and not self._unseated(aff, c, half)}
+            shape = self.agent(aff, list(pose.half_extents))
+            plans = {c.plan for c in pose.candidates
+                     if "_aside" in c.plan and not self._unseated(aff, shape, agents_segments(c))}
             if any(all(f"facing_{h}{side}" in plans for side, _ in _ASIDE) for h in _ASIDE_HEADINGS):
                 return [], ("the seat also carries the body one hip breadth to either side of the centre: room for a "
                             f"second sitter beside the first, a seat for more than one, not a {aff.name}")
