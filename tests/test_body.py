@@ -23,15 +23,16 @@ from rail_mj.core.errors import FragmentError, ImaginationError
 from rail_mj.core.geometry import quat_rotate
 from rail_mj.core.profile import CandidateInteraction, PoseCandidates
 from rail_mj.core.types import AgentSetup, RailObject
-from rail_mj.imagination import ImaginationConfig, PerturbationSet, draw, imagine, prepare
+from rail_mj.imagination import ImaginationConfig, draw_perturbations, imagine, prepare
 from rail_mj.imagination.batch import outcomes_from_states
 from rail_mj.imagination.inputs import agent_setup, trajectory_array
 from rail_mj.imagination.perturb import Perturbation, world_model
 from rail_mj.imagination.summary import result_summary
+from rail_mj.imagination.worlds import ImaginedWorlds, world_outcomes
 from rail_mj.llm import generate_profile
 from rail_mj.mjcf import check_fragment, compose_scene, segment_state
 from rail_mj.mjcf.body import SEGMENTS, body_fragment, body_size
-from rail_mj.pipeline.verdicts import pose_probabilities, world_outcomes
+from rail_mj.pipeline.verdicts import judge
 from rail_mj.scoring import compile_scoring
 from rail_mj.stable_poses import pose_from_up
 
@@ -283,8 +284,9 @@ def test_a_bed_higher_than_any_bed_is_weighed_by_its_rest_prior_not_vetoed():
     scores = compile_scoring(profile.scoring.source)(out)
     assert np.any(scores > 0), "the scoring refuses a rest height the rules let through"
     trajectories = [trajectory_array(profile.trajectories.trajectories, [float(v) for v in pose.half_extents])]
-    v, = pose_probabilities("bed", 1.0, _bed(1.0).obb_dims, profile.plans.plans, [pose], [0], (out, scores),
-                            trajectories, PerturbationSet())
+    evidence = ImaginedWorlds("bed", 1.0, profile.plans.plans, [pose], [0], [list(trajectories[0])])
+    evidence.add_nominal(out, scores)
+    v, = judge(evidence, _bed(1.0).obb_dims)
     assert v.physics == 1.0 and "rest height 1" in v.prior_factors
     assert v.prior == pytest.approx(bed.rest_prior(1.0).value, abs=0.05) and NEGLIGIBLE < v.prior < FUNCTIONAL
     high = _judged(_bed(1.6), "bed")
@@ -327,7 +329,7 @@ def test_the_body_reports_its_segments_in_every_perturbed_world():
     h = [float(v) for v in pose.half_extents]
     profile = generate_profile("stool", obj.obb_dims)
     trajectories = trajectory_array(profile.trajectories.trajectories, h)
-    worlds = draw(ImaginationConfig(perturbations=2, seed=1))
+    worlds = draw_perturbations(ImaginationConfig(perturbations=2, seed=1))
     out = imagine(obj, [pose], agent_setup(profile.agent.mjcf, profile.layout), trajectories, backend="native",
                   perturbations=worlds)
     assert out.batch == 3 * len(trajectories)

@@ -17,6 +17,7 @@ from rail_mj.core.results import BasinInfo
 from rail_mj.core.types import Outcomes, StablePose
 from rail_mj.imagination.inputs import agent_setup, layout_offsets, trajectory_array
 from rail_mj.imagination.summary import result_summary
+from rail_mj.imagination.worlds import ImaginedWorlds
 from rail_mj.llm import (
     FunctionalPoseRequest,
     ImaginationProfile,
@@ -408,9 +409,10 @@ def test_stage_7_request_from_one_batch():
                         for f in dataclasses.fields(one) if getattr(one, f.name) is not None})
     trajectories = [trajectory_array(profile.trajectories.trajectories, poses[i].half_extents) for i in kept]
     scores = np.full(2 * n_plans, -1.0)
-    assert functional_pose_request(profile, poses, kept, batch, scores, trajectories) is None
+    evidence = ImaginedWorlds(profile.affordance, 1.0, profile.plans.plans, poses, kept, trajectories)
+    assert functional_pose_request(profile, evidence.candidates(evidence.add_nominal(batch, scores))) is None
     scores[n_plans + 1] = 0.3  # one success, in pose 2
-    request = functional_pose_request(profile, poses, kept, batch, scores, trajectories)
+    request = functional_pose_request(profile, evidence.candidates(evidence.add_nominal(batch, scores)))
     assert request is not None and request.affordance == "cup"
     assert request.expected_outcome == profile.analysis.expected_outcome
     (pose,) = request.poses  # pose 0 had no candidate: not put to the analyser

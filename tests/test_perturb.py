@@ -12,18 +12,12 @@ from rail_mj.core.profile import MotionPlan
 from rail_mj.core.results import AffordanceResult, PoseInfo, PoseProbability
 from rail_mj.core.types import AgentSetup
 from rail_mj.eval.calibration import brier, calibration, draw_reliability, reliability
-from rail_mj.imagination import ImaginationConfig, PerturbationSet, draw, get_backend, imagine, prepare
+from rail_mj.imagination import ImaginationConfig, PerturbationSet, draw_perturbations, get_backend, imagine, prepare
 from rail_mj.imagination.batch import outcomes_from_states
 from rail_mj.imagination.perturb import world_models
+from rail_mj.imagination.worlds import ImaginedWorlds, candidate_plans, fill_perturbed, world_outcomes
 from rail_mj.mjcf import OWNER_OBJECT
-from rail_mj.pipeline.verdicts import (
-    candidate_plans,
-    candidate_slots,
-    most_probable,
-    pose_probabilities,
-    spread,
-    world_outcomes,
-)
+from rail_mj.pipeline.verdicts import candidate_slots, judge, most_probable
 from rail_mj.render.explain import explain, format_explanation
 from rail_mj.stable_poses import pose_from_up
 
@@ -49,7 +43,7 @@ def drops():
 
 @pytest.fixture(scope="session")
 def perturbed(cup, poses, drops):
-    ps = draw(ImaginationConfig(perturbations=K, seed=3))
+    ps = draw_perturbations(ImaginationConfig(perturbations=K, seed=3))
     return ps, imagine(cup, poses, drops, _pour_plans(poses), backend="native", config=FAST, perturbations=ps)
 
 
@@ -66,13 +60,13 @@ def test_perturbation_settings_out_of_range_are_config_errors_naming_the_range()
 
 def test_draws_cover_each_range_and_repeat_with_the_seed():
     cfg = ImaginationConfig(perturbations=8, seed=5)
-    ps = draw(cfg)
-    assert ps == draw(cfg) and ps != draw(ImaginationConfig(perturbations=8, seed=6))
+    ps = draw_perturbations(cfg)
+    assert ps == draw_perturbations(cfg) and ps != draw_perturbations(ImaginationConfig(perturbations=8, seed=6))
     assert ps.n_worlds == 9 and ps.worlds[0].nominal
     scales = np.sort(ps.scales[1:])
     # stratified: one draw in each eighth of [0.9, 1.1]
     assert np.all(np.floor((scales - 0.9) / 0.025) == np.arange(8))
-    assert all(w.nominal for w in draw(ImaginationConfig(perturbations=4, **ZERO)).worlds)
+    assert all(w.nominal for w in draw_perturbations(ImaginationConfig(perturbations=4, **ZERO)).worlds)
 
 
 def test_perturbed_worlds_differ_from_each_other_in_the_batch(cup, poses, drops, perturbed):
@@ -102,7 +96,7 @@ def test_perturbed_worlds_differ_from_each_other_in_the_batch(cup, poses, drops,
 
 
 def test_perturbed_worlds_equal_the_nominal_one_at_zero_amplitude(cup, poses, drops):
-    ps = draw(ImaginationConfig(perturbations=2, **ZERO))
+    ps = draw_perturbations(ImaginationConfig(perturbations=2, **ZERO))
     out = imagine(cup, poses, drops, _pour_plans(poses), backend="native", config=FAST, perturbations=ps)
     nominal = imagine(cup, poses, drops, _pour_plans(poses), backend="native", config=FAST)
     for w in range(3):
@@ -137,14 +131,14 @@ def _take(out, rows):
 
 
 def _probabilities(ps, out, scores, poses, unstable=None):
-    """pose_probabilities of a batch of every world, split as the pipeline runs it: nominal, then perturbed."""
+    """The verdicts of a batch of every world, split as the pipeline runs it: nominal, then perturbed."""
     if unstable is not None:
         out = replace(out, unstable=unstable)
-    traj = [_pour_plans(poses)] * 2
     # an affordance outside the registry: the generic rules (object upright, agents off the ground), no size prior
-    return pose_probabilities("frobnicate", 1.0, np.ones(3), _plans(2), poses, [0, 1],
-                              (_take(out, slice(0, 4)), scores[:4]), traj, ps,
-                              (_take(out, slice(4, None)), scores[4:], [0, 1]))
+    evidence = ImaginedWorlds("frobnicate", 1.0, _plans(2), poses, [0, 1], [_pour_plans(poses)] * 2, ps)
+    evidence.add_nominal(_take(out, slice(0, 4)), scores[:4])
+    evidence.add_perturbed(_take(out, slice(4, None)), scores[4:], [(k, j) for k in (0, 1) for j in (0, 1)], [0, 1])
+    return judge(evidence, np.ones(3))
 
 
 def test_probability_is_finite_and_a_blown_up_rollout_is_a_named_failure(poses, perturbed):
@@ -212,13 +206,13 @@ def test_brier_score_and_reliability_on_synthetic_labels(tmp_path):
 def test_a_perturbation_set_holds_a_world():
     with pytest.raises(ConfigError, match="at least one world"):
         PerturbationSet(())
-    perturbed = draw(ImaginationConfig(perturbations=2)).perturbed
+    perturbed = draw_perturbations(ImaginationConfig(perturbations=2)).perturbed
     assert PerturbationSet().perturbed is None and perturbed is not None and perturbed.n_worlds == 2
 
 
 @pytest.mark.slow
 def test_mjx_runs_the_perturbed_worlds_as_native_does(cup, poses, drops):
-    ps = draw(ImaginationConfig(perturbations=2, seed=1))
+    ps = draw_perturbations(ImaginationConfig(perturbations=2, seed=1))
     native = imagine(cup, poses, drops, _pour_plans(poses), backend="native", config=FAST, perturbations=ps)
     fast = imagine(cup, poses, drops, _pour_plans(poses), backend="mjx", config=FAST, perturbations=ps)
     np.testing.assert_array_equal(_inside(fast), _inside(native))
@@ -247,7 +241,7 @@ def test_perturbed_worlds_imagine_only_the_candidates_and_keep_each_failed_plan_
                     backend="native", config=FAST, perturbations=ps.perturbed)
     assert again.batch == K * len(pairs)
     nominal = world_outcomes(full, np.zeros(full.batch), K + 1)[0][0]
-    out, scores = spread((nominal, nominal_scores), (again, np.full(again.batch, 0.7)), pairs, [0, 1], 2, K)
+    out, scores = fill_perturbed((nominal, nominal_scores), (again, np.full(again.batch, 0.7)), pairs, [0, 1], 2, K)
     assert out.batch == K * 4 and list(out.world) == [w for w in range(K) for _ in range(4)]
     assert out.plan_index.tolist() == [0, 1] * 2 * K and out.pose_index.tolist() == [0, 0, 1, 1] * K
     candidate = np.array([True, False, False, True] * K)
@@ -261,8 +255,8 @@ def test_kinds_name_the_plans_their_pose_rules_read_whatever_they_scored():
     """A leak from any pour refuses a vessel's pose, a bench needs both places side by side, a plate needs its
     centre: those plans are imagined in every world. A chair's places to either side are not: where the body did not
     sit in the nominal world it counts as not sitting in each perturbed one, as every failed plan does."""
+    from rail_mj.affordances.judge import rules_row
     from rail_mj.affordances.kinds import kind_of
-    from rail_mj.llm.offline import rules_row
 
     def evidence(name: str) -> set[str]:
         row = rules_row(name, 1.0)
@@ -310,18 +304,16 @@ def test_poses_one_world_apart_tie_and_stage_7s_pick_breaks_the_tie():
 def test_a_world_with_a_resized_body_judges_it_by_the_row_scaled_for_that_body():
     """The seat rules read the body's own size (its toe reach, its hips over the seat): a world whose body is 10%
     larger is judged for that body, as a doll's chair is for a doll. A cup's rules read no agent size."""
+    from rail_mj.affordances.judge import rules_row, world_row
     from rail_mj.affordances.kinds import kind_of
-    from rail_mj.llm.offline import rules_row
-    from rail_mj.pipeline.verdicts import _agent_row
 
     chair = rules_row("chair")
     assert chair is not None
-    big = _agent_row(chair, "chair", 1.0, 1.1)
+    big = world_row("chair", 1.0, 1.1)
     assert big is not None and big.scale == pytest.approx(1.1)
     nominal, larger = (kind_of(chair).agent(row, [0.9, 0.5, 0.4]).body for row in (chair, big))
     assert nominal is not None and larger is not None
     assert larger.ankle == pytest.approx(1.1 * nominal.ankle) and larger.foot == pytest.approx(1.1 * nominal.foot)
     assert big.envelope.rest == pytest.approx(tuple(1.1 * v for v in chair.envelope.rest))
-    assert _agent_row(chair, "chair", 1.0, 1.0) is chair
-    cup = rules_row("cup")
-    assert _agent_row(cup, "cup", 1.0, 1.1) is cup
+    assert world_row("chair", 1.0, 1.0) == chair
+    assert world_row("cup", 1.0, 1.1) == rules_row("cup")

@@ -41,6 +41,8 @@ __all__ = [
     "ResultSummary",
     "CandidateInteraction",
     "PoseCandidates",
+    "PoseVerdict",
+    "FunctionalPoseVerdict",
 ]
 
 Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
@@ -207,3 +209,21 @@ class PoseCandidates(ProfileModel):
     failed: list[CandidateInteraction] = Field(
         default_factory=list, description="the pose's plans that the scoring function called failures: evidence"
     )
+
+
+class PoseVerdict(ProfileModel):
+    """Whether one pose's success is consistent with common sense."""
+
+    pose_index: int
+    accept: bool
+    reason: str
+    plan: str | None = Field(description="the best accepted plan in this pose, null when rejected")
+
+
+class FunctionalPoseVerdict(ProfileModel):
+    """Output of stage 7: a verdict per pose and the best (pose, plan) if any is accepted."""
+
+    poses: list[PoseVerdict]
+    best_pose: int | None
+    best_plan: str | None
+    reason: str

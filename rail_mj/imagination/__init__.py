@@ -21,7 +21,7 @@ from rail_mj.core.types import AgentSetup, Outcomes, RailObject, StablePose, Sta
 from rail_mj.imagination.backend import Backend, Progress
 from rail_mj.imagination.batch import Placement, RolloutBatch, pose_plan, prepare, rollout_index
 from rail_mj.imagination.config import ImaginationConfig
-from rail_mj.imagination.perturb import Perturbation, PerturbationSet, draw
+from rail_mj.imagination.perturb import Perturbation, PerturbationSet, draw_perturbations
 from rail_mj.imagination.registry import BACKENDS, get_backend, resolve_backend
 
 __all__ = [
@@ -30,7 +30,7 @@ __all__ = [
     "ImaginationConfig",
     "Perturbation",
     "PerturbationSet",
-    "draw",
+    "draw_perturbations",
     "Placement",
     "RolloutBatch",
     "get_backend",
@@ -59,8 +59,8 @@ def imagine(
     frame, shared by all poses; or ``trajectories[p][i]`` per pose (via-poses that scale with each pose's
     half extents). Agents start at ``via[0] + offsets``. ``backend`` is a name (``auto``, ``native``, ``mjx``)
     or a :class:`Backend`, which brings its own config. ``progress(done, total)`` is called with simulated steps.
-    ``perturbations`` (:func:`rail_mj.imagination.perturb.draw`) adds its perturbed worlds to the same batch,
-    world-major after the nominal rollouts (``Outcomes.world``); None: the nominal world alone.
+    ``perturbations`` (:func:`rail_mj.imagination.perturb.draw_perturbations`) adds its perturbed worlds to the same
+    batch, world-major after the nominal rollouts (``Outcomes.world``); None: the nominal world alone.
     """
     if isinstance(backend, Backend):
         if config is not None and config != backend.config:

@@ -27,8 +27,8 @@ from rail_mj.core.types import Basin, StablePose
 from rail_mj.imagination.config import PERTURBATIONS_RANGE, ImaginationConfig
 from rail_mj.mjcf import OWNER_OBJECT, Scene
 
-__all__ = ["Perturbation", "PerturbationSet", "draw", "scaled_pose", "resting_on", "world_model", "world_models",
-           "world_trajectory"]
+__all__ = ["Perturbation", "PerturbationSet", "draw_perturbations", "scaled_pose", "resting_on", "world_model",
+           "world_models", "world_trajectory"]
 
 
 @dataclass(frozen=True)
@@ -53,7 +53,7 @@ class Perturbation:
 
 @dataclass(frozen=True)
 class PerturbationSet:
-    """The worlds of one object's imagination (:func:`draw`: world 0 nominal, then the perturbed ones)."""
+    """The worlds of one object's imagination (:func:`draw_perturbations`: world 0 nominal, then the perturbed ones)."""
 
     worlds: tuple[Perturbation, ...] = (Perturbation(),)
 
@@ -71,7 +71,7 @@ class PerturbationSet:
 
     @property
     def perturbed(self) -> PerturbationSet | None:
-        """The worlds after the first (the perturbed ones of :func:`draw`); None when there are none."""
+        """The worlds after the first (the perturbed ones of :func:`draw_perturbations`); None when there are none."""
         return PerturbationSet(self.worlds[1:]) if len(self.worlds) > 1 else None
 
 
@@ -81,7 +81,7 @@ def _stratified(rng: np.random.Generator, k: int, amplitude: float) -> np.ndarra
     return 1.0 + amplitude * (2.0 * u - 1.0)
 
 
-def draw(config: ImaginationConfig) -> PerturbationSet:
+def draw_perturbations(config: ImaginationConfig) -> PerturbationSet:
     """The nominal world and ``config.perturbations`` perturbed ones, from ``config.seed``."""
     k = config.perturbations
     lo, hi = PERTURBATIONS_RANGE

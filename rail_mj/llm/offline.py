@@ -2,8 +2,8 @@
 
 What an affordance is (name, kind, definition, sizes, pose envelope) lives in
 :mod:`rail_mj.affordances.registry`; how its kind is imagined (agent, layout,
-plans, via-poses, scoring source, Functional Pose Analyzer rules) in
-:mod:`rail_mj.affordances.kinds`. This module turns a stage request into the
+plans, via-poses, scoring source) in :mod:`rail_mj.affordances.kinds`; the Functional Pose Analyzer's rules in
+:mod:`rail_mj.affordances.judge`, which stage 7 here only wraps. This module turns a stage request into the
 same typed answer an LLM stage returns; the answers also serve as the LLM
 prompts' few-shot examples.
 """
@@ -17,10 +17,11 @@ from pydantic import BaseModel
 
 from rail_mj.affordances import REGISTRY, Affordance, get, kinds, known_affordances
 from rail_mj.affordances import normalize as normalize_affordance
+from rail_mj.affordances.judge import functional_poses
 from rail_mj.affordances.names import parse_words
 from rail_mj.affordances.prior import FUNCTIONAL
-from rail_mj.core.errors import ConfigError, UnknownAffordanceError
-from rail_mj.core.profile import AgentLayout, CandidateInteraction, PlanTrajectory, PoseCandidates, ScoringCode
+from rail_mj.core.errors import ConfigError
+from rail_mj.core.profile import AgentLayout, PlanTrajectory, ScoringCode
 from rail_mj.llm.schemas import (
     AffordanceAnalysis,
     AgentModel,
@@ -31,7 +32,6 @@ from rail_mj.llm.schemas import (
     LayoutRequest,
     MotionPlans,
     PlannerRequest,
-    PoseVerdict,
     Request,
     RequestText,
     ScoringRequest,
@@ -50,8 +50,6 @@ __all__ = [
     "offline_trajectories",
     "offline_scoring",
     "offline_functional_poses",
-    "judge_pose",
-    "rules_row",
     "offline_request",
     "ANSWERS",
     "answer",
@@ -139,67 +137,10 @@ def offline_scoring(task: TaskDescription) -> ScoringCode:
     return kind.scoring(aff, shape)
 
 
-def rules_row(affordance: str, scale: float = 1.0) -> Affordance | None:
-    """The registry row whose kind's rules judge ``affordance`` at the agent ``scale``; None outside the registry
-    (the generic rules judge it)."""
-    try:
-        return get(affordance).scaled(scale)
-    except UnknownAffordanceError:
-        return None
-
-
-def judge_pose(aff: Affordance | None, pose: PoseCandidates) -> tuple[list[CandidateInteraction], list[str]]:
-    """Stage 7's rules on one pose: its candidates that its kind's rules accept (each, then the pose's together),
-    and the reasons; ``aff`` None: the generic rules of an affordance outside the registry."""
-    kind = kinds.kind_of(aff) if aff is not None else None
-    accepted: list[CandidateInteraction] = []
-    reasons: list[str] = []
-    h = list(pose.half_extents)
-    for c in pose.candidates:
-        ok, why = (kind.judge(aff, c, h, None if pose.basin is None else pose.basin.rim)
-                   if kind is not None and aff is not None
-                   else kinds.judge_unregistered(c))
-        reasons.append(f"{c.plan}: {why}")
-        if ok:
-            accepted.append(c)
-    if not pose.candidates:
-        reasons.append("no plan succeeded")
-    if kind is not None and aff is not None and accepted:
-        accepted, why_not = kind.accept_pose(aff, accepted, pose)
-        if why_not:
-            reasons.append(why_not)
-    return accepted, reasons
-
-
 def offline_functional_poses(request: FunctionalPoseRequest) -> FunctionalPoseVerdict:
-    """Stage 7 by rules: accept a pose when one of its candidates passes its kind's rules; best = the pose
-    accepted with the most plans, then the top score, then the most probable.
-
-    Affordances outside the registry get the generic rules (object not tipped,
-    agents not mostly on the ground).
-    """
-    aff = rules_row(request.affordance, request.scale)
-    kind = kinds.kind_of(aff) if aff is not None else None
-    verdicts: list[PoseVerdict] = []
-    # best = (kind's rank, accepted plans, top score, probability, pose, plan): the pose that works from the most
-    # approaches, after what the kind ranks first (for dishes: a rim rises around the food)
-    best: tuple[int, int, float, float, int, str] | None = None
-    for pose in request.poses:
-        h = list(pose.half_extents)
-        accepted, reasons = judge_pose(aff, pose)
-        top = max(accepted, key=lambda c: c.score) if accepted else None
-        verdicts.append(PoseVerdict(pose_index=pose.pose_index, accept=top is not None, reason="; ".join(reasons),
-                                    plan=top.plan if top else None))
-        rank = kind.rank(aff, accepted, h) if kind is not None and aff is not None else 0
-        key = (rank, len(accepted), top.score if top else 0.0, pose.probability)
-        if top is not None and (best is None or key > best[:4]):
-            best = (*key, pose.pose_index, top.plan)
-    if best is None:
-        return FunctionalPoseVerdict(poses=verdicts, best_pose=None, best_plan=None,
-                                     reason="no candidate interaction is consistent with common sense")
-    return FunctionalPoseVerdict(poses=verdicts, best_pose=best[4], best_plan=best[5],
-                                 reason=f"pose {best[4]} works with the most plans ({best[1]}); plan {best[5]!r} "
-                                        f"has its best accepted score ({best[2]:.3f})")
+    """Stage 7 by the rules (:func:`rail_mj.affordances.judge.functional_poses`), the judge every provider's
+    verdicts meet."""
+    return functional_poses(request.affordance, request.scale, request.poses)
 
 
 def offline_request(request: RequestText) -> Request:

@@ -13,9 +13,11 @@ from pydantic import Field
 
 from rail_mj.core.profile import (
     AgentLayout,
+    FunctionalPoseVerdict,
     MotionPlan,
     PlanTrajectory,
     PoseCandidates,
+    PoseVerdict,
     ProfileModel,
     Scale,
     ScoringCode,
@@ -143,24 +145,6 @@ class FunctionalPoseRequest(ProfileModel):
     expected_outcome: str
     poses: list[PoseCandidates]
     scale: Scale = 1.0
-
-
-class PoseVerdict(ProfileModel):
-    """Whether one pose's success is consistent with common sense."""
-
-    pose_index: int
-    accept: bool
-    reason: str
-    plan: str | None = Field(description="the best accepted plan in this pose, null when rejected")
-
-
-class FunctionalPoseVerdict(ProfileModel):
-    """Output of stage 7: a verdict per pose and the best (pose, plan) if any is accepted."""
-
-    poses: list[PoseVerdict]
-    best_pose: int | None
-    best_plan: str | None
-    reason: str
 
 
 class ImaginationProfile(ProfileModel):

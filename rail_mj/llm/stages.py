@@ -17,10 +17,8 @@ import numpy as np
 
 from rail_mj.affordances.names import owner_scale
 from rail_mj.core.errors import ConfigError, UnknownAffordanceError
-from rail_mj.core.profile import AgentLayout, ScoringCode
-from rail_mj.core.types import Outcomes, StablePose
+from rail_mj.core.profile import AgentLayout, PoseCandidates, ScoringCode
 from rail_mj.imagination.inputs import layout_offsets
-from rail_mj.imagination.summary import pose_candidates
 from rail_mj.llm.checks import (
     InvalidAnswerError,
     agent_geometry,
@@ -227,23 +225,13 @@ def generate_profile(
     return task_profile(task_description(affordance, obb_dims, prov), prov, half_extents=half_extents)
 
 
-def functional_pose_request(
-    profile: ImaginationProfile,
-    poses: Sequence[StablePose],
-    kept: Sequence[int],
-    outcomes: Outcomes,
-    scores: np.ndarray,
-    trajectories: Sequence[Sequence[np.ndarray]],
-) -> FunctionalPoseRequest | None:
-    """Stage 7's request from one batched imagination; None when no plan scored above 0 in any pose.
-
-    The poses and their candidates are :func:`rail_mj.imagination.summary.pose_candidates` of the
-    profile's plans (``kept``, ``scores`` and ``trajectories`` as there).
-    """
-    poses_with_candidates = pose_candidates(profile.plans.plans, poses, kept, outcomes, scores, trajectories)
-    if not poses_with_candidates:
+def functional_pose_request(profile: ImaginationProfile,
+                            candidates: Sequence[PoseCandidates]) -> FunctionalPoseRequest | None:
+    """Stage 7's request: the poses of the nominal world with a candidate
+    (:meth:`rail_mj.imagination.worlds.ImaginedWorlds.candidates`); None when no plan scored above 0 in any pose."""
+    if not candidates:
         return None
     return FunctionalPoseRequest(
-        affordance=profile.affordance, expected_outcome=profile.analysis.expected_outcome, poses=poses_with_candidates,
+        affordance=profile.affordance, expected_outcome=profile.analysis.expected_outcome, poses=list(candidates),
         scale=profile.scale,
     )

@@ -19,29 +19,21 @@ import numpy as np
 
 from rail_mj import llm, profiles
 from rail_mj.affordances import Affordance, load_files, request_scale
+from rail_mj.affordances.judge import rules_row
 from rail_mj.affordances.kinds import kind_of
 from rail_mj.affordances.prior import FUNCTIONAL, NEGLIGIBLE, Prior
 from rail_mj.core.errors import ConfigError, RailError, UnknownAffordanceError
 from rail_mj.core.results import AffordanceResult, PlanInfo, PoseInfo
 from rail_mj.core.types import RailObject, StablePose, StablePoses
-from rail_mj.imagination import draw, imagine, pose_plan, resolve_backend, rollout_index
+from rail_mj.imagination import draw_perturbations, imagine, pose_plan, resolve_backend
 from rail_mj.imagination.inputs import agent_setup, trajectory_array
 from rail_mj.imagination.perturb import resting_on
-from rail_mj.llm.offline import rules_row
-from rail_mj.llm.schemas import ImaginationProfile
+from rail_mj.imagination.worlds import ImaginedWorlds
+from rail_mj.llm.schemas import FunctionalPoseVerdict, ImaginationProfile
 from rail_mj.mesh import load_object, mesh_notes, redecomposed
 from rail_mj.pipeline.config import ObjectInput, PoseMode, RunConfig
 from rail_mj.pipeline.parallel import ObjectTask, run_tasks
-from rail_mj.pipeline.verdicts import (
-    candidate_plans,
-    candidate_slots,
-    most_probable,
-    pose_prior,
-    pose_probabilities,
-    spread,
-    undecided,
-    world_outcomes,
-)
+from rail_mj.pipeline.verdicts import candidate_slots, judge, most_probable, pose_prior, undecided
 from rail_mj.scoring import ScoringFunction, compile_scoring
 from rail_mj.stable_poses import find_stable_poses, pose_from_up
 
@@ -162,158 +154,180 @@ class Pipeline:
         the registry may, so it is)."""
         return self.config.imagination.perturb_decomposition and (row is None or kind_of(row).decomposition_matters)
 
-    def _second(self, obj: RailObject) -> RailObject:
+    def _second_decomposition(self, obj: RailObject) -> RailObject:
         """``obj`` with its second decomposition's hulls, made once per object (CoACD's cache keeps them on disk)."""
         if self._second_of is None or self._second_of[0] is not obj:
             self._second_of = (obj, redecomposed(obj))
         return self._second_of[1]
 
     def run(self, obj: RailObject, poses: StablePoses, affordance: str) -> AffordanceResult:
-        """Imagine one affordance on one object whose stable poses are known."""
+        """Imagine one affordance on one object whose stable poses are known: profile → prior gate → imagine (up to
+        three batched calls) → judge → pick."""
         timings: dict[str, float] = {}
         t = time.perf_counter()
         profile = self.profile(affordance, obj.obb_dims)
         timings["profile"] = time.perf_counter() - t
-        analysis = profile.analysis
-        kept = [i for i, p in enumerate(poses) if p.probability >= self.config.min_pose_probability] or [0]
-        pose_infos = [PoseInfo.from_pose(i, poses[i]) for i in range(len(poses))]
-        # this object's stage-1 prior (stage 1's answer is shared by every object of a profile's size bin): its
-        # OBB's in its most plausible orientation; the poses' priors are rail_mj.pipeline.verdicts'
+        result = self._result(obj, poses, affordance, profile)
+        result.timings = timings
+        gate = self._prior_gate(obj, poses, profile, result)
+        if gate is None:
+            return result
+        kept, priors, skipped = gate
+        evidence, stage7 = self._imagine(obj, poses, profile, kept, priors, result)
+        t = time.perf_counter()
+        if stage7 is None:
+            result.analyzer_reasons = [*skipped, "no plan scored above 0 in any imagined stable pose"]
+        else:
+            result.analyzer_reasons = ([f"pose {v.pose_index}: {v.reason}" for v in stage7.poses] + skipped
+                                       + [stage7.reason])
+        timings["functional_pose_analyzer"] = time.perf_counter() - t + timings.pop("judge", 0.0)
+        self._pick(result, profile, evidence, stage7)
+        return result
+
+    def _result(self, obj: RailObject, poses: StablePoses, affordance: str,
+                profile: ImaginationProfile) -> AffordanceResult:
+        """The case's result before any physics: the profile's plans, agent, scoring and size check."""
         row = rules_row(profile.affordance, profile.scale)
-        dims = row.dims_prior(obj.obb_dims) if row is not None else Prior()
-        result = AffordanceResult(
+        return AffordanceResult(
             object=obj.name,
             affordance=profile.affordance,
             requested=affordance,
-            alternative=analysis.alternative,
-            dims_fit=analysis.fits if row is None else dims.value >= FUNCTIONAL,
-            stable_poses=pose_infos,
+            alternative=profile.analysis.alternative,
+            dims_fit=(profile.analysis.fits if row is None
+                      else row.dims_prior(obj.obb_dims).value >= FUNCTIONAL),
+            stable_poses=[PoseInfo.from_pose(i, poses[i]) for i in range(len(poses))],
             plans=[p.name for p in profile.plans.plans],
             agent_fragment=profile.agent.mjcf,
             scoring_source=profile.scoring.source,
             provider=self.provider_name,
             backend=self.backend,
         )
+
+    def _prior_gate(self, obj: RailObject, poses: StablePoses, profile: ImaginationProfile,
+                    result: AffordanceResult) -> tuple[list[int], dict[int, Prior], list[str]] | None:
+        """The poses worth imagining, their priors and the reasons for those skipped; None, with the result's
+        probability set to the prior, when no physics could make the object functional.
+
+        The object's stage-1 prior (stage 1's answer is shared by every object of a profile's size bin) is its
+        OBB's in its most plausible orientation. A size no real object of the use has (prior.NEGLIGIBLE), or, for a
+        use outside the registry, the LLM analyser's veto: the physics is not run. A pose whose own prior is below
+        NEGLIGIBLE is no use worth imagining either: its verdict is the same imagined or not, so it is not (no row,
+        no prior: 1, and every pose is imagined).
+        """
+        analysis = profile.analysis
+        row = rules_row(profile.affordance, profile.scale)
+        dims = row.dims_prior(obj.obb_dims) if row is not None else Prior()
         if dims.value < NEGLIGIBLE or (row is None and not analysis.fits):
-            # A size no real object of the use has (prior.NEGLIGIBLE), or, for a use outside the registry, the
-            # LLM analyser's veto: the physics is not run, and the probability (at most the prior) is the prior.
             result.analyzer_reasons = [analysis.reason]
             result.probability = dims.value if row is not None else 0.0
             result.prior = dims.doc()
-            result.timings = timings
-            return result
-
-        # A pose whose own prior is below NEGLIGIBLE is no use worth imagining either: whatever its physics, its
-        # probability stays below it. Its verdict is the same imagined or not, so it is not.
-        # (No row, no prior: 1, and every pose is imagined.)
-        pose_priors = {i: pose_prior(row, obj.obb_dims, poses[i]) for i in kept}
-        skipped = [f"pose {i}: not imagined: its prior {pose_priors[i].value:.3f} is below {NEGLIGIBLE:g} "
-                   f"({pose_priors[i].doc()}), so no physics could make it functional"
-                   for i in kept if pose_priors[i].value < NEGLIGIBLE]
-        worth = [i for i in kept if pose_priors[i].value >= NEGLIGIBLE]
+            return None
+        kept = [i for i, p in enumerate(poses) if p.probability >= self.config.min_pose_probability] or [0]
+        priors = {i: pose_prior(row, obj.obb_dims, poses[i]) for i in kept}
+        skipped = [f"pose {i}: not imagined: its prior {priors[i].value:.3f} is below {NEGLIGIBLE:g} "
+                   f"({priors[i].doc()}), so no physics could make it functional"
+                   for i in kept if priors[i].value < NEGLIGIBLE]
+        worth = [i for i in kept if priors[i].value >= NEGLIGIBLE]
         if not worth:
-            top = max(kept, key=lambda i: pose_priors[i].value)
+            top = max(kept, key=lambda i: priors[i].value)
             result.analyzer_reasons = [*skipped, analysis.reason]
-            result.probability = pose_priors[top].value
-            result.prior = pose_priors[top].doc()
-            result.timings = timings
-            return result
-        kept = worth
+            result.probability = priors[top].value
+            result.prior = priors[top].doc()
+            return None
+        return worth, priors, skipped
 
+    def _imagine(self, obj: RailObject, poses: StablePoses, profile: ImaginationProfile, kept: list[int],
+                 priors: dict[int, Prior], result: AffordanceResult
+                 ) -> tuple[ImaginedWorlds, FunctionalPoseVerdict | None]:
+        """Up to three batched calls — the nominal world, the perturbed worlds, the second decomposition — into one
+        :class:`ImaginedWorlds`, the provider's stage 7 on the nominal world, and the poses' verdicts
+        (``result.pose_verdicts``, judged after the perturbed worlds and again with the second decomposition)."""
+        timings = result.timings
+        row = rules_row(profile.affordance, profile.scale)
         agents = agent_setup(profile.agent.mjcf, profile.layout)
         result.agent_offsets = agents.offsets.tolist()
-        trajectories = [trajectory_array(profile.trajectories.trajectories, poses[i].half_extents, poses[i].basin)
-                        for i in kept]
+        pose_list = cast(Sequence[StablePose], poses)  # StablePoses reads as a sequence of StablePose
+        evidence = ImaginedWorlds(
+            affordance=profile.affordance, scale=profile.scale, plans=profile.plans.plans, poses=pose_list, kept=kept,
+            trajectories=[trajectory_array(profile.trajectories.trajectories, poses[i].half_extents, poses[i].basin)
+                          for i in kept],
+            perturbations=draw_perturbations(self.config.imagination))
         t = time.perf_counter()
-        outcomes = imagine(obj, [poses[i] for i in kept], agents, trajectories, backend=self.backend,
+        outcomes = imagine(obj, [poses[i] for i in kept], agents, evidence.trajectories, backend=self.backend,
                            config=self.config.imagination)
         timings["imagination"] = time.perf_counter() - t
-
         t = time.perf_counter()
         scorer = self.scorer(profile.scoring.source)
-        outcomes, scores = world_outcomes(outcomes, scorer(outcomes), 1)[0]  # a blown-up rollout scores -1
+        nominal = evidence.add_nominal(outcomes, scorer(outcomes))  # a blown-up rollout scores -1
         timings["scoring"] = time.perf_counter() - t
-        n_plans = len(profile.plans.plans)
+        n_plans = evidence.n_plans
         grid = np.full((len(poses), n_plans), -1.0)
-        grid[kept] = scores.reshape(len(kept), n_plans)
+        grid[kept] = nominal.scores.reshape(len(kept), n_plans)
         result.scores = grid.tolist()
-
         # Without the analyser: the best-scoring successful rollout decides (Table 2 ablation).
-        best_b = int(np.argmax(scores))
+        best_b = int(np.argmax(nominal.scores))
         result.evidence_pose = kept[pose_plan(best_b, n_plans)[0]]
-        result.evidence_agent_pos = outcomes.agent_pos[best_b].tolist()
-        if scores[best_b] > 0:
-            result.pose_without_analyzer = pose_infos[kept[pose_plan(best_b, n_plans)[0]]]
+        result.evidence_agent_pos = nominal.outcomes.agent_pos[best_b].tolist()
+        if nominal.scores[best_b] > 0:
+            result.pose_without_analyzer = result.stable_poses[kept[pose_plan(best_b, n_plans)[0]]]
 
         # the perturbed worlds: each candidate plan again in each pose whose prior lets it be functional, all in
         # one batched call
         t = time.perf_counter()
-        perturbations = draw(self.config.imagination)
-        priors = [pose_priors[i].value for i in kept]
-        slots = candidate_slots(scores, len(kept), n_plans, priors)
-        perturbed = None
-        if slots and perturbations.perturbed is not None:
-            names = [p.name for p in profile.plans.plans]
-            evidence = kind_of(row).evidence_plans(row, names) if row is not None else set()
-            pairs = candidate_plans(scores, slots, n_plans, {names.index(p) for p in evidence})
-            again = imagine(obj, [poses[kept[k]] for k, _ in pairs], agents, [[trajectories[k][j]] for k, j in pairs],
-                            backend=self.backend, config=self.config.imagination,
-                            perturbations=perturbations.perturbed)
-            perturbed = (*spread((outcomes, scores), (again, scorer(again)), pairs, slots, n_plans,
-                                 perturbations.perturbed.n_worlds), slots)
+        perturbed = evidence.perturbations.perturbed
+        slots = candidate_slots(nominal.scores, len(kept), n_plans, [priors[i].value for i in kept])
+        if slots and perturbed is not None:
+            names = evidence.plan_names
+            read = kind_of(row).evidence_plans(row, names) if row is not None else set()
+            pairs = evidence.candidate_plans(slots, {names.index(p) for p in read})
+            rollouts = imagine(obj, [poses[kept[k]] for k, _ in pairs], agents,
+                               [[evidence.trajectories[k][j]] for k, j in pairs], backend=self.backend,
+                               config=self.config.imagination, perturbations=perturbed)
+            evidence.add_perturbed(rollouts, scorer(rollouts), pairs, slots)
         timings["perturbed_worlds"] = time.perf_counter() - t
         t = time.perf_counter()
-        verdict = self._analyse(profile, poses, kept, outcomes, scores, trajectories)
-        pose_list = cast(Sequence[StablePose], poses)  # StablePoses reads as a sequence of StablePose
-        args = (profile.affordance, profile.scale, obj.obb_dims, profile.plans.plans, pose_list, kept,
-                (outcomes, scores), trajectories, perturbations, perturbed, verdict)
-        veto = self.provider_name != "offline"
-        result.pose_verdicts = pose_probabilities(*args, llm_veto=veto)
-        timings["functional_pose_analyzer"] = time.perf_counter() - t
+        request = llm.functional_pose_request(profile, evidence.candidates(nominal))
+        stage7 = None if request is None else llm.analyze_functional_poses(request, self.provider)
+        veto = self.provider_name != "offline"  # a model's common sense; the offline answer is the rules' own
+        result.pose_verdicts = judge(evidence, obj.obb_dims, stage7, llm_veto=veto)
+        timings["judge"] = time.perf_counter() - t
         # the second decomposition: one more world for the poses whose verdict it could still change
-        again_slots = undecided(result.pose_verdicts, slots) if self._decomposition_matters(row) else []
-        if again_slots:
+        decided = undecided(result.pose_verdicts, slots) if self._decomposition_matters(row) else []
+        if decided:
             t = time.perf_counter()
-            second = self._second(obj)
-            again = imagine(second, [resting_on(poses[kept[k]], obj.hulls, second.hulls) for k in again_slots],
-                            agents, [trajectories[k] for k in again_slots], backend=self.backend,
-                            config=self.config.imagination)
-            result.pose_verdicts = pose_probabilities(*args, llm_veto=veto,
-                                                      decomposed=(again, scorer(again), again_slots))
+            second = self._second_decomposition(obj)
+            rollouts = imagine(second, [resting_on(poses[kept[k]], obj.hulls, second.hulls) for k in decided],
+                               agents, [evidence.trajectories[k] for k in decided], backend=self.backend,
+                               config=self.config.imagination)
+            evidence.add_second_decomposition(rollouts, scorer(rollouts), decided)
+            result.pose_verdicts = judge(evidence, obj.obb_dims, stage7, llm_veto=veto)
             timings["second_decomposition"] = time.perf_counter() - t
-        result.timings = timings
-        if verdict is None:
-            result.analyzer_reasons = [*skipped, "no plan scored above 0 in any imagined stable pose"]
-        else:
-            result.analyzer_reasons = ([f"pose {v.pose_index}: {v.reason}" for v in verdict.poses] + skipped
-                                       + [verdict.reason])
-        best = most_probable(result.pose_verdicts, pose_list, None if verdict is None else verdict.best_pose)
+        return evidence, stage7
+
+    def _pick(self, result: AffordanceResult, profile: ImaginationProfile, evidence: ImaginedWorlds,
+              stage7: FunctionalPoseVerdict | None) -> None:
+        """The use's probability (its likeliest pose's) and, when functional, its functional pose and best plan."""
+        best = most_probable(result.pose_verdicts, evidence.poses, None if stage7 is None else stage7.best_pose)
         if best is None:
-            return result
-        result.probability = max(v.probability for v in result.pose_verdicts)  # the use's: its likeliest pose's
+            return
+        result.probability = max(v.probability for v in result.pose_verdicts)
         result.prior = best.prior_factors
         if best.probability < FUNCTIONAL or best.best_plan is None:
-            return result
+            return
         plan_idx = result.plans.index(best.best_plan)
-        b = rollout_index(kept.index(best.index), plan_idx, n_plans)
+        b = evidence.nominal_rollout(best.index, plan_idx)
         plan = profile.plans.plans[plan_idx]
         result.functional = True
-        result.functional_pose = pose_infos[best.index]
+        result.functional_pose = result.stable_poses[best.index]
         result.best_plan = PlanInfo(
             index=plan_idx,
             name=plan.name,
             description=plan.description,
-            via_poses=trajectories[kept.index(best.index)][plan_idx].tolist(),
-            score=float(scores[b]),
+            via_poses=evidence.trajectories[evidence.slot_of(best.index)][plan_idx].tolist(),
+            score=float(evidence.nominal.scores[b]),
         )
         result.evidence_pose = best.index
-        result.evidence_agent_pos = outcomes.agent_pos[b].tolist()
-        return result
-
-    def _analyse(self, profile, poses, kept, outcomes, scores, trajectories):
-        """The Functional Pose Analyzer over the candidate functional interactions; None without one."""
-        request = llm.functional_pose_request(profile, poses, kept, outcomes, scores, trajectories)
-        return None if request is None else llm.analyze_functional_poses(request, self.provider)
+        result.evidence_agent_pos = evidence.nominal.outcomes.agent_pos[b].tolist()
 
     def classify_object(
         self, item: ObjectInput | RailObject | str | Path, affordances: Sequence[str]
