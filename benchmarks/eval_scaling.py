@@ -138,8 +138,8 @@ class _TreeSampler:
 def _run(dataset: Path, out: Path, affordances: list[str], cache: Path, **execution) -> dict:
     """One evaluation into ``out``: its wall time (the run's own, dataset and imports excluded) and CPU seconds."""
     os.environ[CACHE_ENV] = str(cache)  # the workers (and Ray's, started later) inherit it
-    cfg = rail_eval.EvalConfig(dataset=str(dataset), affordances=affordances, provider="offline", backend="native",
-                               render=False)
+    cfg = rail_eval.EvalConfig(dataset={"source": str(dataset)}, affordances=affordances,
+                               run={"provider": "offline", "backend": "native"}, render=False)
     sampler = _TreeSampler() if execution.get("executor") == "ray" else None
     if sampler is not None:
         sampler.start()

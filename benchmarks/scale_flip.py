@@ -31,8 +31,8 @@ def _verdicts(root: Path, rows: list[LabelRecord], affordances: list[str], scale
               workers: int | None) -> dict[tuple[str, str], bool | None]:
     """(mesh, affordance) -> functional (None: the case failed) with every mesh read ``scale`` times its size."""
     items = [ObjectInput(path=root / r.mesh, units=r.units * scale, up=r.up, name=r.mesh) for r in rows]
-    results = classify(items, affordances, provider="offline", backend="native", progress=False, config=cfg,
-                       workers=workers)
+    results = classify(items, affordances, config=cfg.model_copy(update=dict(provider="offline", backend="native")),
+                       progress=False, workers=workers)
     return {(r.object, r.requested): None if r.error else r.functional for r in results}
 
 

@@ -3,7 +3,7 @@
 Library API::
 
     import rail_mj
-    results = rail_mj.classify(["mug.obj"], ["cup", "chair"], provider="offline")
+    results = rail_mj.classify(["mug.obj"], ["cup", "chair"], config=RunConfig(provider="offline"))
 
 Heavy modules (MuJoCo, JAX) load on first use of the names below.
 """

@@ -22,6 +22,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Literal
 
+from rail_mj.affordances.kinds.base import kind_of
 from rail_mj.affordances.registry import (
     BY_NAME,
     FIGURE_HEIGHTS,
@@ -128,9 +129,6 @@ ANIMAL_LENGTHS: dict[str, float] = {
     # 76-91 cm, that length plus room to stretch (0.65 / 1.7 makes a person's 1.6-2.6 m bed 0.61-0.99 m)
     "dog": 0.65,
 }
-#: The kinds an animal's body sets the size of: what it lies or sits on. Its bowl is sized by its food and
-#: its basket by what it carries, not by its body, so "dog bowl" is refused unless a row names it.
-_ANIMAL_KINDS = ("lie", "seat")
 
 
 def _animal(word: str) -> str | None:
@@ -264,7 +262,7 @@ def object_name(words: Sequence[str], text: str | None = None) -> ObjectName:
             continue
         front = core[:start]
         owner = _owner(front)
-        if owner is not None and (owner in FIGURE_HEIGHTS or head.kind in _ANIMAL_KINDS):
+        if owner is not None and (owner in FIGURE_HEIGHTS or kind_of(head).sized_by_owner_body):
             return ObjectName(head.name, owner)
         why = (f"a {owner}'s body sets the size of what it lies or sits on, not of a {head.name} (a {head.kind}: "
                "sized by what it holds)" if owner is not None else

@@ -30,32 +30,28 @@ CLI::
 
 from __future__ import annotations
 
-import argparse
 import hashlib
-import io
 import os
 import posixpath
 import shlex
 import subprocess
 import sys
 import tempfile
-import xml.etree.ElementTree as ET
 import zipfile
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal, cast
+from typing import Literal
 
-import numpy as np
 import trimesh
 import trimesh.exchange.obj
 
 from rail_mj.affordances import PAPER_AFFORDANCES, get
-from rail_mj.core.cli import EXIT_OK, object_bar, report_error
-from rail_mj.core.errors import ConfigError, DatasetError
+from rail_mj.core.errors import DatasetError
 from rail_mj.core.paths import cache_dir
 from rail_mj.core.runfiles import fsync_dir, publish, staging_dir, write_synced
 from rail_mj.dataset.labels import LABELS_FILE, LabelRecord
+from rail_mj.urdf.assembly import assemble_urdf
 
 __all__ = [
     "REAL_DATA_ENV",
@@ -67,10 +63,8 @@ __all__ = [
     "label_record",
     "fetch_wheel",
     "read_member",
-    "assemble_urdf",
     "build",
     "manifest_markdown",
-    "main",
 ]
 
 Up = Literal["z", "y"]
@@ -388,106 +382,6 @@ def read_member(archive: zipfile.ZipFile, member: str, sha256: str) -> bytes:
     return data
 
 
-def _floats(text: str | None, n: int, default: float, where: str) -> np.ndarray:
-    if text is None:
-        return np.full(n, default)
-    try:
-        values = np.array([float(v) for v in text.split()])
-    except ValueError as exc:
-        raise DatasetError(f"{where}: {text!r} is not {n} numbers") from exc
-    if values.shape != (n,) or not np.isfinite(values).all():
-        raise DatasetError(f"{where}: {text!r} is not {n} finite numbers")
-    return values
-
-
-def _origin(element: ET.Element | None, where: str) -> np.ndarray:
-    """The 4x4 transform of a URDF ``<origin xyz rpy>`` (rpy: roll, pitch, yaw about fixed x, y, z)."""
-    origin = element.find("origin") if element is not None else None
-    xyz = _floats(origin.get("xyz") if origin is not None else None, 3, 0.0, f"{where} origin xyz")
-    rpy = _floats(origin.get("rpy") if origin is not None else None, 3, 0.0, f"{where} origin rpy")
-    matrix = trimesh.transformations.euler_matrix(*rpy, axes="sxyz")
-    matrix[:3, 3] = xyz
-    return matrix
-
-
-def _load_bytes(data: bytes, suffix: str, where: str) -> trimesh.Trimesh:
-    try:
-        loaded = trimesh.load(io.BytesIO(data), file_type=suffix.lstrip("."), process=False)
-    except Exception as exc:  # trimesh's loaders raise many unrelated types on bad input
-        raise DatasetError(f"{where}: not a readable {suffix} mesh ({type(exc).__name__}: {exc})") from exc
-    if isinstance(loaded, trimesh.Scene):
-        loaded = loaded.dump(concatenate=True)
-    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
-        raise DatasetError(f"{where}: holds no triangles")
-    return loaded
-
-
-def _geometry(geom: ET.Element, base: str, read: Callable[[str], bytes], where: str) -> trimesh.Trimesh:
-    kind = next(iter(geom), None)
-    if kind is None:
-        raise DatasetError(f"{where}: <geometry> is empty")
-    if kind.tag == "mesh":
-        filename = kind.get("filename", "")
-        if "://" in filename or filename.startswith("/") or not filename:
-            raise DatasetError(f"{where}: mesh filename {filename!r} must be a path relative to the URDF")
-        mesh = _load_bytes(read(posixpath.normpath(posixpath.join(base, filename))), posixpath.splitext(filename)[1],
-                           f"{where} {filename}")
-        mesh.apply_scale(_floats(kind.get("scale"), 3, 1.0, f"{where} mesh scale"))
-        return mesh
-    if kind.tag == "box":
-        return trimesh.creation.box(extents=_floats(kind.get("size"), 3, 0.0, f"{where} box size"))
-    if kind.tag == "cylinder":
-        radius, length = (_floats(kind.get(k), 1, 0.0, f"{where} cylinder {k}")[0] for k in ("radius", "length"))
-        return trimesh.creation.cylinder(radius=radius, height=length, sections=32)
-    if kind.tag == "sphere":
-        return trimesh.creation.icosphere(subdivisions=3, radius=_floats(kind.get("radius"), 1, 0.0, where)[0])
-    raise DatasetError(f"{where}: geometry <{kind.tag}> is not supported; supported: mesh, box, cylinder, sphere")
-
-
-def assemble_urdf(urdf: bytes, base: str, read: Callable[[str], bytes], *, label: str = "URDF") -> trimesh.Trimesh:
-    """One mesh from every ``<visual>`` of a URDF whose links are joined by fixed joints, in the URDF frame.
-
-    ``base`` is the URDF's folder inside the wheel and ``read(member)`` returns a referenced file's bytes
-    (checked by the caller). Mesh scales and origins are applied, so the result is in metres.
-    """
-    try:
-        robot = ET.fromstring(urdf)
-    except ET.ParseError as exc:
-        raise DatasetError(f"{label}: not valid XML ({exc})") from exc
-    links = {link.get("name"): link for link in robot.findall("link")}
-    parent_of: dict[str | None, tuple[str | None, np.ndarray]] = {}
-    for joint in robot.findall("joint"):
-        name = joint.get("name")
-        if joint.get("type") != "fixed":
-            raise DatasetError(f"{label}: joint {name!r} is {joint.get('type')!r}; only fixed joints make one object")
-        parent, child = joint.find("parent"), joint.find("child")
-        if parent is None or child is None:
-            raise DatasetError(f"{label}: joint {name!r} needs a parent and a child link")
-        parent_of[child.get("link")] = (parent.get("link"), _origin(joint, f"{label} joint {name!r}"))
-
-    def world(link: str | None, depth: int = 0) -> np.ndarray:
-        if link not in parent_of:
-            return np.eye(4)
-        if depth > len(links):
-            raise DatasetError(f"{label}: the joints form a loop at link {link!r}")
-        parent, transform = parent_of[link]
-        return world(parent, depth + 1) @ transform
-
-    pieces = []
-    for name, link in links.items():
-        for i, visual in enumerate(link.findall("visual")):
-            where = f"{label} link {name!r} visual {i}"
-            geom = visual.find("geometry")
-            if geom is None:
-                raise DatasetError(f"{where}: no <geometry>")
-            piece = _geometry(geom, base, read, where)
-            piece.apply_transform(world(name) @ _origin(visual, where))
-            pieces.append(piece)
-    if not pieces:
-        raise DatasetError(f"{label}: no <visual> geometry to assemble")
-    return cast(trimesh.Trimesh, trimesh.util.concatenate(pieces))
-
-
 def _mesh_bytes(entry: RealMesh, archive: zipfile.ZipFile) -> bytes:
     """The file to write for ``entry``: the member as shipped, or the assembled URDF as OBJ text."""
     data = read_member(archive, entry.member, entry.sha256)
@@ -511,7 +405,7 @@ def _write_bytes_synced(path: Path, data: bytes) -> None:
         os.fsync(fh.fileno())
 
 
-def _select(objects: Sequence[str] | None) -> list[RealMesh]:
+def select_objects(objects: Sequence[str] | None) -> list[RealMesh]:
     if objects is None:
         return list(MANIFEST)
     by_name = {m.name: m for m in MANIFEST}
@@ -536,7 +430,7 @@ def build(
     As :func:`rail_mj.dataset.procedural.generate` does, the files are built in a staging folder and published whole,
     ``labels.jsonl`` last.
     """
-    entries = _select(objects)
+    entries = select_objects(objects)
     wheels = {name: fetch_wheel(WHEELS[name], Path(wheels_dir) if wheels_dir is not None else None)
               for name in dict.fromkeys(e.wheel for e in entries)}
     out = Path(out_dir)
@@ -569,38 +463,6 @@ def manifest_markdown() -> str:
         lines.append(f"| {m.name} | {wheel.name} {wheel.version} | {m.cls} | {m.units:g} | {m.up} | {affords} | "
                      f"{m.why} |")
     return "\n".join(lines) + "\n"
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m rail_mj.dataset real``: exit status by the rule of rail_mj.core.cli (0 written, 1 a fetch or
-    check failed, 2 bad command line, 130 interrupted)."""
-    parser = argparse.ArgumentParser(prog="python -m rail_mj.dataset real",
-                                     description="Fetch, check and label the real-mesh development set.")
-    parser.add_argument("--out", type=Path, help="output folder (meshes/ and labels.jsonl)")
-    parser.add_argument("--objects", help=f"comma-separated objects (default all {len(MANIFEST)}; see --list)")
-    parser.add_argument("--wheels", type=Path, help="folder of downloaded wheels (default the rail_mj cache)")
-    parser.add_argument("--list", action="store_true", help="print the manifest as Markdown and exit")
-    args = parser.parse_args(argv)
-    if args.list:
-        sys.stdout.write(manifest_markdown())
-        return EXIT_OK
-    if args.out is None:
-        return report_error(ConfigError("--out is required (or use --list)"))
-    objects = args.objects.split(",") if args.objects is not None else None
-    try:
-        _select(objects)
-    except DatasetError as exc:
-        return report_error(ConfigError(str(exc)))
-    try:
-        with object_bar() as tick:
-            records = build(args.out, objects=objects, wheels_dir=args.wheels, progress=tick)
-    except (DatasetError, KeyboardInterrupt) as exc:
-        return report_error(exc)
-    except OSError as exc:
-        return report_error(DatasetError(f"cannot write the real-mesh set to {args.out}: {exc.strerror or exc}"))
-    positives = sum(any(r.affordances.values()) for r in records)
-    print(f"wrote {len(records)} objects ({positives} afford at least one of the eight) to {args.out}")
-    return EXIT_OK
 
 
 #: Where the real-mesh set is when it is not in the cache (a folder holding labels.jsonl).

@@ -20,10 +20,11 @@ from rail_mj.core.cli import EXIT_FAILED, EXIT_OK, report_error
 from rail_mj.core.errors import ConfigError, RailError
 from rail_mj.dataset.ground_truth import FAMILIES
 from rail_mj.eval.merge import merge_runs
-from rail_mj.eval.run import EvalConfig, parse_shard, run_eval
+from rail_mj.eval.run import DatasetConfig, EvalConfig, parse_shard, run_eval
 from rail_mj.eval.summary import _tables, _timing_table
 from rail_mj.llm.providers import PROVIDERS
-from rail_mj.pipeline.parallel import cpu_count
+from rail_mj.pipeline.tasks import cpu_count
+from rail_mj.stable_poses import StablePoseConfig
 
 __all__ = ["main"]
 
@@ -31,8 +32,10 @@ __all__ = ["main"]
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m rail_mj.eval", description=cast(str, __doc__).split("\n\n")[0])
     p.add_argument("--dataset", default="procedural", help="'procedural' or a folder with labels.jsonl")
-    p.add_argument("--per-class", type=int, default=3, help="objects per class (procedural)")
-    p.add_argument("--seed", type=int, default=0, help="dataset seed (procedural)")
+    p.add_argument("--per-class", type=int, help=f"objects per class (procedural; default "
+                                                    f"{DatasetConfig.model_fields['per_class'].default})")
+    p.add_argument("--seed", type=int,
+                   help=f"dataset seed (procedural; default {DatasetConfig.model_fields['seed'].default})")
     p.add_argument("--family", default="core", choices=tuple(FAMILIES),
                    help="procedural class family: core (default, the published set), world (shapes of real meshes, "
                    "scan-like corruption mixed in) or all")
@@ -51,7 +54,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--resume", action="store_true", help="continue an interrupted run in --out")
     p.add_argument("--provider", default="auto", choices=PROVIDERS)
     p.add_argument("--backend", default="auto", choices=("auto", "native", "mjx"))
-    p.add_argument("--drops", type=int, default=64, help="drops for stable-pose imagination")
+    p.add_argument("--drops", type=int, help=f"drops for stable-pose imagination (default "
+                                             f"{StablePoseConfig.model_fields['n_drops'].default})")
     p.add_argument("--no-render", action="store_true", help="skip the pictures in report.md")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--workers", type=int, default=None,
@@ -76,32 +80,33 @@ def _merge_parser() -> argparse.ArgumentParser:
     return p
 
 
-#: The command-line option of each EvalConfig field, for error messages.
-_OPTIONS = {"per_class": "--per-class", "dataset_seed": "--seed", "n_drops": "--drops", "profile_dir": "--profile-dir"}
+#: The command-line option of each EvalConfig field (by its path in the config), for error messages.
+_OPTIONS = {"dataset.per_class": "--per-class", "dataset.seed": "--seed", "run.stable_poses.n_drops": "--drops",
+            "run.profile_dir": "--profile-dir"}
 
 
 def _config(args: argparse.Namespace) -> EvalConfig:
     split = lambda s: [x.strip() for x in s.split(",") if x.strip()] if s else None  # noqa: E731
+    run: dict = {"provider": args.provider, "backend": args.backend, "affordances_files": args.affordances_file,
+                 "profile_origin": args.profile_origin}
+    if args.drops is not None:  # absent: StablePoseConfig's default, its one home
+        run["stable_poses"] = {"n_drops": args.drops}
+    if args.profile_dir is not None:  # absent: the default ($RAIL_MJ_PROFILE_DIR), never an explicit None over it
+        run["profile_dir"] = args.profile_dir
     try:
-        return EvalConfig(
-            dataset=args.dataset,
-            per_class=args.per_class,
-            dataset_seed=args.seed,
-            family=args.family,
-            classes=split(args.classes),
-            affordances=split(args.affordances),
-            provider=args.provider,
-            backend=args.backend,
-            n_drops=args.drops,
-            render=not args.no_render,
-            affordances_files=args.affordances_file,
-            profile_origin=args.profile_origin,
-            # absent: the default ($RAIL_MJ_PROFILE_DIR), never an explicit None over it
-            **({} if args.profile_dir is None else {"profile_dir": args.profile_dir}),
-        )
+        return EvalConfig.model_validate({
+            "run": run,
+            # an option left out keeps the config's default, declared there once
+            "dataset": {k: v for k, v in {"source": args.dataset, "per_class": args.per_class, "seed": args.seed,
+                                          "family": args.family, "classes": split(args.classes)}.items()
+                        if v is not None},
+            "affordances": split(args.affordances),
+            "render": not args.no_render,
+        })
     except ValidationError as exc:
         problems = "; ".join(
-            f"{_OPTIONS.get(str(e['loc'][0]), e['loc'][0])} {e['input']!r}: {e['msg']}" for e in exc.errors()
+            f"{_OPTIONS.get(loc, loc)} {e['input']!r}: {e['msg']}"
+            for e in exc.errors() for loc in [".".join(map(str, e["loc"]))]
         )
         raise ConfigError(f"bad option value: {problems}") from None
 

@@ -40,7 +40,7 @@ from contextlib import ExitStack, closing
 from pathlib import Path
 from typing import Literal
 
-from pydantic import Field
+from pydantic import BaseModel, ConfigDict, Field
 
 from rail_mj.affordances import PAPER_AFFORDANCES, load_files
 from rail_mj.core.errors import ConfigError, DatasetError
@@ -52,13 +52,15 @@ from rail_mj.dataset.procedural import generate
 from rail_mj.eval.report import write_report
 from rail_mj.eval.summary import _line, summarize
 from rail_mj.pipeline.chain import Pipeline, object_task
-from rail_mj.pipeline.config import ObjectInput, RunConfig, RunOptions
-from rail_mj.pipeline.parallel import Placement, check_executor, cpu_count, plan_workers, run_tasks
-from rail_mj.stable_poses import StablePoseConfig
+from rail_mj.pipeline.config import ObjectInput, RunConfig
+from rail_mj.pipeline.parallel import check_executor, run_tasks
+from rail_mj.pipeline.ray_executor import Placement
+from rail_mj.pipeline.tasks import cpu_count, plan_workers
 
 __all__ = [
     "PLAN_FILE",
     "DATASET_SPEC",
+    "DatasetConfig",
     "EvalConfig",
     "run_eval",
     "parse_shard",
@@ -69,18 +71,28 @@ __all__ = [
 PLAN_FILE = "plan.json"
 
 
-class EvalConfig(RunOptions):
-    """A run of the evaluation: the pipeline settings plus what to evaluate."""
+class DatasetConfig(BaseModel):
+    """The labelled objects an evaluation runs on: the procedural generator's, or a folder's."""
 
-    n_drops: int = Field(default=64, ge=8, le=4096, description="drops for stable-pose imagination")
-    seed: int = 0
-    dataset: str = "procedural"
-    per_class: int = Field(default=3, ge=1)
-    dataset_seed: int = 0
-    family: Literal["core", "world", "all"] = "core"  # procedural class family (rail_mj.dataset.ground_truth.FAMILIES)
-    affordances: list[str] | None = None
-    classes: list[str] | None = None
-    render: bool = True
+    model_config = ConfigDict(extra="forbid")
+
+    source: str = Field(default="procedural", description="'procedural' or a folder with labels.jsonl")
+    per_class: int = Field(default=3, ge=1, description="objects per class (procedural)")
+    seed: int = Field(default=0, description="the generator's seed (procedural)")
+    family: Literal["core", "world", "all"] = Field(
+        default="core", description="procedural class family (rail_mj.dataset.ground_truth.FAMILIES)")
+    classes: list[str] | None = Field(default=None, description="procedural classes; None: all of the family")
+
+
+class EvalConfig(BaseModel):
+    """A run of the evaluation: the pipeline's settings (``run``), the dataset, and what to evaluate."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    run: RunConfig = Field(default_factory=RunConfig, description="the classification run's settings")
+    dataset: DatasetConfig = Field(default_factory=DatasetConfig)
+    affordances: list[str] | None = Field(default=None, description="requested affordances; None: all labelled")
+    render: bool = Field(default=True, description="the pictures in report.md")
 
 
 def _parse_line(raw: str) -> dict | None:
@@ -138,7 +150,8 @@ def _generator_sources() -> list[Path]:
 
 def _dataset_spec(cfg: EvalConfig, classes: Sequence[str], affordances: Sequence[str]) -> dict:
     code = hashlib.sha256(b"".join(path.read_bytes() for path in _generator_sources())).hexdigest()
-    return {"family": cfg.family, "classes": list(classes), "per_class": cfg.per_class, "seed": cfg.dataset_seed,
+    data = cfg.dataset
+    return {"family": data.family, "classes": list(classes), "per_class": data.per_class, "seed": data.seed,
             "affordances": list(affordances), "generator_sha256": code}
 
 
@@ -162,10 +175,11 @@ def _stale_reason(root: Path, spec: dict) -> str | None:
 
 
 def _dataset(cfg: EvalConfig, out: Path, affordances: list[str] | None) -> tuple[Path, list[LabelRecord]]:
-    if cfg.dataset == "procedural":
-        classes = list(dict.fromkeys(cfg.classes or FAMILIES[cfg.family]))
+    data = cfg.dataset
+    if data.source == "procedural":
+        classes = list(dict.fromkeys(data.classes or FAMILIES[data.family]))
         names = affordances or list(PAPER_AFFORDANCES)
-        _check_names(classes, FAMILIES[cfg.family], "--classes")
+        _check_names(classes, FAMILIES[data.family], "--classes")
         _check_names(names, list(AFFORDANCES), "--affordances")
         root = out / "dataset"
         spec = _dataset_spec(cfg, classes, names)
@@ -174,11 +188,11 @@ def _dataset(cfg: EvalConfig, out: Path, affordances: list[str] | None) -> tuple
             if root.exists():  # e.g. left by an older run killed while writing it
                 print(f"rebuilding {root}: {why}", file=sys.stderr)
                 (root / DATASET_SPEC).unlink(missing_ok=True)
-            generate(root, classes=classes, per_class=cfg.per_class, seed=cfg.dataset_seed, affordances=names,
-                     family=cfg.family)
+            generate(root, classes=classes, per_class=data.per_class, seed=data.seed, affordances=names,
+                     family=data.family)
             atomic_write_text(root / DATASET_SPEC, json.dumps(spec, indent=2))
         return root, read_labels(root)
-    root = Path(cfg.dataset)
+    root = Path(data.source)
     if not (root / "labels.jsonl").is_file():
         raise ConfigError(
             f"--dataset {root}: no labels.jsonl there; give a folder of meshes with a labels.jsonl "
@@ -241,7 +255,7 @@ def _run_locked(
     results_path = out / "results.jsonl"
     if results_path.exists() and not resume:
         raise ConfigError(f"{results_path} exists: pass --resume to continue it, or choose another --out")
-    load_files(cfg.affordances_files)  # before any name is read
+    load_files(cfg.run.affordances_files)  # before any name is read
     requested = list(dict.fromkeys(normalize_affordance(a) for a in cfg.affordances)) if cfg.affordances else None
     root, records = _dataset(cfg, out, requested)
     repeated = sorted(m for m, n in Counter(r.mesh for r in records).items() if n > 1)
@@ -262,8 +276,7 @@ def _run_locked(
     pending = [(r, affs) for r, affs in pending if affs]
     total = sum(len(affs) for _, affs in pending)
 
-    run_cfg = RunConfig(**cfg.model_dump(include=set(RunOptions.model_fields)),
-                        stable_poses=StablePoseConfig(n_drops=cfg.n_drops, seed=cfg.seed))
+    run_cfg = cfg.run
     pipe = Pipeline(run_cfg)
     config = {**cfg.model_dump(mode="json"), "backend_used": pipe.backend}
     plan = {"config": config, "shard": list(shard) if shard else None, "dataset_root": str(root.resolve()),

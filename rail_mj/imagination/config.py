@@ -6,8 +6,9 @@ import math
 import os
 from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from rail_mj.core.config import config_error
 from rail_mj.core.errors import ConfigError
 from rail_mj.mjcf import FRICTION, SOLREF_TIMECONST_FACTOR, ScenePhysics
 
@@ -26,24 +27,6 @@ SEED_RANGE = (0, 2**32 - 1)
 #: Perturbation amplitudes are fractions: 0 turns one off, 0.5 (half again or half as much) is no longer "the same"
 #: object.
 _AMPLITUDE_RANGE = (0, 0.5)
-_RANGES = {"perturbations": PERTURBATIONS_RANGE, "seed": SEED_RANGE,
-           **{name: _AMPLITUDE_RANGE for name in ("perturb_scale", "perturb_friction", "perturb_agent_mass",
-                                                  "perturb_agent_size", "perturb_offset")}}
-
-
-def _check_ranges(data: dict[str, Any]) -> None:
-    """ConfigError naming the valid range for a perturbation setting outside it."""
-    for name, (lo, hi) in _RANGES.items():
-        if name not in data:
-            continue
-        v = data[name]
-        ok = (not isinstance(v, bool) and isinstance(v, (int, float))
-              and (isinstance(v, int) or name not in ("perturbations", "seed")) and lo <= v <= hi)
-        if not ok:
-            kind = "a whole number" if name in ("perturbations", "seed") else "a number"
-            raise ConfigError(f"ImaginationConfig.{name} must be {kind} in [{lo}, {hi}]; got {v!r}")
-
-
 def _amplitude(default: float, description: str) -> Any:
     """A perturbation amplitude's field: a fraction in :data:`_AMPLITUDE_RANGE`."""
     return Field(default=default, ge=_AMPLITUDE_RANGE[0], le=_AMPLITUDE_RANGE[1], description=description)
@@ -89,10 +72,11 @@ class ImaginationConfig(BaseModel):
         description="speculative contacts (native): fast small droplets do not tunnel through thin bottoms"
     )
     perturbations: int = Field(
-        default=4, ge=PERTURBATIONS_RANGE[0], le=PERTURBATIONS_RANGE[1],
+        default=4, ge=PERTURBATIONS_RANGE[0], le=PERTURBATIONS_RANGE[1], strict=True,
         description="perturbed worlds per (pose, plan), run in the same batch as the nominal one "
                     "(rail_mj.imagination.perturb); 0: the nominal world alone")
-    seed: int = Field(default=0, ge=SEED_RANGE[0], le=SEED_RANGE[1], description="seed of the perturbation draws")
+    seed: int = Field(default=0, ge=SEED_RANGE[0], le=SEED_RANGE[1], strict=True,
+                      description="seed of the perturbation draws")
     # the issue's mesh-scale uncertainty: a scan or a CAD model's units are good to about 10%
     perturb_scale: float = _amplitude(0.10, "mesh scale varies by +-this fraction")
     # sliding friction of dry household materials on each other spans about +-30% with surface condition
@@ -111,10 +95,12 @@ class ImaginationConfig(BaseModel):
                     "poses the perturbed worlds imagine once more on the object's second decomposition")
 
     def __init__(self, **data: Any) -> None:
-        # a bad perturbation setting is the project's ConfigError with its range (model_validate, e.g. a run
+        # a bad setting is the project's ConfigError naming its declared range (model_validate, e.g. a run
         # config's nested dict, reports the same range as pydantic's ValidationError)
-        _check_ranges(data)
-        super().__init__(**data)
+        try:
+            super().__init__(**data)
+        except ValidationError as exc:
+            raise config_error(type(self), exc) from None
 
     @property
     def settle_steps(self) -> int:

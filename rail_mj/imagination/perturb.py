@@ -24,7 +24,7 @@ import numpy as np
 
 from rail_mj.core.errors import ConfigError
 from rail_mj.core.types import Basin, StablePose
-from rail_mj.imagination.config import PERTURBATIONS_RANGE, ImaginationConfig
+from rail_mj.imagination.config import ImaginationConfig
 from rail_mj.mjcf import OWNER_OBJECT, Scene
 
 __all__ = ["Perturbation", "PerturbationSet", "draw_perturbations", "scaled_pose", "resting_on", "world_model",
@@ -83,10 +83,7 @@ def _stratified(rng: np.random.Generator, k: int, amplitude: float) -> np.ndarra
 
 def draw_perturbations(config: ImaginationConfig) -> PerturbationSet:
     """The nominal world and ``config.perturbations`` perturbed ones, from ``config.seed``."""
-    k = config.perturbations
-    lo, hi = PERTURBATIONS_RANGE
-    if isinstance(k, bool) or not isinstance(k, int) or not lo <= k <= hi:
-        raise ConfigError(f"perturbations must be a whole number in [{lo}, {hi}]; got {k!r}")
+    k = config.perturbations  # its range is ImaginationConfig's, checked when the config was made
     rng = np.random.default_rng(config.seed)
     scale = _stratified(rng, k, config.perturb_scale)
     friction = _stratified(rng, k, config.perturb_friction)

@@ -47,6 +47,7 @@ from rail_mj.mjcf.scene import (
     check_fragment,
     hull_geom_name,
 )
+from rail_mj.mjcf.surface import surface_model
 
 __all__ = [
     "OWNER_GROUND",
@@ -55,7 +56,6 @@ __all__ = [
     "ScenePhysics",
     "Scene",
     "compose_scene",
-    "surface_model",
     "build_scene",
     "add_object",
     "add_agent",
@@ -478,25 +478,3 @@ def compose_scene(
                  hinge_dofs=model.jnt_dofadr[hinges].astype(np.int64),
                  hinge_radius=np.array([_reach(model, int(model.jnt_bodyid[int(j)])) for j in hinges]),
                  agent_bodies=np.stack(bodies).astype(np.int64) if bodies else np.zeros((0, 1), dtype=np.int64))
-
-
-def surface_model(obj: RailObject) -> mujoco.MjModel:
-    """The object's mesh as one static, non-colliding geom in its own frame: rays cast in it meet the surface
-    itself, where the convex hulls fill a desk's 3 cm top out to 5-9 cm or bridge a basket's slots. When MuJoCo
-    refuses the mesh (a scan too degenerate for its mesh compiler) the hulls, which the scene compiled, stand in."""
-    try:
-        return _static_meshes([(obj.mesh.vertices, obj.mesh.faces)])
-    except ValueError:
-        return _static_meshes([(hull, None) for hull in obj.hulls])
-
-
-def _static_meshes(meshes: Sequence[tuple[np.ndarray, np.ndarray | None]]) -> mujoco.MjModel:
-    """A model of static, non-colliding mesh geoms (vertices, faces; no faces: their convex hull)."""
-    spec = mujoco.MjSpec()
-    for i, (vertices, faces) in enumerate(meshes):
-        mesh = spec.add_mesh(name=f"surface{i}", uservert=np.asarray(vertices, dtype=np.float64).ravel().tolist(),
-                             inertia=mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL)
-        if faces is not None:
-            mesh.userface = np.asarray(faces, dtype=np.int32).ravel().tolist()
-        spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh.name, contype=0, conaffinity=0)
-    return spec.compile()

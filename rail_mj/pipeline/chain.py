@@ -31,8 +31,9 @@ from rail_mj.imagination.perturb import resting_on
 from rail_mj.imagination.worlds import ImaginedWorlds
 from rail_mj.llm.schemas import FunctionalPoseVerdict, ImaginationProfile
 from rail_mj.mesh import load_object, mesh_notes, redecomposed
-from rail_mj.pipeline.config import ObjectInput, PoseMode, RunConfig
-from rail_mj.pipeline.parallel import ObjectTask, run_tasks
+from rail_mj.pipeline.config import ObjectInput, RunConfig
+from rail_mj.pipeline.parallel import run_tasks
+from rail_mj.pipeline.tasks import ObjectTask
 from rail_mj.pipeline.verdicts import candidate_slots, judge, most_probable, pose_prior, undecided
 from rail_mj.scoring import ScoringFunction, compile_scoring
 from rail_mj.stable_poses import find_stable_poses, pose_from_up
@@ -373,32 +374,19 @@ def classify(
     objects: Iterable[ObjectInput | RailObject | str | Path],
     affordances: Sequence[str],
     *,
-    provider: str = "auto",
-    backend: str = "auto",
-    progress: bool | ProgressCallback = True,
     config: RunConfig | None = None,
-    pose: PoseMode | None = None,
-    agent: str | None = None,
-    owner: str | None = None,
+    progress: bool | ProgressCallback = True,
     workers: int | None = None,
     executor: str = "local",
     ray_address: str | None = None,
-    affordances_files: Sequence[str | Path] = (),
-    profile_dir: str | Path | None = None,
 ) -> list[AffordanceResult]:
     """Classify every object for every requested affordance; results object-major, in input order.
 
-    ``pose="as_placed"`` skips the stable-pose search: each object is imagined in the pose it stands in (its
-    mesh frame's z up, on the ground), the paper's real-robot test, and the result's best plan is the one in that
-    pose. ``agent`` is the request's agent ("doll" for "put the doll on the chair"): a figure scales the
-    affordance's sizes, dimension check, envelope and agent to its own (a doll's chair); ``owner``, the figure or
-    animal the request's object is for by its name ("doll" for "the doll's chair", "dog" for "the dog bed"), sets
-    the scale in its place (:func:`rail_mj.affordances.request_scale`). They default to the ``config``'s
-    (``stable``, no agent, no owner). ``affordances_files`` (TOML, :mod:`rail_mj.affordances.files`) are
-    added to the config's: their rows are registered before the names are checked, here and in every worker.
-    ``profile_dir`` (else the config's) is a profile folder in the paper authors' format or a folder of them named
-    by affordance (:mod:`rail_mj.profiles`): an affordance with a folder is imagined from it; the stages it lacks
-    and the other affordances come from the provider.
+    ``config`` (:class:`~rail_mj.pipeline.config.RunConfig`, default its defaults) holds every setting of the run:
+    provider and backend, ``pose="as_placed"`` (each object imagined in the pose it stands in, the paper's
+    real-robot test), the request's ``agent`` and ``owner`` (a doll's chair), ``affordances_files`` (their rows are
+    registered before the names are checked, here and in every worker), ``profile_dir`` (profile folders in the
+    paper authors' format, :mod:`rail_mj.profiles`) and each stage's config.
 
     ``progress`` is ``True`` for a progress bar, ``False`` for none, or a callback
     ``(done, total, result)`` called after each (object, affordance), as objects finish.
@@ -411,20 +399,7 @@ def classify(
     result is the same however the objects were spread.
     """
     _check_names(affordances)
-    update: dict[str, Any] = {"provider": provider, "backend": backend}
-    if pose is not None:
-        if pose not in ("stable", "as_placed"):
-            raise ConfigError(f"unknown pose mode {pose!r}; valid: stable, as_placed")
-        update["pose"] = pose
-    if agent is not None:
-        update["agent"] = agent
-    if owner is not None:
-        update["owner"] = owner
-    if affordances_files:
-        update["affordances_files"] = [*(config or RunConfig()).affordances_files, *map(Path, affordances_files)]
-    if profile_dir is not None:
-        update["profile_dir"] = Path(profile_dir)
-    cfg = RunConfig.model_validate({**(config or RunConfig()).model_dump(exclude_unset=True), **update})
+    cfg = config or RunConfig()
     # set, not defaulted: a worker elsewhere has no $RAIL_MJ_PROFILE_DIR of this process
     cfg = cfg.model_copy(update={"profile_dir": cfg.profile_dir})
     pipe = Pipeline(cfg)

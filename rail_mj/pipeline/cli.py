@@ -19,6 +19,7 @@ import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from rail_mj.core.cli import EXIT_FAILED, EXIT_OK, report_error
 from rail_mj.core.errors import RailError
@@ -208,9 +209,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             from rail_mj.render.mjcf_export import check_scene_dir
 
             check_scene_dir(args.save_scene)  # before any work
-        options = dict(provider=args.provider, backend=args.backend, progress=False,
-                       affordances_files=args.affordances_file, config=RunConfig(profile_origin=args.profile_origin),
-                       profile_dir=args.profile_dir)
+        config = RunConfig(provider=args.provider, backend=args.backend, affordances_files=args.affordances_file,
+                           profile_origin=args.profile_origin,
+                           **({} if args.profile_dir is None else {"profile_dir": args.profile_dir}))
+        options: dict[str, Any] = dict(progress=False, config=config)
         item = ObjectInput(path=args.mesh, units=args.units, up=args.up)
         if args.rank:
             results = rank([item], args.affordance, **options)[0].results

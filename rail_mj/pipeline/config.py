@@ -76,11 +76,6 @@ class RunOptions(BaseModel):
         return None if path is None else path.expanduser().resolve()
 
 
-def _run_drops() -> StablePoseConfig:
-    """A run's stable-pose search: 64 drops."""
-    return StablePoseConfig(n_drops=64)
-
-
 class RunConfig(RunOptions):
     """Settings of a classification run: its options and the config of each stage."""
 
@@ -88,7 +83,7 @@ class RunConfig(RunOptions):
         default=None, description="CoACD settings; None: chosen per mesh (rail_mj.mesh.decomposition_for), with "
                                   "the hull quality guard"
     )
-    stable_poses: StablePoseConfig = Field(default_factory=_run_drops, description="the stable-pose search")
+    stable_poses: StablePoseConfig = Field(default_factory=StablePoseConfig, description="the stable-pose search")
     imagination: ImaginationConfig = Field(default_factory=ImaginationConfig,
                                            description="physics and driving of the imagination rollouts")
 

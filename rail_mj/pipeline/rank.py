@@ -18,7 +18,7 @@ from rail_mj.affordances.registry import known_affordances, load_files
 from rail_mj.core.results import AffordanceResult
 from rail_mj.core.types import RailObject
 from rail_mj.pipeline.chain import classify
-from rail_mj.pipeline.config import ObjectInput
+from rail_mj.pipeline.config import ObjectInput, RunConfig
 
 __all__ = ["Ranking", "rank", "ranked"]
 
@@ -43,17 +43,18 @@ def ranked(results: Sequence[AffordanceResult]) -> list[AffordanceResult]:
 def rank(
     objects: Iterable[ObjectInput | RailObject | str | Path],
     affordances: Sequence[str] | None = None,
-    **kwargs: Any,
+    *,
+    config: RunConfig | None = None,
+    **execution: Any,
 ) -> list[Ranking]:
     """Rank every registered affordance (or ``affordances``) for each object by probability; one
-    :class:`Ranking` per object, in input order. ``kwargs`` are :func:`rail_mj.pipeline.chain.classify`'s
-    (provider, backend, workers, config, affordances_files, ...); with ``affordances_files`` their rows join the
-    ranked set."""
-    files = kwargs.get("affordances_files") or ()
-    if affordances is None and files:
-        load_files([Path(f) for f in files])
+    :class:`Ranking` per object, in input order. ``config`` and the execution options (``progress``, ``workers``,
+    ``executor``, ``ray_address``) are :func:`rail_mj.pipeline.chain.classify`'s; the rows of the config's
+    ``affordances_files`` join the ranked set."""
+    if affordances is None and config is not None and config.affordances_files:
+        load_files(config.affordances_files)
     names = list(affordances) if affordances is not None else known_affordances()
-    results = classify(list(objects), names, **kwargs)
+    results = classify(list(objects), names, config=config, **execution)
     per_object: list[list[AffordanceResult]] = []
     for i in range(0, len(results), len(names)):
         per_object.append(ranked(results[i:i + len(names)]))

@@ -21,7 +21,7 @@ from rail_mj.profiles.source import (
     folder_task,
     is_profile_folder,
 )
-from rail_mj.profiles.urdf import fragment_to_urdf, urdf_to_fragment
+from rail_mj.urdf.agent import fragment_to_urdf, urdf_to_fragment
 
 __all__ = [
     "AGREE_M",

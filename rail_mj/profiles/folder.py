@@ -50,7 +50,7 @@ from rail_mj.llm.schemas import (
 )
 from rail_mj.mjcf import check_fragment
 from rail_mj.profiles.evaluation import evaluation_scoring, probe_scoring
-from rail_mj.profiles.urdf import fragment_to_urdf, urdf_to_fragment
+from rail_mj.urdf.agent import fragment_to_urdf, urdf_to_fragment
 
 __all__ = ["Origin", "ORIGIN_LIFT", "AGREE_M", "import_profile", "save_profile"]
 

@@ -16,7 +16,7 @@ from rail_mj.robot.judge import EndState, Judgement, judge
 from rail_mj.robot.model import fetch_panda, load_panda_spec, panda_dir
 from rail_mj.robot.request import parse_request
 from rail_mj.robot.run import ObjectSpec, run_request
-from rail_mj.robot.scene import build_scene
+from rail_mj.robot.scene import build_robot_scene
 
 __all__ = [
     "RobotConfig",
@@ -24,7 +24,7 @@ __all__ = [
     "ForceEvent",
     "DriveResult",
     "ScoringFunction",
-    "build_scene",
+    "build_robot_scene",
     "drive",
     "execute",
     "fetch_panda",

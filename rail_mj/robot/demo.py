@@ -327,9 +327,10 @@ def imagined_case(obj: RailObject, affordance: str, backend: str = "auto", *, ag
     """Classify the object for the affordance with the offline provider, at the scale of the request's ``agent``;
     the executable result or None."""
     from rail_mj.pipeline.chain import classify
+    from rail_mj.pipeline.config import RunConfig
 
-    return case_from_result(classify([obj], [affordance], provider="offline", backend=backend, progress=False,
-                                     agent=agent, workers=1)[0])
+    return case_from_result(classify([obj], [affordance], config=RunConfig(provider="offline", backend=backend,
+                                     agent=agent), progress=False, workers=1)[0])
 
 
 def run_demo(affordances: list[str] | None = None, trials: int = 4, *, config: RobotConfig | None = None,

@@ -36,7 +36,7 @@ from rail_mj.robot.scene import (
     TOP_GRASPS,
     Neighbour,
     RobotScene,
-    build_scene,
+    build_robot_scene,
     graspable_scale,
     hand_z,
     home_grip,
@@ -355,7 +355,7 @@ def execute(obj: RailObject, pose: StablePose, agent_fragment: str, trajectory: 
     # top board over the shelf the item is pushed onto), a hand holding it from behind may not
     for grasp in [*TOP_GRASPS, *side_grasps(traj[:, :3], quats[-1])]:
         t0 = time.perf_counter()
-        scene = build_scene(cfg, obj=obj, pose=pose, agent_fragment=agent_fragment, agent_scale=scale,
+        scene = build_robot_scene(cfg, obj=obj, pose=pose, agent_fragment=agent_fragment, agent_scale=scale,
                             visual=True if render is not None else None, grasp=grasp, others=others)
         timings["build"] += time.perf_counter() - t0
         t0 = time.perf_counter()

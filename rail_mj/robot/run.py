@@ -23,6 +23,7 @@ from rail_mj.core.types import RailObject, StablePose
 from rail_mj.llm.schemas import Request
 from rail_mj.mesh import object_from_mesh
 from rail_mj.pipeline.chain import classify
+from rail_mj.pipeline.config import RunConfig
 from rail_mj.robot.control import RobotConfig
 from rail_mj.robot.demo import case_from_result
 from rail_mj.robot.executor import execute
@@ -150,8 +151,8 @@ def run_table(req: Request, placed: Sequence[Placed], *, scan: bool = True, conf
                            "paper": req.affordance in PAPER_AFFORDANCES}
 
     def imagine(o: RailObject):
-        return classify([o], [req.affordance], provider="offline", progress=False, workers=1, pose="as_placed",
-                        agent=req.agent, owner=req.owner)[0]
+        return classify([o], [req.affordance], config=RunConfig(provider="offline", pose="as_placed",
+                        agent=req.agent, owner=req.owner), progress=False, workers=1)[0]
 
     candidates: list[dict[str, Any]] = []
     for p in placed:

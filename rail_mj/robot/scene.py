@@ -36,7 +36,7 @@ __all__ = [
     "TOP_GRASPS",
     "Neighbour",
     "RobotScene",
-    "build_scene",
+    "build_robot_scene",
     "hand_z",
     "side_grasp",
     "side_grasps",
@@ -177,7 +177,7 @@ def side_grasp(direction: np.ndarray, fingers_vertical: bool = False) -> np.ndar
     return quat
 
 
-def build_scene(cfg: RobotConfig, *, obj: RailObject | None = None, pose: StablePose | None = None,
+def build_robot_scene(cfg: RobotConfig, *, obj: RailObject | None = None, pose: StablePose | None = None,
                 agent_fragment: str | None = None, agent_scale: float = 1.0,
                 boxes: tuple[tuple[np.ndarray, np.ndarray], ...] = (), visual: bool | None = None,
                 grasp: np.ndarray = GRASP_QUAT, others: tuple[Neighbour, ...] = ()) -> RobotScene:
@@ -212,7 +212,7 @@ def build_scene(cfg: RobotConfig, *, obj: RailObject | None = None, pose: Stable
     shift = np.array([tx, ty, th])
     if obj is not None:
         if pose is None:
-            raise RobotError("build_scene: an object needs its stable pose")
+            raise RobotError("build_robot_scene: an object needs its stable pose")
         half_extents = np.asarray(pose.half_extents, dtype=float)
         add_object(spec, obj, pos=np.asarray(pose.pos, dtype=float) + shift, quat=np.asarray(pose.quat, dtype=float),
                    physics=physics)

@@ -26,8 +26,10 @@ from typing import Any
 import mujoco
 import numpy as np
 import scipy.spatial
+from pydantic import ValidationError
 
-from rail_mj.core.errors import ConfigError, StablePoseError
+from rail_mj.core.config import config_error
+from rail_mj.core.errors import StablePoseError
 from rail_mj.core.geometry import rotation_to_z, up_in_mesh_frame
 from rail_mj.core.paths import cache_dir
 from rail_mj.core.results import PoseInfo
@@ -115,12 +117,18 @@ def _from_json(text: str) -> StablePoses:
 
 
 def _with_settings(config: StablePoseConfig, settings: dict[str, Any]) -> StablePoseConfig:
-    """``config`` with the fields named in ``settings`` replaced (their values are checked by the caller)."""
+    """``config`` with the fields named in ``settings`` replaced, checked against their declared ranges
+    (ConfigError naming the range)."""
     unknown = sorted(set(settings) - set(StablePoseConfig.model_fields))
     if unknown:
         raise TypeError(f"find_stable_poses() got unexpected settings {unknown}; valid: "
                         f"{', '.join(StablePoseConfig.model_fields)}")
-    return config.model_copy(update=settings) if settings else config
+    if not settings:
+        return config
+    try:
+        return StablePoseConfig.model_validate({**dict(config), **settings})
+    except ValidationError as exc:
+        raise config_error(StablePoseConfig, exc) from None
 
 
 def find_stable_poses(
@@ -134,11 +142,6 @@ def find_stable_poses(
     config = _with_settings(config or StablePoseConfig(), settings)
     n_drops, seed, settle_time = config.n_drops, config.seed, config.settle_time
     drop_height, tolerance_deg, min_probability = config.drop_height, config.tolerance_deg, config.min_probability
-    if n_drops < 1 or settle_time <= 0 or not 0 < tolerance_deg < 90 or drop_height < 0:
-        raise ConfigError(
-            f"need n_drops >= 1, settle_time > 0, 0 < tolerance_deg < 90, drop_height >= 0; got {n_drops}, "
-            f"{settle_time}, {tolerance_deg}, {drop_height}"
-        )
     params: dict[str, Any] = dict(n_drops=n_drops, seed=seed, settle_time=settle_time, drop_height=drop_height,
                                   tolerance_deg=tolerance_deg, min_probability=min_probability)
     physics = config.physics.model_dump(exclude={"nthread"})  # threads do not change a drop's outcome

@@ -109,6 +109,10 @@ class Kind(ABC):
     #: world whose agent is ``agent_size`` times the size is judged by the row scaled for that agent
     #: (:meth:`Affordance.scaled`), as a doll's chair is judged for a doll.
     rules_read_agent_size: ClassVar[bool] = False
+    #: An owner's body sets the size of the kind's objects (what a figure or an animal lies or sits on: "the dog
+    #: bed"); a bowl is sized by its food and a basket by what it carries, so "dog bowl" is refused unless a row
+    #: names it.
+    sized_by_owner_body: ClassVar[bool] = False
 
     @abstractmethod
     def agent(self, aff: Affordance, dims: Sequence[float]) -> AgentShape:

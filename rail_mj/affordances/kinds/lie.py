@@ -46,6 +46,7 @@ _PLACES = (("", 0.0), ("_aside", 0.25))
 class Lie(Kind):
     name = "lie"
     rules_read_agent_size = True
+    sized_by_owner_body = True
     agent_description = ("An articulated human body (pelvis, torso, head, thighs, shanks, feet; Winter's "
                          "anthropometry, 1.75 m and 75 kg for a person) lying on its back, its joints held by "
                          "posture springs.")

@@ -94,6 +94,7 @@ _ASIDE_HEADINGS = ("left", "right")
 class Seat(Kind):
     name = "seat"
     rules_read_agent_size = True
+    sized_by_owner_body = True
     params_model = SeatParams
     agent_description = ("An articulated human body (pelvis, torso, head, thighs, shanks, feet; Winter's "
                          f"anthropometry, 1.75 m and 75 kg for a person) with hips at 90° and knees at {SIT_KNEE:g}°, "

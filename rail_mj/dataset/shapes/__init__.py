@@ -10,7 +10,8 @@ Every builder is found by its class name in :data:`GENERATORS` (``shapes.GENERAT
 
 * :mod:`~rail_mj.dataset.shapes.parts`: :class:`Built`, the basket constants and the shared primitives;
 * :mod:`~rail_mj.dataset.shapes.core`: the core family's builders;
-* :mod:`~rail_mj.dataset.shapes.world`: the world family's (armchairs to cartons: the shapes real meshes have);
+* :mod:`~rail_mj.dataset.shapes.world_seats` and :mod:`~rail_mj.dataset.shapes.world`: the world family's
+  (armchairs to cartons: the shapes real meshes have);
 * :mod:`~rail_mj.dataset.shapes.corruptions`: the scan-like corruptions (:data:`GEOMETRIC_CORRUPTIONS`),
   which take a built mesh and a generator of their own;
 * :mod:`~rail_mj.dataset.shapes.catalog`: :data:`GENERATORS`, the builder of every class by class name.

@@ -33,9 +33,7 @@ from rail_mj.dataset.shapes.core import (
 )
 from rail_mj.dataset.shapes.parts import Built
 from rail_mj.dataset.shapes.world import (
-    armchair,
     ashtray,
-    bar_chair,
     bed,
     bowl_real,
     carton,
@@ -45,16 +43,13 @@ from rail_mj.dataset.shapes.world import (
     goblet,
     handle_pot,
     ladle,
-    ottoman,
     plate_real,
     riser,
     saucepan,
     scoop,
-    shell_chair,
-    sofa,
-    stool,
     wall_shelf_box,
 )
+from rail_mj.dataset.shapes.world_seats import armchair, bar_chair, ottoman, shell_chair, sofa, stool
 
 __all__ = ["GENERATORS"]
 

@@ -5,7 +5,7 @@ images are fused into a TSDF (Open3D), the table plane is removed, the largest c
 its surface is extracted as a mesh in the world frame (metres, z up), resting where the object stands.
 
 This is the paper's real-robot perception (12 wrist-camera poses, TSDF fusion, the object cropped from the
-scene cloud). The scene is the executor's (``rail_mj.robot.scene.build_scene``): the object stands in a
+scene cloud). The scene is the executor's (``rail_mj.robot.scene.build_robot_scene``): the object stands in a
 stable pose on the table at ``RobotConfig.object_xy``. The camera sees the object's true mesh (a render-only
 geom); the robot's links are rendered too (they can occlude) and masked out with a segmentation render.
 

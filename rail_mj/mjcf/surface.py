@@ -1,0 +1,34 @@
+"""The object's own surface as a static model: what ray probes meet, where its convex hulls would fill or bridge."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import mujoco
+import numpy as np
+
+from rail_mj.core.types import RailObject
+
+__all__ = ["surface_model", "static_meshes"]
+
+
+def surface_model(obj: RailObject) -> mujoco.MjModel:
+    """The object's mesh as one static, non-colliding geom in its own frame: rays cast in it meet the surface
+    itself, where the convex hulls fill a desk's 3 cm top out to 5-9 cm or bridge a basket's slots. When MuJoCo
+    refuses the mesh (a scan too degenerate for its mesh compiler) the hulls, which the scene compiled, stand in."""
+    try:
+        return static_meshes([(obj.mesh.vertices, obj.mesh.faces)])
+    except ValueError:
+        return static_meshes([(hull, None) for hull in obj.hulls])
+
+
+def static_meshes(meshes: Sequence[tuple[np.ndarray, np.ndarray | None]]) -> mujoco.MjModel:
+    """A model of static, non-colliding mesh geoms (vertices, faces; no faces: their convex hull)."""
+    spec = mujoco.MjSpec()
+    for i, (vertices, faces) in enumerate(meshes):
+        mesh = spec.add_mesh(name=f"surface{i}", uservert=np.asarray(vertices, dtype=np.float64).ravel().tolist(),
+                             inertia=mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL)
+        if faces is not None:
+            mesh.userface = np.asarray(faces, dtype=np.int32).ravel().tolist()
+        spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh.name, contype=0, conaffinity=0)
+    return spec.compile()
