@@ -164,7 +164,7 @@ def cpu_model() -> str:
 
 
 def imagination_wall(obj, agents, backend: str, cfg: ImaginationConfig) -> tuple[float, int]:
-    poses = find_stable_poses(obj, n_drops=64)
+    poses = find_stable_poses(obj)
     top = float(max(p.half_extents[2] for p in poses))
     plans = [np.array([[dx, 0.0, top + 0.04, 1, 0, 0, 0]]) for dx in (-0.02, -0.01, 0.0, 0.01, 0.02)]
     t = time.perf_counter()

@@ -3,6 +3,8 @@
 Library API::
 
     import rail_mj
+    from rail_mj.pipeline.config import RunConfig
+
     results = rail_mj.classify(["mug.obj"], ["cup", "chair"], config=RunConfig(provider="offline"))
 
 Heavy modules (MuJoCo, JAX) load on first use of the names below.

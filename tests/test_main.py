@@ -78,7 +78,7 @@ def test_run_config_nests_each_stages_config_with_todays_defaults() -> None:
     assert cfg.imagination == ImaginationConfig()
     with pytest.raises(ValidationError, match="stable_poses.n_drops"):
         RunConfig(stable_poses={"n_drops": 0})
-    with pytest.raises(ValidationError, match="imagination.timestep"):
+    with pytest.raises(ValidationError, match=r"ImaginationConfig.timestep must be a number in \(0, 0.02\]"):
         RunConfig(imagination={"timestep": -1.0})
 
 

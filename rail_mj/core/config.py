@@ -6,7 +6,7 @@ Every config is a pydantic model whose fields declare their ranges once (``Field
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, get_args
 
 from annotated_types import Ge, Gt, Le, Lt
 from pydantic import BaseModel, ValidationError
@@ -20,7 +20,11 @@ def valid_range(model: type[BaseModel], name: str) -> str:
     """``a whole number in [0, 32]``, ``a number > 0``: what field ``name`` of ``model`` takes, from its
     declaration."""
     info = model.model_fields[name]
-    kind = "a whole number" if info.annotation is int else "a number" if info.annotation is float else "a value"
+    args = set(get_args(info.annotation)) or {info.annotation}
+    kind = ("True or False" if bool in args else "a whole number" if int in args else "a number" if float in args
+            else "a value")
+    if type(None) in args:
+        kind = f"None or {kind}"
     lo = hi = None
     lo_open = hi_open = False
     for m in info.metadata:
@@ -47,7 +51,9 @@ def config_error(model: type[BaseModel], exc: ValidationError) -> ConfigError:
     for e in exc.errors():
         name = str(e["loc"][0]) if e["loc"] else ""
         value: Any = e.get("input")
-        if name in model.model_fields:
+        if name in model.model_fields and e["type"] == "value_error":  # a validator's own words
+            lines.append(f"{model.__name__}.{name} {str(e['msg']).removeprefix('Value error, ')}; got {value!r}")
+        elif name in model.model_fields:
             lines.append(f"{model.__name__}.{name} must be {valid_range(model, name)}; got {value!r}")
         else:
             lines.append(f"{model.__name__}: {e['msg']} ({'.'.join(map(str, e['loc']))})")

@@ -17,6 +17,17 @@ from rail_mj.eval.summary import summarize
 __all__ = ["merge_runs"]
 
 
+def _flat(config: dict, prefix: str = "") -> dict:
+    """A run's settings by their dotted path (``run.stable_poses.n_drops``), so a refusal names the one that differs."""
+    out: dict = {}
+    for k, v in config.items():
+        if isinstance(v, dict):
+            out.update(_flat(v, f"{prefix}{k}."))
+        else:
+            out[f"{prefix}{k}"] = v
+    return out
+
+
 def _read_plan(folder: Path) -> dict:
     path = folder / PLAN_FILE
     try:
@@ -53,8 +64,8 @@ def merge_runs(inputs: Sequence[Path], out: Path, *, render: bool = True) -> dic
         raise ConfigError(f"merge: {out} holds a run's results; merge into an empty folder or a previous merge's")
     ref, ref_plan = inputs[0], plans[0]
     for p, plan in zip(inputs[1:], plans[1:]):
-        differ = sorted(k for k in ref_plan["config"].keys() | plan["config"].keys()
-                        if ref_plan["config"].get(k) != plan["config"].get(k))
+        mine, theirs = _flat(ref_plan["config"]), _flat(plan["config"])
+        differ = sorted(k for k in mine.keys() | theirs.keys() if mine.get(k) != theirs.get(k))
         if differ:
             raise ConfigError(f"merge: {p} was run with other settings than {ref} ({', '.join(differ)}); "
                               "merge the shards of one command")

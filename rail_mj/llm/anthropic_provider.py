@@ -6,14 +6,11 @@ The repair rounds, the response cache and the validation are :class:`rail_mj.llm
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, fields
-from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
 
 from rail_mj.core.errors import ConfigError, ProviderError
 from rail_mj.llm.prompts import StageSpec
 from rail_mj.llm.provider_base import (
-    DEFAULT_TEMPERATURE,
     MODEL_ENV,
     LLMConfig,
     LLMProvider,
@@ -33,7 +30,6 @@ __all__ = ["DEFAULT_MODEL", "OPTIONS", "AnthropicConfig", "AnthropicProvider"]
 DEFAULT_MODEL = "claude-sonnet-4-5"
 
 
-@dataclass(frozen=True)
 class AnthropicConfig(LLMConfig):
     """The Anthropic provider's settings, fixed at construction (the API key stays with the client only)."""
 
@@ -41,7 +37,7 @@ class AnthropicConfig(LLMConfig):
 
 
 #: Keyword options of :class:`AnthropicProvider` (and so of ``get_provider("anthropic", ...)``).
-OPTIONS: tuple[str, ...] = ("api_key", *(f.name for f in fields(AnthropicConfig)))
+OPTIONS: tuple[str, ...] = ("api_key", *AnthropicConfig.model_fields)
 
 
 class AnthropicProvider(LLMProvider):
@@ -64,30 +60,23 @@ class AnthropicProvider(LLMProvider):
         *,
         api_key: str | None = None,
         base_url: str | None = None,
-        timeout: float = 120.0,
-        http_retries: int = 2,
-        temperature: float | None = DEFAULT_TEMPERATURE,
-        max_tokens: int = 8192,
-        cache_root: str | os.PathLike[str] | None = None,
-        max_retries: int = 2,
-        cache: bool = True,
+        **settings: Any,
     ) -> None:
+        """``settings``: the other fields of :class:`AnthropicConfig` (timeout, http_retries, temperature,
+        max_tokens, cache_root, max_retries, cache), each defaulting there."""
         key = api_key or os.environ.get("ANTHROPIC_API_KEY")
         if not key:
             raise ConfigError(
                 "the anthropic provider needs an API key: set ANTHROPIC_API_KEY (or pass api_key=), "
                 "or use the offline provider"
             )
-        config = AnthropicConfig(
-            max_retries=max_retries, cache=cache, model=model or os.environ.get(MODEL_ENV) or DEFAULT_MODEL,
-            base_url=base_url, timeout=timeout, http_retries=http_retries, temperature=temperature,
-            max_tokens=max_tokens, cache_root=Path(cache_root) if cache_root is not None else None,
-        )
+        config = AnthropicConfig(model=model or os.environ.get(MODEL_ENV) or DEFAULT_MODEL, base_url=base_url,
+                                 **settings)
         super().__init__(config)
         import anthropic  # here, not at module level: only this provider needs the SDK
 
-        self._client = anthropic.Anthropic(api_key=key, base_url=base_url, timeout=timeout,
-                                           max_retries=http_retries)
+        self._client = anthropic.Anthropic(api_key=key, base_url=base_url, timeout=config.timeout,
+                                           max_retries=config.http_retries)
 
     @property
     def config(self) -> AnthropicConfig:

@@ -19,15 +19,14 @@ import os
 import time
 import urllib.error
 import urllib.request
-from dataclasses import dataclass, fields
 from email.message import Message
-from pathlib import Path
 from typing import Any
+
+from pydantic import Field, field_validator
 
 from rail_mj.core.errors import ConfigError, ProviderError
 from rail_mj.llm.prompts import StageSpec
 from rail_mj.llm.provider_base import (
-    DEFAULT_TEMPERATURE,
     MODEL_ENV,
     LLMConfig,
     LLMProvider,
@@ -62,29 +61,31 @@ _MAX_BODY = 32 * 1024 * 1024
 _RETRIED = frozenset({408, 409, 429, 500, 502, 503, 504})
 
 
-@dataclass(frozen=True)
 class OpenAIConfig(LLMConfig):
     """The OpenAI-compatible provider's settings, fixed at construction (the API key stays with the provider)."""
 
     model: str = DEFAULT_MODEL
     base_url: str | None = DEFAULT_BASE_URL
-    strict: bool = True  # json_schema.strict: the hosted API then decodes exactly the schema
+    strict: bool = Field(default=True, strict=True,
+                         description="json_schema.strict: the hosted API then decodes exactly the schema")
 
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        if not isinstance(self.base_url, str) or not self.base_url.startswith(("http://", "https://")):
-            raise ConfigError(
-                f"base_url must be an http:// or https:// URL up to /v1 (e.g. http://localhost:8000/v1); "
-                f"got {self.base_url!r}"
-            )
-        if not isinstance(self.strict, bool):
-            raise ConfigError(f"strict must be True or False; got {self.strict!r}")
-        if not self.model.strip():
-            raise ConfigError(f"model must be non-empty: set {MODEL_ENV} (or pass model=)")
+    @field_validator("base_url")
+    @classmethod
+    def _url(cls, url: str | None) -> str | None:
+        if not isinstance(url, str) or not url.startswith(("http://", "https://")):
+            raise ValueError("must be an http:// or https:// URL up to /v1 (e.g. http://localhost:8000/v1)")
+        return url
+
+    @field_validator("model")
+    @classmethod
+    def _model(cls, model: str) -> str:
+        if not model.strip():
+            raise ValueError(f"must be non-empty: set {MODEL_ENV} (or pass model=)")
+        return model
 
 
 #: Keyword options of :class:`OpenAIProvider` (and so of ``get_provider("openai", ...)``).
-OPTIONS: tuple[str, ...] = ("api_key", *(f.name for f in fields(OpenAIConfig)))
+OPTIONS: tuple[str, ...] = ("api_key", *OpenAIConfig.model_fields)
 
 
 class _NoRedirect(urllib.request.HTTPRedirectHandler):
@@ -113,15 +114,10 @@ class OpenAIProvider(LLMProvider):
         *,
         api_key: str | None = None,
         base_url: str | None = None,
-        timeout: float = 120.0,
-        http_retries: int = 2,
-        temperature: float | None = DEFAULT_TEMPERATURE,
-        max_tokens: int = 8192,
-        cache_root: str | os.PathLike[str] | None = None,
-        strict: bool = True,
-        max_retries: int = 2,
-        cache: bool = True,
+        **settings: Any,
     ) -> None:
+        """``settings``: the other fields of :class:`OpenAIConfig` (timeout, http_retries, temperature, max_tokens,
+        cache_root, strict, max_retries, cache), each defaulting there."""
         url = (base_url or os.environ.get(BASE_URL_ENV) or DEFAULT_BASE_URL).strip().rstrip("/")
         hosted = url == DEFAULT_BASE_URL
         key = api_key or os.environ.get(API_KEY_ENV) or ""
@@ -137,11 +133,7 @@ class OpenAIProvider(LLMProvider):
                 f"the openai provider needs a model name for the server at {url}: set {MODEL_ENV} (or pass "
                 f"model=) to a model it serves, e.g. {MODEL_ENV}=llama3.1 for Ollama"
             )
-        config = OpenAIConfig(
-            max_retries=max_retries, cache=cache, model=chosen, base_url=url, timeout=timeout,
-            http_retries=http_retries, temperature=temperature, max_tokens=max_tokens,
-            cache_root=Path(cache_root) if cache_root is not None else None, strict=strict,
-        )
+        config = OpenAIConfig(model=chosen, base_url=url, **settings)
         super().__init__(config)
         self._headers = {"content-type": "application/json", "accept": "application/json"}
         if key:

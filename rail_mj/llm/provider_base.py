@@ -20,14 +20,14 @@ from __future__ import annotations
 import json
 from abc import ABC, abstractmethod
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar
 
 import pydantic
-from pydantic import BaseModel
+from pydantic import BaseModel, ConfigDict, Field
 
 from rail_mj.affordances import normalize
+from rail_mj.core.config import config_error
 from rail_mj.core.errors import (
     ConfigError,
     FragmentError,
@@ -61,18 +61,21 @@ MODEL_ENV = "RAIL_MJ_MODEL"
 DEFAULT_TEMPERATURE = 0.1
 
 
-@dataclass(frozen=True)
-class ProviderConfig:
-    """Settings every provider takes, fixed for its life."""
+class ProviderConfig(BaseModel):
+    """Settings every provider takes, fixed for its life; a bad value is a ConfigError naming its range."""
 
-    max_retries: int = 2  # repair rounds per stage after a rejected answer
-    cache: bool = True  # read and write the on-disk answer cache (RAIL_MJ_NO_CACHE=1 still turns it off)
+    model_config = ConfigDict(frozen=True, extra="forbid")
 
-    def __post_init__(self) -> None:
-        if isinstance(self.max_retries, bool) or not isinstance(self.max_retries, int) or self.max_retries < 0:
-            raise ConfigError(f"max_retries must be an integer >= 0; got {self.max_retries!r}")
-        if not isinstance(self.cache, bool):
-            raise ConfigError(f"cache must be True or False; got {self.cache!r}")
+    max_retries: int = Field(default=2, ge=0, strict=True, description="repair rounds per stage after a rejected "
+                                                                         "answer")
+    cache: bool = Field(default=True, strict=True, description="read and write the on-disk answer cache "
+                                                               "(RAIL_MJ_NO_CACHE=1 still turns it off)")
+
+    def __init__(self, **data: Any) -> None:
+        try:
+            super().__init__(**data)
+        except pydantic.ValidationError as exc:
+            raise config_error(type(self), exc) from None
 
 
 class Provider(ABC):
@@ -116,25 +119,16 @@ class Provider(ABC):
         """A validated answer of type ``stage.output_type``; StageError when none is found."""
 
 
-@dataclass(frozen=True)
 class LLMConfig(ProviderConfig):
     """The settings every LLM provider takes, fixed at construction (an API key stays with the provider only)."""
 
     model: str = ""
     base_url: str | None = None
-    timeout: float = 120.0  # s per request
-    http_retries: int = 2  # retries of HTTP 429/5xx
+    timeout: float = Field(default=120.0, gt=0, description="s per request")
+    http_retries: int = Field(default=2, ge=0, description="retries of HTTP 429/5xx")
     temperature: float | None = DEFAULT_TEMPERATURE
-    max_tokens: int = 8192
-    cache_root: Path | None = None  # default: cache_dir("llm")
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        if self.timeout <= 0 or self.http_retries < 0 or self.max_tokens < 1:
-            raise ConfigError(
-                f"timeout must be > 0 s, http_retries >= 0, max_tokens >= 1; got {self.timeout}, "
-                f"{self.http_retries}, {self.max_tokens}"
-            )
+    max_tokens: int = Field(default=8192, ge=1)
+    cache_root: Path | None = Field(default=None, description="default: cache_dir('llm')")
 
 
 class LLMProvider(Provider):

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-from dataclasses import fields
 from typing import Any
 
 import rail_mj.llm.offline as offline
@@ -16,7 +15,7 @@ __all__ = ["Provider", "ProviderConfig", "OfflineProvider", "PROVIDERS", "get_pr
 #: Provider names accepted by :func:`get_provider`.
 PROVIDERS = ("auto", "offline", "anthropic", "openai")
 #: Options every provider takes.
-_COMMON = tuple(f.name for f in fields(ProviderConfig))
+_COMMON = tuple(ProviderConfig.model_fields)
 
 
 class OfflineProvider(Provider):
@@ -29,8 +28,8 @@ class OfflineProvider(Provider):
     name = "offline"
     novel_affordances = False
 
-    def __init__(self, *, max_retries: int = 2, cache: bool = True) -> None:
-        super().__init__(ProviderConfig(max_retries=max_retries, cache=cache))
+    def __init__(self, **settings: Any) -> None:
+        super().__init__(ProviderConfig(**settings))
 
     @property
     def model(self) -> str:

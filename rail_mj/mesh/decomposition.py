@@ -15,15 +15,16 @@ import signal
 import subprocess
 import sys
 import zipfile
-from dataclasses import asdict, dataclass, replace
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 import trimesh
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from scipy.spatial import ConvexHull, QhullError
 
-from rail_mj.core.errors import ConfigError, DecompositionError, DecompositionTimeout
+from rail_mj.core.config import config_error
+from rail_mj.core.errors import DecompositionError, DecompositionTimeout
 from rail_mj.core.paths import cache_dir
 from rail_mj.core.runfiles import atomic_write_bytes
 from rail_mj.mesh.repair import _body_labels, _decimate
@@ -52,55 +53,44 @@ _MIN_COACD_FACES = 500
 _MIN_HULL_VOLUME = 1e-12
 
 
-@dataclass(frozen=True)
-class DecompositionConfig:
+class DecompositionConfig(BaseModel):
     """CoACD parameters and the hull vertex cap.
 
     The defaults decompose a ~5.9k-face mug with a handle in ~7 s of CPU into
     25 hulls that leave its cavity free (``benchmarks/coacd_time.py``);
     CoACD's own defaults (resolution 2000, 150 MCTS iterations, remeshing)
     took ~2 minutes here. ``mcts_max_depth=1`` is a trap: worse cuts and a
-    ~50x slower merge.
+    ~50x slower merge. A bad value is a ConfigError naming the field's declared range.
     """
 
-    threshold: float = 0.05  # concavity tolerance; larger = fewer, coarser hulls (0.08 let hulls into a cup)
-    max_convex_hull: int = 32  # hull cap (CoACD merges down to it)
-    max_hull_vertices: int = MJX_MAX_HULL_VERTICES
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    # concavity tolerance; larger = fewer, coarser hulls (0.08 let hulls into a cup)
+    threshold: float = Field(default=0.05, gt=0.0, le=1.0)
+    max_convex_hull: int = Field(default=32, ge=1)  # hull cap (CoACD merges down to it)
+    max_hull_vertices: int = Field(default=MJX_MAX_HULL_VERTICES, ge=4, le=MJX_MAX_HULL_VERTICES)  # the MJX limit
     # "auto": remesh (CoACD's manifold preprocessing) only when the repaired mesh is not a closed
     # volume — remeshing at low resolution thickens thin walls into the cavity and triples the time
     preprocess_mode: Literal["auto", "on", "off"] = "auto"
-    preprocess_resolution: int = 30
-    resolution: int = 500  # surface samples per cut evaluation
-    mcts_nodes: int = 10
-    mcts_iterations: int = 30
-    mcts_max_depth: int = 2
+    preprocess_resolution: int = Field(default=30, ge=1)
+    resolution: int = Field(default=500, ge=1)  # surface samples per cut evaluation
+    mcts_nodes: int = Field(default=10, ge=1)
+    mcts_iterations: int = Field(default=30, ge=1)
+    mcts_max_depth: int = Field(default=2, ge=1)
     seed: int = 0
     convex_shortcut: bool = True  # a convex mesh is its own (reduced) hull, no CoACD call
     # CoACD sees at most this many faces: the mesh is decimated for it alone (the object keeps the
     # repaired mesh); None: CoACD sees the mesh as repaired (<= FACE_BUDGET faces)
-    max_faces: int | None = None
+    max_faces: int | None = Field(default=None, ge=_MIN_COACD_FACES)
     # CPU seconds one CoACD run may take before it is stopped with a DecompositionTimeout: a 10k-piece
     # triangle soup ran for minutes per run. The worst real mesh here took 26 s of wall time cold.
-    time_limit_s: float = 150.0
+    time_limit_s: float = Field(default=150.0, gt=0.0, allow_inf_nan=False)
 
-    def __post_init__(self) -> None:
-        if not 0.0 < self.threshold <= 1.0:
-            raise ConfigError(f"threshold must be in (0, 1], got {self.threshold}")
-        if self.max_convex_hull < 1:
-            raise ConfigError(f"max_convex_hull must be >= 1, got {self.max_convex_hull}")
-        if not 4 <= self.max_hull_vertices <= MJX_MAX_HULL_VERTICES:
-            raise ConfigError(
-                f"max_hull_vertices must be in [4, {MJX_MAX_HULL_VERTICES}] (MJX limit), got {self.max_hull_vertices}"
-            )
-        if self.preprocess_mode not in ("auto", "on", "off"):
-            raise ConfigError(f"preprocess_mode must be one of 'auto', 'on', 'off', got {self.preprocess_mode!r}")
-        for name in ("preprocess_resolution", "resolution", "mcts_nodes", "mcts_iterations", "mcts_max_depth"):
-            if getattr(self, name) < 1:
-                raise ConfigError(f"{name} must be >= 1, got {getattr(self, name)}")
-        if not (np.isfinite(self.time_limit_s) and self.time_limit_s > 0):
-            raise ConfigError(f"time_limit_s must be a positive number of seconds, got {self.time_limit_s}")
-        if self.max_faces is not None and self.max_faces < _MIN_COACD_FACES:
-            raise ConfigError(f"max_faces must be None or >= {_MIN_COACD_FACES}, got {self.max_faces}")
+    def __init__(self, **data: Any) -> None:
+        try:
+            super().__init__(**data)
+        except ValidationError as exc:
+            raise config_error(type(self), exc) from None
 
 
 #: :func:`decomposition_for` meshes of more than :data:`DENSE_FACES` faces.
@@ -155,7 +145,7 @@ def _cache_key(digest: str, config: DecompositionConfig, n_bodies: int) -> str:
     # Options left at None and a single body are left out of the key, so the meshes and configs that
     # existed before those options and the split into bodies keep their cache entries; the time limit
     # does not change the hulls it lets through.
-    fields = {k: v for k, v in asdict(config).items() if v is not None and k != "time_limit_s"}
+    fields = {k: v for k, v in config.model_dump().items() if v is not None and k != "time_limit_s"}
     payload = {"mesh": digest, "config": fields}
     if n_bodies > 1:
         payload["bodies"] = n_bodies
@@ -300,7 +290,7 @@ def _decompose_bodies(bodies: list[trimesh.Trimesh], config: DecompositionConfig
         if cap == 1 or is_convex:
             raw.append(np.asarray(body.vertices, dtype=np.float64))
         else:
-            raw.extend(_run_coacd(body, replace(config, max_convex_hull=cap)))
+            raw.extend(_run_coacd(body, config.model_copy(update={"max_convex_hull": cap})))
     return raw
 
 
@@ -377,4 +367,4 @@ def second_decomposition(mesh: trimesh.Trimesh) -> DecompositionConfig:
     decomposition is the coarser one, whose hulls reach further into a cavity; a dense mesh's is the finer one.
     """
     first, fine, coarse = decomposition_for(mesh), DecompositionConfig().threshold, DENSE_DECOMPOSITION.threshold
-    return replace(DENSE_DECOMPOSITION, threshold=fine if first.threshold == coarse else coarse)
+    return DENSE_DECOMPOSITION.model_copy(update={"threshold": fine if first.threshold == coarse else coarse})

@@ -76,10 +76,9 @@ class Pipeline:
         load_files(self.config.affordances_files)
         self.backend = resolve_backend(self.config.backend)
         # the run's LLM settings go to the provider once; every stage then reads them from it
-        options = {"model": self.config.model} if self.config.model else {}
-        self.provider = llm.get_provider(
-            self.config.provider, max_retries=self.config.max_retries, cache=self.config.cache, **options
-        )
+        options = {k: v for k, v in (("model", self.config.model), ("max_retries", self.config.max_retries),
+                                     ("cache", self.config.cache)) if v is not None}
+        self.provider = llm.get_provider(self.config.provider, **options)
         if self.config.profile_dir is not None:
             profiles.check_profile_dir(self.config.profile_dir)
         self._profiles: dict[tuple, ImaginationProfile] = {}

@@ -33,8 +33,9 @@ class RunOptions(BaseModel):
     provider: str = Field(default="auto", description="auto | offline | anthropic | openai")
     backend: str = Field(default="auto", description="auto | native | mjx")
     model: str | None = Field(default=None, description="LLM model name (anthropic, openai provider)")
-    max_retries: int = Field(default=2, ge=0, le=10, description="LLM repair rounds per stage")
-    cache: bool = Field(default=True, description="cache LLM answers on disk")
+    # None: the provider's own default (rail_mj.llm.ProviderConfig, where each is declared with its range)
+    max_retries: int | None = Field(default=None, description="LLM repair rounds per stage; None: the provider's")
+    cache: bool | None = Field(default=None, description="cache LLM answers on disk; None: the provider's")
     profile_bin: float = Field(
         default=0.1, gt=0, le=1.0, description="relative size bin within which a profile is reused"
     )

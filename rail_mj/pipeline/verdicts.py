@@ -166,9 +166,10 @@ def judge(evidence: ImaginedWorlds, obb_dims: Sequence[float] | np.ndarray,
             p = p * aff.rest_prior(float(np.median(rests[k][best])))
         prior, doc = p.value, (p.doc() if aff is not None else "outside the registry: no size prior")
         imagined = evidence.imagined(k)
+        physics = successes / imagined
         out.append(PoseProbability(
-            index=i, prior=_unit(prior), prior_factors=doc, physics=_unit(successes / imagined),
-            probability=_unit(prior * successes / imagined), best_plan=best, successes=successes,
+            index=i, prior=_unit(prior), prior_factors=doc, physics=_unit(physics),
+            probability=_unit(prior * physics), best_plan=best, successes=successes,
             worlds=evidence.perturbations.n_worlds + (k in second), imagined=imagined, blew_up=blew_up[k],
         ))
     return out

@@ -582,7 +582,8 @@ def test_eval_takes_the_family(tmp_path):
     root, records = rail_eval._dataset(cfg, tmp_path, ["cup"])
     assert [r.class_name for r in records] == ["goblet"] and records[0].affordances == {"cup": True}
     with pytest.raises(Exception, match="valid: armchair"):
-        rail_eval._dataset(cfg.model_copy(update={"classes": ["cup"]}), tmp_path / "x", ["cup"])
+        rail_eval._dataset(cfg.model_copy(update={"dataset": cfg.dataset.model_copy(update={"classes": ["cup"]})}),
+                           tmp_path / "x", ["cup"])
 
 
 def test_an_object_that_is_itself_upside_down_is_functional_either_way_up():

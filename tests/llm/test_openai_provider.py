@@ -338,8 +338,8 @@ def test_no_key_sends_no_authorization(provider_for):
     ({"retries": 3}, r"openai provider takes no option \['retries'\]; valid: api_key, max_retries, cache, model"),
     ({"base_url": "localhost:8000/v1", "model": "m"}, r"base_url must be an http:// or https:// URL"),
     ({"base_url": "http://h/v1", "model": "m", "strict": "yes"}, r"strict must be True or False; got 'yes'"),
-    ({"base_url": "http://h/v1", "model": "m", "timeout": 0}, r"timeout must be > 0 s"),
-    ({"base_url": "http://h/v1", "model": "m", "max_retries": -1}, r"max_retries must be an integer >= 0"),
+    ({"base_url": "http://h/v1", "model": "m", "timeout": 0}, r"timeout must be a number > 0; got 0"),
+    ({"base_url": "http://h/v1", "model": "m", "max_retries": -1}, r"max_retries must be a whole number >= 0"),
 ])
 def test_bad_options_are_config_errors(options, message):
     with pytest.raises(ConfigError, match=message):

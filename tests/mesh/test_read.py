@@ -622,7 +622,7 @@ def test_max_faces_decimates_for_coacd_only(monkeypatch: pytest.MonkeyPatch, tmp
 
 
 def test_max_faces_is_checked() -> None:
-    with pytest.raises(ConfigError, match="max_faces must be None or >= 500"):
+    with pytest.raises(ConfigError, match="max_faces must be None or a whole number >= 500"):
         DecompositionConfig(max_faces=100)
 
 

@@ -136,7 +136,7 @@ def test_a_result_does_not_depend_on_the_object_before_it(cache, tmp_path):
     # dimension check then quoted (and judged) the first one's size (both far too big for a cup: nothing is
     # imagined, and the check's reason names the size)
     first, second = _box(tmp_path / "a.stl", (0.60, 0.40, 0.20)), _box(tmp_path / "b.stl", (0.58, 0.39, 0.196))
-    kw = dict(provider="offline", progress=False, workers=1, config=RunConfig(stable_poses=StablePoseConfig(n_drops=8)))
+    kw = dict(progress=False, workers=1, config=RunConfig(provider="offline", stable_poses=StablePoseConfig(n_drops=8)))
     (alone,) = classify([second], ["cup"], **kw)
     after = classify([first, second], ["cup"], **kw)[1]
     assert "0.580 x 0.390 x 0.196 m" in after.analyzer_reasons[0]

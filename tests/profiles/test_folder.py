@@ -252,9 +252,10 @@ def test_every_command_line_takes_profile_dir(tmp_path: Path, monkeypatch: pytes
     args = eval_cli._parser().parse_args(["--out", str(tmp_path / "out"), "--profile-dir", str(FIXTURES),
                                           "--profile-origin", "center"])
     cfg = eval_cli._config(args)
-    assert cfg.profile_dir == FIXTURES.resolve() and cfg.profile_origin == "center"
+    assert cfg.run.profile_dir == FIXTURES.resolve() and cfg.run.profile_origin == "center"
     monkeypatch.setenv(PROFILE_DIR_ENV, str(FIXTURES / "cup"))
-    assert eval_cli._config(eval_cli._parser().parse_args(["--out", "o"])).profile_dir == (FIXTURES / "cup").resolve()
+    assert eval_cli._config(eval_cli._parser().parse_args(["--out", "o"])).run.profile_dir == (
+        FIXTURES / "cup").resolve()
     monkeypatch.setenv(PROFILE_DIR_ENV, "")
     seen: list[str | None] = []
     monkeypatch.setattr(robot_cli, "run_demo", lambda *a, **k: seen.append(os.environ.get(PROFILE_DIR_ENV)) or {
