@@ -174,13 +174,11 @@ class Pipeline:
             return result
         kept, priors, skipped = gate
         evidence, stage7 = self._imagine(obj, poses, profile, kept, priors, result)
-        t = time.perf_counter()
         if stage7 is None:
             result.analyzer_reasons = [*skipped, "no plan scored above 0 in any imagined stable pose"]
         else:
             result.analyzer_reasons = ([f"pose {v.pose_index}: {v.reason}" for v in stage7.poses] + skipped
                                        + [stage7.reason])
-        timings["functional_pose_analyzer"] = time.perf_counter() - t + timings.pop("judge", 0.0)
         self._pick(result, profile, evidence, stage7)
         return result
 
@@ -290,16 +288,16 @@ class Pipeline:
         stage7 = None if request is None else llm.analyze_functional_poses(request, self.provider)
         veto = self.provider_name != "offline"  # a model's common sense; the offline answer is the rules' own
         result.pose_verdicts = judge(evidence, obj.obb_dims, stage7, llm_veto=veto)
-        timings["judge"] = time.perf_counter() - t
+        timings["functional_pose_analyzer"] = time.perf_counter() - t
         # the second decomposition: one more world for the poses whose verdict it could still change
-        decided = undecided(result.pose_verdicts, slots) if self._decomposition_matters(row) else []
-        if decided:
+        open_slots = undecided(result.pose_verdicts, slots) if self._decomposition_matters(row) else []
+        if open_slots:
             t = time.perf_counter()
             second = self._second_decomposition(obj)
-            rollouts = imagine(second, [resting_on(poses[kept[k]], obj.hulls, second.hulls) for k in decided],
-                               agents, [evidence.trajectories[k] for k in decided], backend=self.backend,
+            rollouts = imagine(second, [resting_on(poses[kept[k]], obj.hulls, second.hulls) for k in open_slots],
+                               agents, [evidence.trajectories[k] for k in open_slots], backend=self.backend,
                                config=self.config.imagination)
-            evidence.add_second_decomposition(rollouts, scorer(rollouts), decided)
+            evidence.add_second_decomposition(rollouts, scorer(rollouts), open_slots)
             result.pose_verdicts = judge(evidence, obj.obb_dims, stage7, llm_veto=veto)
             timings["second_decomposition"] = time.perf_counter() - t
         return evidence, stage7
