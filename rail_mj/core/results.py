@@ -143,6 +143,10 @@ class AffordanceResult(BaseModel):
     )
     scoring_source: str = ""
     timings: dict[str, float] = Field(default_factory=dict, description="seconds per stage")
+    llm_calls: dict[str, int] = Field(default_factory=dict, description="requests this case sent to the model, per "
+                                                                        "stage (a profile reused from an earlier "
+                                                                        "case sends none; the offline library none)")
+    llm_repairs: dict[str, int] = Field(default_factory=dict, description="repair rounds among them, per stage")
     provider: str = ""
     backend: str = ""
     mesh_notes: list[str] = Field(

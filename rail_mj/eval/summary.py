@@ -8,7 +8,7 @@ The rules are :data:`RULES`, which the report prints.
 from __future__ import annotations
 
 import math
-from collections import defaultdict
+from collections import Counter, defaultdict
 from collections.abc import Sequence
 
 import numpy as np
@@ -96,6 +96,8 @@ def summarize(lines: Sequence[dict], config: dict | None = None) -> dict:
     pose, pose_wo, pose_base = [], [], []
     defects: dict[str, list[bool]] = defaultdict(list)
     timing: dict[str, list[float]] = defaultdict(list)
+    llm_calls: Counter[str] = Counter()
+    llm_repairs: Counter[str] = Counter()
     seen: set[tuple[str, str]] = set()
     for ln in lines:
         a = ln["affordance"]
@@ -112,6 +114,8 @@ def summarize(lines: Sequence[dict], config: dict | None = None) -> dict:
                 continue  # every case of an object repeats its load and stable-pose times
             seen.add((stage, ln["mesh"]))
             timing[stage].append(s)
+        llm_calls.update(ln["result"].get("llm_calls", {}))
+        llm_repairs.update(ln["result"].get("llm_repairs", {}))
     all_correct = [ln["correct"] for ln in lines]
     return {
         "n_cases": len(lines),
@@ -139,6 +143,10 @@ def summarize(lines: Sequence[dict], config: dict | None = None) -> dict:
             "per_class": {c: _rate(v) for c, v in sorted(defects.items())},
         },
         "calibration": calibration(lines),
+        # requests sent to the model per stage over the run's cases, and the repair rounds among them (repairs
+        # counted apart); {} with the offline library
+        "llm_calls": dict(sorted(llm_calls.items())),
+        "llm_repairs": dict(sorted(llm_repairs.items())),
         "timing": {
             stage: {"total_s": float(np.sum(v)), "mean_s": float(np.mean(v))} for stage, v in sorted(timing.items())
         },

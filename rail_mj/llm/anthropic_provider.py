@@ -104,7 +104,8 @@ class AnthropicProvider(LLMProvider):
         except anthropic.APITimeoutError as exc:
             raise ProviderError(
                 f"stage {stage.name!r}: the Anthropic API did not answer within {self.config.timeout:g} s; "
-                "raise the timeout or check the network / ANTHROPIC_BASE_URL"
+                "raise it (--llm-timeout SECONDS on the command line, RunConfig(llm_timeout=...) in the API) or "
+                "check the network / ANTHROPIC_BASE_URL"
             ) from exc
         except anthropic.APIConnectionError as exc:
             raise ProviderError(

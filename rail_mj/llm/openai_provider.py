@@ -196,7 +196,8 @@ class OpenAIProvider(LLMProvider):
     def _timeout(self, stage: StageSpec) -> ProviderError:
         return ProviderError(
             f"stage {stage.name!r}: the OpenAI-compatible API at {self.config.base_url} did not answer within "
-            f"{self.config.timeout:g} s; raise the timeout (a local model may need minutes) or check the server"
+            f"{self.config.timeout:g} s; raise it (--llm-timeout SECONDS on the command line, "
+            "RunConfig(llm_timeout=...) in the API; a model served on a CPU may need minutes) or check the server"
         )
 
     def _unreachable(self, stage: StageSpec, reason: object) -> ProviderError:

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import json
 from abc import ABC, abstractmethod
+from collections import Counter
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, ClassVar
@@ -87,6 +88,10 @@ class Provider(ABC):
 
     def __init__(self, config: ProviderConfig) -> None:
         self._config = config
+        #: requests sent to the model per stage (a stage's first attempt), and repair rounds per stage, since the
+        #: provider was made; a cached answer sends none
+        self.calls: Counter[str] = Counter()
+        self.repairs: Counter[str] = Counter()
 
     @property
     def config(self) -> ProviderConfig:
@@ -181,7 +186,8 @@ class LLMProvider(Provider):
         messages: list[dict[str, Any]] = [{"role": "user", "content": user_prompt(request)}]
         system = system_prompt(stage)
         problem = ""
-        for _ in range(max_retries + 1):
+        for attempt in range(max_retries + 1):
+            (self.repairs if attempt else self.calls)[stage.name] += 1
             body = self._call(stage, system, messages)
             try:
                 text, cut_reason = self._read_reply(body)

@@ -38,7 +38,7 @@ from rail_mj.pipeline.verdicts import candidate_slots, judge, most_probable, pos
 from rail_mj.scoring import ScoringFunction, compile_scoring
 from rail_mj.stable_poses import find_stable_poses, pose_from_up
 
-__all__ = ["Pipeline", "classify", "as_placed_pose", "object_task", "run_object"]
+__all__ = ["Pipeline", "classify", "provider_for", "as_placed_pose", "object_task", "run_object"]
 
 ProgressCallback = Callable[[int, int, AffordanceResult], None]
 
@@ -56,6 +56,14 @@ def _check_names(affordances: Sequence[str]) -> None:
                 f"affordance names must be non-empty text, got {a!r}; the offline library knows: {known} "
                 "(an LLM provider also imagines other named uses)"
             )
+
+
+def provider_for(config: RunConfig) -> llm.Provider:
+    """The run's provider, configured once with the run's LLM settings (those left None: the provider's own)."""
+    options = {**config.provider_options,
+               **{k: v for k, v in (("model", config.model), ("max_retries", config.max_retries),
+                                    ("cache", config.cache), ("timeout", config.llm_timeout)) if v is not None}}
+    return llm.get_provider(config.provider, **options)
 
 
 def as_placed_pose(obj: RailObject) -> StablePoses:
@@ -76,9 +84,7 @@ class Pipeline:
         load_files(self.config.affordances_files)
         self.backend = resolve_backend(self.config.backend)
         # the run's LLM settings go to the provider once; every stage then reads them from it
-        options = {k: v for k, v in (("model", self.config.model), ("max_retries", self.config.max_retries),
-                                     ("cache", self.config.cache)) if v is not None}
-        self.provider = llm.get_provider(self.config.provider, **options)
+        self.provider = provider_for(self.config)
         if self.config.profile_dir is not None:
             profiles.check_profile_dir(self.config.profile_dir)
         self._profiles: dict[tuple, ImaginationProfile] = {}
@@ -345,10 +351,13 @@ class Pipeline:
         notes = mesh_notes(obj.mesh)
         results = []
         for a in affordances:
+            calls, repairs = self.provider.calls.copy(), self.provider.repairs.copy()
             try:
                 r = self.run(obj, poses, a)
             except RailError as exc:
                 r = self._error(obj.name, a, exc)
+            r.llm_calls = dict(self.provider.calls - calls)
+            r.llm_repairs = dict(self.provider.repairs - repairs)
             r.timings = {"load": t_load, "stable_poses": t_poses, **r.timings}
             r.mesh_notes = notes
             results.append(r)

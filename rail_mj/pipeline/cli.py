@@ -24,7 +24,42 @@ from typing import Any
 from rail_mj.core.cli import EXIT_FAILED, EXIT_OK, report_error
 from rail_mj.core.errors import RailError
 
-__all__ = ["main"]
+__all__ = ["main", "add_llm_options", "llm_settings"]
+
+
+def _number(kind: type, lowest: float, strict: bool, what: str):
+    """An argparse type: ``kind`` of the text, refused (naming ``what``) below ``lowest`` (or at it, ``strict``)."""
+    def parse(text: str) -> Any:
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not {what}") from None
+        if value < lowest or (strict and value == lowest) or not math.isfinite(value):
+            raise argparse.ArgumentTypeError(f"{text!r} is not {what}")
+        return value
+    return parse
+
+
+def add_llm_options(parser: argparse.ArgumentParser) -> None:
+    """``--model``, ``--llm-timeout`` and ``--max-repairs``, which every command that imagines takes: a model the
+    server names, a slow model waited for, how often a rejected answer goes back (defaults: the provider's)."""
+    from rail_mj.llm.provider_base import LLMConfig
+
+    fields = LLMConfig.model_fields
+    parser.add_argument("--model", help="the LLM's model name (anthropic and openai providers; default "
+                                         "$RAIL_MJ_MODEL, else the provider's)")
+    parser.add_argument("--llm-timeout", type=_number(float, 0.0, True, "a number of seconds > 0"), metavar="SECONDS",
+                        help=f"seconds one LLM request may take (default {fields['timeout'].default:g}; a model "
+                             "served on a CPU may need minutes)")
+    parser.add_argument("--max-repairs", type=_number(int, 0, False, "a whole number >= 0"), metavar="N",
+                        help=f"repair rounds per stage after a rejected answer (default "
+                             f"{fields['max_retries'].default})")
+
+
+def llm_settings(args: argparse.Namespace) -> dict[str, Any]:
+    """The :class:`~rail_mj.pipeline.config.RunConfig` fields of :func:`add_llm_options`' options that were given."""
+    given = {"model": args.model, "llm_timeout": args.llm_timeout, "max_retries": args.max_repairs}
+    return {k: v for k, v in given.items() if v is not None}
 
 
 def _describe(r) -> str:
@@ -153,7 +188,7 @@ def _save_profiles(args: argparse.Namespace, results) -> bool:
     return ok
 
 
-def main(argv: Sequence[str] | None = None) -> int:
+def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m rail_mj", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("mesh", type=Path, help="OBJ, STL, PLY, OFF, GLB or GLTF file")
@@ -181,6 +216,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--provider", default="auto",
                    help="auto | offline | anthropic | openai (OPENAI_BASE_URL, OPENAI_API_KEY, RAIL_MJ_MODEL)")
     p.add_argument("--backend", default="auto", help="auto | native | mjx")
+    add_llm_options(p)
     p.add_argument("--json", action="store_true", help="print the results as JSON lines")
     p.add_argument("--explain", action="store_true",
                    help="show why: every stable pose (probability, up axis, box size, envelope), each plan's score "
@@ -195,6 +231,11 @@ def main(argv: Sequence[str] | None = None) -> int:
                         "DIR/README.txt, to open with python -m mujoco.viewer --mjcf DIR/scene.xml")
     p.add_argument("--draw-mesh", action="store_true",
                    help="draw the original mesh in the pictures instead of its CoACD hulls")
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    p = _parser()
     args = p.parse_args(argv)
     if not args.rank and not args.affordance:
         p.error("the following arguments are required: --affordance/-a (or --rank)")
@@ -210,7 +251,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
             check_scene_dir(args.save_scene)  # before any work
         config = RunConfig(provider=args.provider, backend=args.backend, affordances_files=args.affordances_file,
-                           profile_origin=args.profile_origin,
+                           profile_origin=args.profile_origin, **llm_settings(args),
                            **({} if args.profile_dir is None else {"profile_dir": args.profile_dir}))
         options: dict[str, Any] = dict(progress=False, config=config)
         item = ObjectInput(path=args.mesh, units=args.units, up=args.up)

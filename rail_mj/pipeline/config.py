@@ -9,7 +9,7 @@ down to its stage. Its defaults give the chain's defaults. :class:`ObjectInput` 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
@@ -33,9 +33,15 @@ class RunOptions(BaseModel):
     provider: str = Field(default="auto", description="auto | offline | anthropic | openai")
     backend: str = Field(default="auto", description="auto | native | mjx")
     model: str | None = Field(default=None, description="LLM model name (anthropic, openai provider)")
-    # None: the provider's own default (rail_mj.llm.ProviderConfig, where each is declared with its range)
-    max_retries: int | None = Field(default=None, description="LLM repair rounds per stage; None: the provider's")
+    # None: the provider's own default (rail_mj.llm.ProviderConfig, LLMConfig: each declared there with its range)
+    max_retries: int | None = Field(default=None, description="LLM repair rounds per stage (--max-repairs); None: "
+                                                              "the provider's")
     cache: bool | None = Field(default=None, description="cache LLM answers on disk; None: the provider's")
+    llm_timeout: float | None = Field(default=None, description="seconds one LLM request may take (--llm-timeout); "
+                                                                "None: the provider's")
+    provider_options: dict[str, Any] = Field(
+        default_factory=dict, description="further settings of the provider (rail_mj.llm.get_provider: temperature, "
+                                          "max_tokens, base_url, http_retries, strict, ...); the fields above win")
     profile_bin: float = Field(
         default=0.1, gt=0, le=1.0, description="relative size bin within which a profile is reused"
     )

@@ -26,6 +26,9 @@ from rail_mj.affordances import load_files
 from rail_mj.core.cli import EXIT_OK, report_error
 from rail_mj.core.errors import RailError
 from rail_mj.core.runfiles import atomic_write_text
+from rail_mj.llm.providers import PROVIDERS
+from rail_mj.pipeline.cli import add_llm_options, llm_settings
+from rail_mj.pipeline.config import RunConfig
 from rail_mj.profiles import PROFILE_DIR_ENV, check_profile_dir
 from rail_mj.robot.control import RobotConfig
 from rail_mj.robot.demo import DEMO_AFFORDANCES, run_demo
@@ -105,7 +108,7 @@ def _request_report(out: dict) -> str:
     return "\n".join(lines)
 
 
-def main(argv: list[str] | None = None) -> int:
+def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="python -m rail_mj.robot", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--fetch", action="store_true", help="download and verify the Menagerie Panda into the cache")
@@ -134,6 +137,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--profile-dir", type=Path, metavar="DIR",
                         help="a profile folder in the paper authors' format, or a folder of them named by affordance, "
                              "that every imagination of the run reads (as $RAIL_MJ_PROFILE_DIR)")
+    parser.add_argument("--provider", default="offline", choices=PROVIDERS,
+                        help="who reads --request and --experiment's sentences and imagines (default offline; "
+                             "--demo always uses the offline library)")
+    add_llm_options(parser)
     parser.add_argument("--trials", type=_positive(int), default=4, help="objects per affordance")
     parser.add_argument("--planner", choices=("imagined", "scripted"), default="imagined",
                         help="imagined: classify -> functional pose -> best plan (default); scripted: hand-written "
@@ -143,12 +150,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--json", type=Path, help="write the summary here")
     parser.add_argument("--video", "--render", dest="video", type=Path,
                         help="folder for an mp4 of each affordance's first trial (AFFORDANCE_OBJECT.mp4)")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = _parser()
     args = parser.parse_args(argv)
     if not (args.fetch or args.demo or args.experiment or args.request):
         parser.error("give --fetch, --demo, --experiment and/or --request TEXT --object MESH")
     specs = _object_specs(parser, args) if args.request is not None else []
     try:
         load_files(args.affordances_file)
+        run = RunConfig(provider=args.provider, **llm_settings(args))
         if args.profile_dir is not None:
             os.environ[PROFILE_DIR_ENV] = str(check_profile_dir(args.profile_dir))
         if args.fetch:
@@ -164,7 +177,7 @@ def main(argv: list[str] | None = None) -> int:
             from rail_mj.robot.experiment import format_table, run_experiment
 
             summary = run_experiment(scan=not args.no_scan, json_path=args.json, video=args.video,
-                                     config=RobotConfig(force_limit=args.force_limit))
+                                     config=RobotConfig(force_limit=args.force_limit), run=run)
             print(format_table(summary["rows"]))
             agree = summary["verdict_agreement"]
             scan_s = summary["scan_seconds_mean"]
@@ -185,7 +198,7 @@ def main(argv: list[str] | None = None) -> int:
             from rail_mj.robot.run import run_request
 
             out = run_request(args.request, specs, scan=not args.no_scan, video=args.video,
-                              config=RobotConfig(force_limit=args.force_limit))
+                              config=RobotConfig(force_limit=args.force_limit), run=run)
             if args.json is not None:
                 atomic_write_text(args.json, json.dumps(out, indent=2))
             print(_request_report(out))

@@ -38,6 +38,8 @@ from rail_mj.core.runfiles import atomic_write_text
 from rail_mj.core.types import RailObject
 from rail_mj.dataset.realset import real_data_dir
 from rail_mj.mesh import load_mesh, object_from_mesh
+from rail_mj.pipeline.chain import provider_for
+from rail_mj.pipeline.config import RunConfig
 from rail_mj.robot.control import RobotConfig
 from rail_mj.robot.demo import make_object
 from rail_mj.robot.request import parse_request
@@ -196,15 +198,17 @@ def task_object(task: Task | Item, agent: str | None = None) -> RailObject:
 
 
 def run_task(task: Task, *, scan: bool = True, config: RobotConfig | None = None,
-             video: Path | None = None) -> dict[str, Any]:
+             video: Path | None = None, run: RunConfig | None = None) -> dict[str, Any]:
     """Request -> scan -> imagine (scan and true mesh, as placed) -> choose -> execute or decline -> judge: one
-    JSON-ready row. The task's own object stands in the middle of its table."""
-    req = parse_request(task.request)
+    JSON-ready row. The task's own object stands in the middle of its table. ``run``: the provider (and its
+    settings) that reads the request and imagines; default the offline provider."""
+    run = run or RunConfig(provider="offline")
+    req = parse_request(task.request, provider_for(run))
     objs = [task_object(i, req.agent) for i in task.beside]
     main = task_object(task, req.agent)
     objs.insert(len(objs) // 2 if len(objs) > 1 else len(objs), main)
     placed = layout(objs, config)
-    out = run_table(req, placed, scan=scan, config=config, video=video, label=task.name)
+    out = run_table(req, placed, scan=scan, config=config, video=video, label=task.name, run=run)
     mine = next(o for o in out["objects"] if o["name"] == main.name)
     expect = None if task.decline else main.name
     row = {"task": task.name, **out, "expect": "decline" if task.decline else "execute", "expected_choice": expect,
@@ -314,12 +318,13 @@ def format_table(rows: list[dict]) -> str:
 
 def run_experiment(*, tasks: tuple[Task, ...] = TASKS, scan: bool = True, json_path: Path | None = None,
                    video: Path | None = None, config: RobotConfig | None = None,
-                   progress: Callable[[str], None] | None = print) -> dict[str, Any]:
+                   progress: Callable[[str], None] | None = print, run: RunConfig | None = None) -> dict[str, Any]:
     """Run (or resume) every task; return and write the summary with its rows.
 
     Rows go to ``json_path`` with the suffix ``.jsonl`` (default ``runs/experiment/trials.jsonl``) as each task
     ends; a rerun keeps the rows already there and runs the rest. Without open3d (or ``rail_mj.robot.scan``),
-    ``scan=True`` is refused with the install hint; ``scan=False`` imagines on the true mesh and says so.
+    ``scan=True`` is refused with the install hint; ``scan=False`` imagines on the true mesh and says so. ``run``:
+    the provider (and its model, timeout, repairs) that reads each request and imagines; default the offline one.
     """
     note = scan_available()
     if scan and note is not None:
@@ -339,7 +344,7 @@ def run_experiment(*, tasks: tuple[Task, ...] = TASKS, scan: bool = True, json_p
         if task.name in done:
             rows.append(done[task.name])
             continue
-        row = run_task(task, scan=scan, config=config, video=video)
+        row = run_task(task, scan=scan, config=config, video=video, run=run)
         _append(jsonl, row)
         rows.append(row)
         if progress:

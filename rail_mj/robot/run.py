@@ -22,7 +22,7 @@ from rail_mj.core.geometry import quat_conj, quat_mul, quat_rotate, task_origin
 from rail_mj.core.types import RailObject, StablePose
 from rail_mj.llm.schemas import Request
 from rail_mj.mesh import object_from_mesh
-from rail_mj.pipeline.chain import classify
+from rail_mj.pipeline.chain import classify, provider_for
 from rail_mj.pipeline.config import RunConfig
 from rail_mj.robot.control import RobotConfig
 from rail_mj.robot.demo import case_from_result
@@ -141,8 +141,12 @@ def _rank(candidate: dict[str, Any]) -> tuple[float, float]:
 
 
 def run_table(req: Request, placed: Sequence[Placed], *, scan: bool = True, config: RobotConfig | None = None,
-              video: Path | None = None, label: str = "request") -> dict[str, Any]:
-    """Scan and imagine every placed object for the request, execute on the best, judge: one JSON-ready dict."""
+              video: Path | None = None, label: str = "request", run: RunConfig | None = None) -> dict[str, Any]:
+    """Scan and imagine every placed object for the request, execute on the best, judge: one JSON-ready dict.
+    ``run``: the imagination's settings (provider, model, ...; default the offline provider), imagined as placed
+    at the request's scale."""
+    imagination = (run or RunConfig(provider="offline")).model_copy(
+        update={"pose": "as_placed", "agent": req.agent, "owner": req.owner})
     cfg = config or RobotConfig()
     times: dict[str, float] = {}
     scale = request_scale(req.agent, req.owner)
@@ -151,8 +155,7 @@ def run_table(req: Request, placed: Sequence[Placed], *, scan: bool = True, conf
                            "paper": req.affordance in PAPER_AFFORDANCES}
 
     def imagine(o: RailObject):
-        return classify([o], [req.affordance], config=RunConfig(provider="offline", pose="as_placed",
-                        agent=req.agent, owner=req.owner), progress=False, workers=1)[0]
+        return classify([o], [req.affordance], config=imagination, progress=False, workers=1)[0]
 
     candidates: list[dict[str, Any]] = []
     for p in placed:
@@ -220,7 +223,7 @@ def run_table(req: Request, placed: Sequence[Placed], *, scan: bool = True, conf
 
 
 def run_request(text: str, objects: Sequence[ObjectSpec | RailObject | str | Path], *, scan: bool = True,
-                config: RobotConfig | None = None, video: Path | None = None, provider: str = "offline"
+                config: RobotConfig | None = None, video: Path | None = None, run: RunConfig | None = None
                 ) -> dict[str, Any]:
     """Put ``objects`` on the table (mesh files as :class:`ObjectSpec`, paths, or built objects), read the
     request ``text``, and execute it on the object that affords it best, or decline saying why.
@@ -229,13 +232,16 @@ def run_request(text: str, objects: Sequence[ObjectSpec | RailObject | str | Pat
     that does not load, ConfigError for an object off the table, out of reach, or overlapping another.
     The result: ``chosen`` (name or None), ``executed``, ``declined`` and ``reason``, ``success`` (the judge's),
     ``plan_success`` / ``plan_score`` (the plan's own scoring code), and per object its verdict and probability.
+    ``run`` sets the provider (and its model, timeout, repairs) that reads the request and imagines (default: the
+    offline provider).
     """
     cfg = config or RobotConfig()
     if scan:
         note = scan_available()
         if note is not None:
             raise ConfigError(f"{note}; or run with --no-scan to imagine on the true meshes")
-    req = parse_request(text, provider)
+    run = run or RunConfig(provider="offline")
+    req = parse_request(text, provider_for(run))
     objs, xys = [], []
     for item in objects:
         if isinstance(item, RailObject):
@@ -250,4 +256,4 @@ def run_request(text: str, objects: Sequence[ObjectSpec | RailObject | str | Pat
     if len(set(names)) != len(names):
         raise ConfigError(f"two objects share a name in {names}; give each a name of its own")
     placed = layout(objs, cfg, xys)
-    return run_table(req, placed, scan=scan, config=cfg, video=video)
+    return run_table(req, placed, scan=scan, config=cfg, video=video, run=run)

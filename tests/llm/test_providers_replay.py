@@ -13,6 +13,7 @@ with no server at all. No live model is involved (see the README's "What has bee
 from __future__ import annotations
 
 import json
+from collections import Counter
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -35,8 +36,9 @@ FIXTURE = FIXTURES / "llm_replay" / "dog_bed.json"
 CONVERSATION: dict[str, Any] = json.loads(FIXTURE.read_text())
 #: The answer type's name (the schema the provider sends) -> its stage's name.
 STAGE_OF = {spec.output_type.__name__: name for name, spec in STAGES.items()}
-#: Everything of a result but the seconds it took and the provider that made it.
-COMPARED = {"timings", "provider"}
+#: Everything of a result but the seconds it took, the provider that made it and the requests it sent (none from
+#: the cache).
+COMPARED = {"timings", "provider", "llm_calls", "llm_repairs"}
 
 
 def _box(lo: list[float], hi: list[float]) -> np.ndarray:
@@ -126,6 +128,10 @@ def test_the_recorded_conversation_runs_end_to_end_with_its_repair_rounds(provid
     assert result.dims_fit and result.functional and result.best_plan is not None
     assert result.best_plan.name == "lie_centre" and result.plans[0] == "lie_centre"
     assert "dog_body" in result.agent_fragment and "import" not in result.scoring_source
+    # the requests sent, per stage: each stage once, and a repair round for each refused answer
+    repairs = Counter(t["stage"] for t in CONVERSATION["turns"] if "rejected" in t)
+    assert result.llm_repairs == dict(repairs) and sum(repairs.values()) == 2
+    assert result.llm_calls == {t["stage"]: 1 for t in CONVERSATION["turns"]}
     # each refused answer went back to the model, and the request after it carries the refusal
     for i, turn in enumerate(CONVERSATION["turns"]):
         if "rejected" not in turn:
