@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import dataclasses
 import importlib.metadata
+import json
 import math
 import os
 import re
@@ -45,7 +46,7 @@ from rail_mj.affordances.kinds import KINDS
 from rail_mj.affordances.row import Affordance
 from rail_mj.core.errors import AffordanceFileError, ConfigError
 
-__all__ = ["ENTRY_POINT_GROUP", "FIELDS", "FileRow", "parse", "read", "entry_point_rows"]
+__all__ = ["ENTRY_POINT_GROUP", "FIELDS", "FileRow", "parse", "read", "entry_point_rows", "row_toml"]
 
 #: The entry-point group through which installed packages register affordances.
 ENTRY_POINT_GROUP = "rail_mj.affordances"
@@ -209,6 +210,62 @@ def parse(text: str, source: str) -> list[FileRow]:
     if not tables:
         raise AffordanceFileError(f"{source}: defines no affordance; add an [[affordance]] table")
     return [_row(table, _Where(source, i)) for i, table in enumerate(tables, 1)]
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float)):
+        return ("inf" if value > 0 else "-inf") if math.isinf(value) else repr(value)
+    if isinstance(value, str):
+        return json.dumps(value)  # a TOML basic string takes JSON's escapes
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    raise TypeError(f"no TOML value for {value!r}")
+
+
+def _toml_table(header: str, table: dict[str, Any]) -> list[str]:
+    """``[header]`` and its keys, then its nested tables, each under its dotted header."""
+    lines = [f"[{header}]"] + [f"{k} = {_toml_value(v)}" for k, v in table.items() if not isinstance(v, dict)]
+    for k, v in table.items():
+        if isinstance(v, dict) and v:
+            lines += ["", *_toml_table(f"{header}.{k}", v)]
+    return lines
+
+
+def _changed(params: Any) -> dict[str, Any]:
+    """A (frozen dataclass) parameter model's fields that differ from their defaults, nested models as tables."""
+    out: dict[str, Any] = {}
+    for f in dataclasses.fields(params):
+        value, default = getattr(params, f.name), f.default
+        if value == default:
+            continue
+        out[f.name] = _changed(value) if dataclasses.is_dataclass(value) else value
+    return out
+
+
+def row_toml(row: Affordance) -> str:
+    """``row`` as one ``[[affordance]]`` table of an affordance file: :func:`parse` reads it back to the same row
+    (the kind's params only where they differ from the kind's defaults)."""
+    top: dict[str, Any] = {"name": row.name, "aliases": list(row.aliases), "kind": row.kind, "ibd": row.ibd}
+    if row.scale != 1.0:
+        top["scale"] = row.scale
+    for key in ("largest", "smallest"):
+        if getattr(row, key) != ANY:
+            top[key] = list(getattr(row, key))
+    if not row.aliases:
+        del top["aliases"]
+    lines = ["[[affordance]]"] + [f"{k} = {_toml_value(v)}" for k, v in top.items()]
+    ranges = {name: list(getattr(row.envelope, name)) for name in _ENVELOPE if getattr(row.envelope, name) != ANY}
+    if ranges or row.envelope.widths:
+        lines += ["", "[affordance.envelope]"] + [f"{k} = {_toml_value(v)}" for k, v in ranges.items()]
+        if row.envelope.widths:
+            widths = ", ".join(f"{json.dumps(k)} = {_toml_value(v)}" for k, v in row.envelope.widths)
+            lines.append(f"widths = {{{widths}}}")
+    params = _changed(row.params)
+    if params:
+        lines += ["", *_toml_table("affordance.params", params)]
+    return "\n".join(lines) + "\n"
 
 
 def read(path: str | os.PathLike[str]) -> list[FileRow]:

@@ -20,6 +20,7 @@ but keeps its own per-class truth: it is what these rules are measured against.
 
 from __future__ import annotations
 
+import hashlib
 import math
 import os
 from collections.abc import Iterable, Sequence
@@ -27,7 +28,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from rail_mj.affordances.envelope import Envelope
-from rail_mj.affordances.files import FileRow, entry_point_rows, read
+from rail_mj.affordances.files import FileRow, entry_point_rows, parse, read
 from rail_mj.affordances.kinds.container import LIQUID_RADIUS, ContainerParams, Droplets
 from rail_mj.affordances.kinds.seat import SeatParams
 from rail_mj.affordances.kinds.surface import SurfaceParams
@@ -41,6 +42,7 @@ __all__ = [
     "SOURCES",
     "register",
     "load",
+    "load_text",
     "load_files",
     "unload_all",
     "ensure_entry_points",
@@ -324,6 +326,17 @@ def load(path: str | os.PathLike[str]) -> tuple[Affordance, ...]:
     if key not in _LOADED:
         entries = read(path)
         register(entries, str(path))
+        _LOADED[key] = tuple(e.row for e in entries)
+    return _LOADED[key]
+
+
+def load_text(text: str, source: str) -> tuple[Affordance, ...]:
+    """Register the rows of an affordance file's ``text`` (e.g. a model's stage-0 row), ``source`` naming it in
+    errors; the same text registered before is not registered again."""
+    key = "text:" + hashlib.sha256(text.encode()).hexdigest()
+    if key not in _LOADED:
+        entries = parse(text, source)
+        register(entries, source)
         _LOADED[key] = tuple(e.row for e in entries)
     return _LOADED[key]
 

@@ -143,6 +143,10 @@ class AffordanceResult(BaseModel):
     )
     scoring_source: str = ""
     timings: dict[str, float] = Field(default_factory=dict, description="seconds per stage")
+    definition: str | None = Field(default=None, description="for a use outside the registry: how the provider "
+                                                             "defined it (stage 0)")
+    definition_toml: str | None = Field(default=None, description="the row it wrote, as an affordance file's "
+                                                                  "[[affordance]] table; None without one")
     llm_calls: dict[str, int] = Field(default_factory=dict, description="requests this case sent to the model, per "
                                                                         "stage (a profile reused from an earlier "
                                                                         "case sends none; the offline library none)")

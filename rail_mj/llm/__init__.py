@@ -19,6 +19,8 @@ from rail_mj.llm.schemas import *  # noqa: F403
 from rail_mj.llm.stages import (
     analyze_affordance,
     analyze_functional_poses,
+    define_affordance,
+    definition_row,
     functional_pose_request,
     generate_agent_model,
     generate_layout,
@@ -43,6 +45,8 @@ __all__ = [
     "ProviderConfig",
     "analyze_affordance",
     "analyze_functional_poses",
+    "define_affordance",
+    "definition_row",
     "functional_pose_request",
     "generate_agent_model",
     "generate_layout",

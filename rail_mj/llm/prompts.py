@@ -1,4 +1,5 @@
-"""Versioned prompt templates of the seven stages, with few-shot examples from the offline library.
+"""Versioned prompt templates of the stages (0, the affordance definer, and the paper's seven), with few-shot
+examples from the offline library.
 
 Bump a stage's ``PROMPT_VERSION`` whenever its template or examples change:
 the version is part of the response-cache key.
@@ -6,19 +7,27 @@ the version is part of the response-cache key.
 
 from __future__ import annotations
 
+import re
+import sys
 from dataclasses import dataclass
 from functools import cache
 
 from pydantic import BaseModel
 
 import rail_mj.llm.offline as offline
+from rail_mj.affordances import REGISTRY
+from rail_mj.affordances.envelope import QUANTITIES
+from rail_mj.affordances.files import _toml_value, row_toml
+from rail_mj.affordances.kinds import KINDS
 from rail_mj.core.types import SCORING_ARGS
 from rail_mj.llm.schemas import (
     AffordanceAnalysis,
+    AffordanceDefinition,
     AgentLayout,
     AgentModel,
     AgentModelRequest,
     AnalyzerRequest,
+    DefinitionRequest,
     FunctionalPoseVerdict,
     LayoutRequest,
     MotionPlans,
@@ -35,6 +44,7 @@ from rail_mj.llm.schemas import (
 __all__ = ["StageSpec", "PROMPT_VERSION", "STAGES", "system_prompt", "user_prompt", "repair_prompt"]
 
 PROMPT_VERSION: dict[str, str] = {
+    "affordance_definition": "1",
     # 2: the task carries the request's agent scale (its examples show it)
     "affordance_analyzer": "2",
     "agent_model": "2",
@@ -63,6 +73,53 @@ class StageSpec:
         return PROMPT_VERSION[self.name]
 
 
+def _kinds() -> str:
+    """Each registered kind: the physics it tests (its module's first paragraph) and its row's params."""
+    lines = []
+    for name, kind in sorted(KINDS.items()):
+        paragraphs = (sys.modules[type(kind).__module__].__doc__ or "").strip().split("\n\n")
+        test = " ".join(p for p in paragraphs[:2] if p is paragraphs[0] or p.startswith("Success"))
+        test = re.sub(r":\w+:`~?([^`]+)`", r"\1", " ".join(test.replace(f"``{name}``:", "").split())).replace("``", "")
+        docs: dict[str, str] = getattr(kind.params_model, "DOCS", {})
+        params = "; ".join(f"{key}: {doc} (default {_toml_value(_default(kind.params_model, key))})"
+                           for key, doc in docs.items())
+        lines.append(f"- {name}: {test} Params: {params or 'none'}.")
+    return "\n".join(lines)
+
+
+def _default(model: type, key: str) -> object:
+    """The default of a params model's (dotted) field."""
+    value: object = model()
+    for part in key.split("."):
+        value = getattr(value, part)
+    return value
+
+
+def _definition_instructions() -> str:
+    return f"""You are the Affordance Definer of a robot that imagines how an unseen object could be used. The \
+requested use is not in the robot's registry. The robot has these kinds of physics, each tested on many real \
+objects; a use that one of them models is imagined with it, which is far more reliable than new code:
+{_kinds()}
+Answer "kind": the kind whose test is this use's test (the same agent, the same success), or null when none is. \
+With a kind, "row_toml" is the use as ONE [[affordance]] table of an affordance file (TOML), which must pass every \
+check below; with null, row_toml is null, size_basis is [] and "reason" says what the use needs that no kind tests.
+Checks on row_toml: it parses as TOML with one [[affordance]] table and nothing else; keys only name, aliases, \
+kind, ibd, largest, smallest, scale, envelope, params; name is the requested name exactly (lower case, words \
+separated by one space); aliases (optional) are other names of the same use, none of them a registered name; kind \
+equals the answer's kind; ibd is the interaction-based definition, non-empty, with the typical sizes in words; \
+largest / smallest (optional) are [lo, hi] in metres with 0 < lo <= hi, the typical range of the object's \
+largest / smallest OBB dim; scale (optional, default 1) is the agent's size against a person's (a doll 0.18, a dog \
+0.5) and must be > 0; [affordance.envelope] (optional) holds ranges [lo, hi] with 0 <= lo <= hi (hi may be inf) \
+for the object's box in the pose of use: height, width (the smaller horizontal extent), length (the larger), \
+aspect (height / width) and rest (where the agent's bottom comes to rest above the floor: seat and lie kinds), and \
+widths = {{quantity = w}} for a range whose spread differs from the default, with quantity one of \
+{", ".join(QUANTITIES)} and 0.01 <= w <= 10 (a fraction of the bound); [affordance.params] holds only the \
+kind's params listed above (numbers >= 0, true / false), nested tables for nested ones; no override key. Sizes are \
+priors, not vetoes: give the range real objects of the use have, for the person (or the scale's agent) using it. \
+size_basis gives one line per range: the real objects measured and where the numbers come from (a standard, \
+catalogue ranges, anthropometry). Keep "affordance" equal to the requested name."""
+
+
 _FRAME = """Conventions. Units are metres, kilograms, radians. The TASK FRAME has its origin at the centre of the \
 object's world-aligned bounding box in the stable pose being imagined, axes along the world axes, +z up. The \
 object occupies [-h, h] per axis, where h are its half extents in that pose; its top is at z = +h_z and the ground \
@@ -73,6 +130,7 @@ stable pose."""
 STAGES: dict[str, StageSpec] = {
     s.name: s
     for s in (
+        StageSpec("affordance_definition", AffordanceDefinition, _definition_instructions()),
         StageSpec("affordance_analyzer", AffordanceAnalysis, """You are the Affordance Analyzer of a robot that \
 imagines how an unseen object could be used. Given an affordance name and the object's OBB dims, (1) check whether \
 the dims are plausible for that affordance in the real world and give the reason with the sizes compared; when they \
@@ -141,9 +199,31 @@ _EXAMPLE_TASKS = (
 _EXAMPLE_REQUESTS = ("put the apple in the bowl", "Place the dolls onto the chairs.", "put the cup on the doll's table")
 
 
+#: Stage 0's examples: two registry rows as a model would write them, with what their sizes are measured from, and
+#: a use that no kind models.
+_EXAMPLE_DEFINITIONS = (
+    ("stool", "seat", ["seat height 0.43-0.8 m: sitting stools 43-48 cm (ANSI/BIFMA X5.1 seat heights), counter "
+                       "and bar stools 61-80 cm", "seat 0.25-0.45 m across: catalogue stools, a person's hips "
+                       "(bi-trochanteric breadth ~0.35 m)"],
+     "A stool's test is a person sitting on a seat: the seat kind lowers the body onto it facing each way."),
+    ("bowl", "container", ["rim 12.5-35 cm across, 4.5-20 cm deep: cereal bowls to mixing bowls in catalogues",
+                           "height at most 0.55 of the rim: a bowl is wider than tall, unlike a cup"],
+     "A bowl holds food poured into it: the container kind drops droplets above the opening and keeps them."),
+)
+
+
 @cache
 def _examples(stage: str) -> tuple[tuple[str, str], ...]:
     """(request JSON, answer JSON) pairs of the offline library for one stage."""
+    if stage == "affordance_definition":
+        pairs = [(DefinitionRequest(affordance=name).model_dump_json(),
+                  AffordanceDefinition(affordance=name, kind=kind, row_toml=row_toml(REGISTRY[name]),
+                                       size_basis=basis, reason=reason).model_dump_json())
+                 for name, kind, basis, reason in _EXAMPLE_DEFINITIONS]
+        ladder = AffordanceDefinition(affordance="ladder", kind=None, row_toml=None, size_basis=[],
+                                      reason="climbing needs a body that steps and grips rung to rung; no kind "
+                                             "tests that")
+        return (*pairs, (DefinitionRequest(affordance="ladder").model_dump_json(), ladder.model_dump_json()))
     if stage == "request_parser":
         return tuple((RequestText(text=t).model_dump_json(), offline.offline_request(RequestText(text=t))
                       .model_dump_json()) for t in _EXAMPLE_REQUESTS)

@@ -25,6 +25,8 @@ from rail_mj.core.profile import (
 )
 
 __all__ = [
+    "DefinitionRequest",
+    "AffordanceDefinition",
     "TaskDescription",
     "AnalyzerRequest",
     "AffordanceAnalysis",
@@ -44,6 +46,25 @@ __all__ = [
     "RequestText",
     "Request",
 ]
+
+
+class DefinitionRequest(ProfileModel):
+    """Input of stage 0, the Affordance Definer: a named use outside the registry and the loaded files."""
+
+    affordance: str
+
+
+class AffordanceDefinition(ProfileModel):
+    """Output of stage 0: the use as a row of a registered kind, whose tested physics then imagines it, or the
+    reason no kind models it (the stages 1-6 then write a free-form profile)."""
+
+    affordance: str
+    kind: str | None = Field(description="the registered kind whose physics tests this use; null when none does")
+    row_toml: str | None = Field(description="the use as one [[affordance]] table of an affordance file (TOML); "
+                                             "null exactly when kind is null")
+    size_basis: list[str] = Field(description="one line per size range of the row: what real objects of the use "
+                                              "measure and where that comes from; empty when kind is null")
+    reason: str = Field(description="why this kind's test is the use's test, or why no kind models the use")
 
 
 class TaskDescription(ProfileModel):

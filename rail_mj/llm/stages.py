@@ -15,8 +15,10 @@ from typing import Any
 
 import numpy as np
 
+from rail_mj.affordances import known_affordances, normalize
+from rail_mj.affordances.files import FileRow, parse
 from rail_mj.affordances.names import owner_scale
-from rail_mj.core.errors import ConfigError, UnknownAffordanceError
+from rail_mj.core.errors import AffordanceFileError, ConfigError, UnknownAffordanceError
 from rail_mj.core.profile import AgentLayout, PoseCandidates, ScoringCode
 from rail_mj.imagination.inputs import layout_offsets
 from rail_mj.llm.checks import (
@@ -34,9 +36,11 @@ from rail_mj.llm.prompts import PROMPT_VERSION, STAGES
 from rail_mj.llm.providers import Provider, get_provider
 from rail_mj.llm.schemas import (
     AffordanceAnalysis,
+    AffordanceDefinition,
     AgentModel,
     AgentModelRequest,
     AnalyzerRequest,
+    DefinitionRequest,
     FunctionalPoseRequest,
     FunctionalPoseVerdict,
     ImaginationProfile,
@@ -52,6 +56,8 @@ from rail_mj.llm.schemas import (
 )
 
 __all__ = [
+    "define_affordance",
+    "definition_row",
     "analyze_affordance",
     "generate_agent_model",
     "generate_layout",
@@ -132,6 +138,61 @@ def analyze_functional_poses(request: FunctionalPoseRequest,
                              provider: ProviderLike = "offline") -> FunctionalPoseVerdict:
     """Stage 7: accept or reject each pose's successes by common sense; pick the best (pose, plan)."""
     return _provider(provider).answer(STAGES["functional_pose"], request, lambda v: check_verdict(v, request))
+
+
+def define_affordance(request: DefinitionRequest, provider: ProviderLike) -> AffordanceDefinition:
+    """Stage 0, the Affordance Definer, for a name outside the registry: a row of a registered kind (its row_toml
+    passes every check of an affordance file, :func:`definition_row`), or no kind and the reason."""
+
+    def check(answer: AffordanceDefinition) -> None:
+        definition_row(request, answer)
+
+    return _provider(provider).answer(STAGES["affordance_definition"], request, check)
+
+
+def definition_row(request: DefinitionRequest, answer: AffordanceDefinition) -> FileRow | None:
+    """The row of a stage-0 answer, checked as an affordance file's row is, and against the request; None when no
+    kind models the use. InvalidAnswerError naming what is wrong and what is valid."""
+    if answer.affordance != request.affordance:
+        raise InvalidAnswerError(f"affordance must be the requested name {request.affordance!r}; got "
+                                 f"{answer.affordance!r}")
+    if answer.kind is None:
+        if answer.row_toml is not None or answer.size_basis:
+            raise InvalidAnswerError("kind is null, so row_toml must be null and size_basis []: no kind's row")
+        if not answer.reason.strip():
+            raise InvalidAnswerError("reason must say what the use needs that no kind tests")
+        return None
+    if answer.row_toml is None:
+        raise InvalidAnswerError(f"kind is {answer.kind!r}, so row_toml must hold the use's [[affordance]] table")
+    try:
+        rows = parse(answer.row_toml, "row_toml")
+    except AffordanceFileError as exc:
+        raise InvalidAnswerError(str(exc)) from exc
+    if len(rows) != 1:
+        raise InvalidAnswerError(f"row_toml must hold exactly one [[affordance]] table; got {len(rows)}")
+    (entry,) = rows
+    name = " ".join(request.affordance.lower().split())
+    if entry.row.name != name:
+        raise InvalidAnswerError(f"row_toml's name must be the requested use {name!r}; got {entry.row.name!r}")
+    if entry.row.kind != answer.kind:
+        raise InvalidAnswerError(f"row_toml's kind {entry.row.kind!r} must equal the answer's kind {answer.kind!r}")
+    if entry.override:
+        raise InvalidAnswerError("row_toml must not override a registered row: leave out override")
+    taken = [n for n in (entry.row.name, *entry.row.aliases) if n in known_affordances() or _known(n)]
+    if taken:
+        raise InvalidAnswerError(f"row_toml names {taken}, already registered uses; a new use takes new names")
+    if not any(line.strip() for line in answer.size_basis):
+        raise InvalidAnswerError("size_basis must give, for each size range of the row, what real objects of the "
+                                 "use measure and where that comes from")
+    return entry
+
+
+def _known(name: str) -> bool:
+    try:
+        normalize(name)
+    except UnknownAffordanceError:
+        return False
+    return True
 
 
 def parse_request_text(request: RequestText, provider: ProviderLike = "offline") -> Request:

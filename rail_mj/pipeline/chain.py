@@ -31,6 +31,7 @@ from rail_mj.imagination.perturb import resting_on
 from rail_mj.imagination.worlds import ImaginedWorlds
 from rail_mj.llm.schemas import FunctionalPoseVerdict, ImaginationProfile
 from rail_mj.mesh import load_object, mesh_notes, redecomposed
+from rail_mj.pipeline import definitions
 from rail_mj.pipeline.config import ObjectInput, RunConfig
 from rail_mj.pipeline.parallel import run_tasks
 from rail_mj.pipeline.tasks import ObjectTask
@@ -80,8 +81,10 @@ class Pipeline:
         # the parent, leaves an unset ImaginationConfig.nthread to this worker's RAIL_MJ_THREADS
         config = config or RunConfig()
         self.config = type(config).model_validate(config.model_dump(exclude_unset=True))
-        # the run's affordance files, registered here too: a worker is a fresh interpreter
+        # the run's affordance files and the uses the provider defined, registered here too: a worker is a fresh
+        # interpreter
         load_files(self.config.affordances_files)
+        self._defined = definitions.register(self.config.definitions)
         self.backend = resolve_backend(self.config.backend)
         # the run's LLM settings go to the provider once; every stage then reads them from it
         self.provider = provider_for(self.config)
@@ -144,7 +147,9 @@ class Pipeline:
         # lower case: a novel name (an LLM provider's) is kept as written, in any case
         key = (task.affordance.lower(), task.scale, *(round(math.log(max(d, 1e-4)) / b) for d in task.obb_dims))
         if key not in self._profiles:
-            self._profiles[key] = (llm.task_profile(task, self.provider) if folder is None else
+            # a use the provider defined as a row of a tested kind: stages 1-6 are the kind's (no model call)
+            stages = llm.get_provider("offline") if task.affordance in self._defined else self.provider
+            self._profiles[key] = (llm.task_profile(task, stages) if folder is None else
                                    profiles.import_profile(folder, task, self.provider,
                                                            origin=self.config.profile_origin))
         return self._profiles[key]
@@ -192,7 +197,10 @@ class Pipeline:
                 profile: ImaginationProfile) -> AffordanceResult:
         """The case's result before any physics: the profile's plans, agent, scoring and size check."""
         row = rules_row(profile.affordance, profile.scale)
+        words, toml = self._definition(affordance)
         return AffordanceResult(
+            definition=words,
+            definition_toml=toml,
             object=obj.name,
             affordance=profile.affordance,
             requested=affordance,
@@ -363,9 +371,23 @@ class Pipeline:
             results.append(r)
         return results
 
+    def _definition(self, affordance: str) -> tuple[str | None, str | None]:
+        """A result's words on how the provider defined ``affordance`` (stage 0), and its row as a file."""
+        defined = next((d for d in self.config.definitions if d.name == affordance.strip()), None)
+        if defined is None:
+            return None, None
+        row = rules_row(defined.name) if defined.row_toml else None
+        words = (f"{defined.by} defined it as a row of the {row.kind} kind, imagined with that kind's tested "
+                 f"physics: {defined.reason}" if row is not None else
+                 f"{defined.by} found no kind that models it ({defined.reason}): its own profile (stages 1-6)")
+        return words, definitions.file_text(defined)
+
     def _error(self, name: str, affordance: str, exc: Exception) -> AffordanceResult:
         """A failed case: no check ran, so ``dims_fit`` stays None (never a passed check)."""
+        words, toml = self._definition(affordance)
         return AffordanceResult(
+            definition=words,
+            definition_toml=toml,
             object=name,
             affordance=affordance,
             requested=affordance,
@@ -410,6 +432,10 @@ def classify(
     cfg = cfg.model_copy(update={"profile_dir": cfg.profile_dir})
     pipe = Pipeline(cfg)
     pipe.check_affordances(affordances)
+    # stage 0, once per run for each use outside the registry: its definition goes to every worker
+    defined = definitions.define(affordances, pipe.provider, cfg, lambda a: pipe.profile_folder(a) is not None)
+    if defined:
+        cfg = cfg.model_copy(update={"definitions": [*cfg.definitions, *defined]})
     task_cfg = cfg.model_copy(update={"provider": pipe.provider_name, "backend": pipe.backend})
     tasks = [object_task(i, item, affordances, task_cfg) for i, item in enumerate(objects)]
     total = len(tasks) * len(affordances)
@@ -433,7 +459,14 @@ def classify(
     finally:
         if bar is not None:
             bar.close()
-    return [r for results in per_object for r in results]
+    results = [r for results in per_object for r in results]
+    for d in defined:  # stage 0 ran here, once per use: its requests are counted on the use's first case
+        first = next((r for r in results if r.requested.strip() == d.name), None)
+        if first is not None and d.llm_calls:
+            first.llm_calls = {"affordance_definition": d.llm_calls, **first.llm_calls}
+        if first is not None and d.llm_repairs:
+            first.llm_repairs = {"affordance_definition": d.llm_repairs, **first.llm_repairs}
+    return results
 
 
 def run_object(task: ObjectTask) -> str:

@@ -157,6 +157,23 @@ def _outputs(args: argparse.Namespace, results) -> None:
               file=sys.stderr)
 
 
+def _save_affordances(folder: Path, results) -> None:
+    """Write each use the provider defined as a row (stage 0) as FOLDER/<use>.toml, an affordance file that
+    ``--affordances-file`` loads with no model."""
+    from rail_mj.core.runfiles import atomic_write_text
+
+    rows = {r.requested.strip(): r.definition_toml for r in results if r.definition_toml}
+    if not rows:
+        print(f"no affordance written to {folder}: no requested use was defined as a row of a kind here "
+              "(registered uses, and uses no kind models, have none)", file=sys.stderr)
+        return
+    folder.mkdir(parents=True, exist_ok=True)
+    for name, text in rows.items():
+        path = folder / f"{'_'.join(name.lower().split())}.toml"
+        atomic_write_text(path, text)
+        print(f"wrote {path}", file=sys.stderr)
+
+
 def _save_profiles(args: argparse.Namespace, results) -> bool:
     """Write the profile of each result that has one as DIR/<affordance>/, its via-points for the pose shown
     (the functional one, else the best-scoring one); False when one could not be written (its error printed)."""
@@ -211,6 +228,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--save-profile", type=Path, metavar="DIR",
                    help="write each affordance's profile as DIR/<affordance>/ in the same format (with rail_mj's "
                         "scoring.py and rail_mj.json), for --profile-dir DIR to read back")
+    p.add_argument("--save-affordance", type=Path, metavar="DIR",
+                   help="write each use outside the registry that the model defined as a row of a kind (stage 0) as "
+                        "DIR/<use>.toml, an affordance file that --affordances-file loads with no model")
     p.add_argument("--units", type=_metres_per_unit, default=1.0, help="metres per mesh unit (0.001 for millimetres)")
     p.add_argument("--up", choices=("z", "y"), default="z", help="the mesh's up axis")
     p.add_argument("--provider", default="auto",
@@ -273,6 +293,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                 print(_describe(r))
         if args.render or args.contact_sheet or args.save_scene is not None:
             _outputs(args, results)
+        if args.save_affordance is not None:
+            _save_affordances(args.save_affordance, results)
         if args.save_profile is not None and not _save_profiles(args, results):
             return EXIT_FAILED
     except (RailError, KeyboardInterrupt) as exc:

@@ -18,10 +18,24 @@ from rail_mj.mesh import DecompositionConfig
 from rail_mj.profiles import PROFILE_DIR_ENV, Origin, default_profile_dir
 from rail_mj.stable_poses.config import StablePoseConfig
 
-__all__ = ["PoseMode", "RunOptions", "RunConfig", "ObjectInput"]
+__all__ = ["PoseMode", "Definition", "RunOptions", "RunConfig", "ObjectInput"]
 
 #: ``stable``: imagine every stable pose found by dropping the object; ``as_placed``: only the pose it stands in.
 PoseMode = Literal["stable", "as_placed"]
+
+
+class Definition(BaseModel):
+    """A use outside the registry as the provider defined it (stage 0): a row of a registered kind, or none."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    name: str = Field(description="the use as requested")
+    row_toml: str | None = Field(description="its [[affordance]] table; None: no kind models it")
+    reason: str = Field(description="why the kind's test is the use's test, or why no kind's is")
+    size_basis: list[str] = Field(default_factory=list, description="what each size range of the row comes from")
+    by: str = Field(description="provider:model that wrote it")
+    llm_calls: int = Field(default=0, description="requests stage 0 sent for it (0: answered from the cache)")
+    llm_repairs: int = Field(default=0, description="repair rounds among them")
 
 
 class RunOptions(BaseModel):
@@ -61,6 +75,12 @@ class RunOptions(BaseModel):
                                           "registered before the names are checked, in this process and in "
                                           "every worker (absolute paths: a worker may run elsewhere)"
     )
+
+    definitions: list[Definition] = Field(
+        default_factory=list, description="uses outside the registry that the provider defined (stage 0), filled "
+                                          "by classify before any object: a row is registered here and in every "
+                                          "worker and imagined with its kind's tested physics; without a row, the "
+                                          "provider writes a free-form profile")
 
     profile_dir: Path | None = Field(
         default_factory=default_profile_dir,

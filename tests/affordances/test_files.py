@@ -267,3 +267,27 @@ def test_the_eval_and_robot_clis_load_the_files_first(tmp_path: Path, monkeypatc
     seen = []
     monkeypatch.setattr(robot_cli, "fetch_panda", lambda: seen.append(get("dog bed").name) or tmp_path)
     assert robot_cli.main(["--fetch", "--affordances-file", str(DOG_BED)]) == 0 and seen == ["dog bed"]
+
+
+def test_every_registered_row_written_as_a_file_reads_back_the_same() -> None:
+    """row_toml is what stage 0's examples show a model and what --save-affordance writes: parse() must give back
+    the row it was written from, widths and nested params included."""
+    import dataclasses
+
+    from rail_mj.affordances.envelope import Envelope
+    from rail_mj.affordances.files import row_toml
+    from rail_mj.affordances.kinds import ContainerParams, Droplets
+
+    rows = [*REGISTRY.values(), dataclasses.replace(
+        REGISTRY["bowl"], name="fruit bowl", aliases=("fruit dish",), paper=False,
+        envelope=Envelope(height=(0.06, 0.2), aspect=(0.0, 0.6), widths=(("height/width", 0.3), ("height", 0.2))),
+        params=ContainerParams(droplets=Droplets(max_radius=0.05), basin_length=0.1))]
+    for row in rows:
+        (back,) = read_text(row_toml(row))
+        assert dataclasses.replace(back.row, paper=row.paper) == row, row.name
+
+
+def read_text(text: str):
+    from rail_mj.affordances.files import parse
+
+    return parse(text, "written")

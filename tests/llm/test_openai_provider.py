@@ -267,7 +267,7 @@ def test_timeout_is_a_provider_error(provider_for):
         return Reply(reply.status, reply.body, delay_s=1.5)
 
     with ChatServer(slow) as server:
-        with pytest.raises(ProviderError, match=r"did not answer within 0.3 s; raise the timeout"):
+        with pytest.raises(ProviderError, match=r"did not answer within 0.3 s; raise it \(--llm-timeout SECONDS"):
             analyze_affordance(ANALYSIS, provider_for(server, timeout=0.3))
 
 

@@ -36,9 +36,9 @@ FIXTURE = FIXTURES / "llm_replay" / "dog_bed.json"
 CONVERSATION: dict[str, Any] = json.loads(FIXTURE.read_text())
 #: The answer type's name (the schema the provider sends) -> its stage's name.
 STAGE_OF = {spec.output_type.__name__: name for name, spec in STAGES.items()}
-#: Everything of a result but the seconds it took, the provider that made it and the requests it sent (none from
-#: the cache).
-COMPARED = {"timings", "provider", "llm_calls", "llm_repairs"}
+#: Everything of a result but the seconds it took, the provider that made it (also named in the words of its
+#: stage-0 definition) and the requests it sent (none from the cache).
+COMPARED = {"timings", "provider", "definition", "llm_calls", "llm_repairs"}
 
 
 def _box(lo: list[float], hi: list[float]) -> np.ndarray:

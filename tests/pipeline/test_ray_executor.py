@@ -79,7 +79,7 @@ def test_a_crashed_ray_worker_is_an_error_line_and_the_run_goes_on(cluster, tmp_
     for i in range(2):
         boxes.append(tmp_path / f"b{i}.stl")
         trimesh.creation.box(extents=(0.2 + 0.1 * i, 0.1, 0.05)).export(boxes[-1])
-    kw = dict(provider="offline", progress=False, config=RunConfig(stable_poses=StablePoseConfig(n_drops=8)))
+    kw = dict(progress=False, config=RunConfig(provider="offline", stable_poses=StablePoseConfig(n_drops=8)))
     results = classify([boxes[0], Crasher(), boxes[1]], [AFFORDANCE], executor="ray", **kw)
     assert results[1].object == "crasher.obj" and results[1].error.startswith("WorkerError: the Ray task")
     assert results[0].error is None and results[2].error is None

@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from typing import cast
+from typing import ClassVar, cast
 
 import rail_mj.core.profile as profile
 from rail_mj.affordances.kinds.base import (
@@ -64,6 +64,18 @@ class Droplets:
 @dataclass(frozen=True)
 class ContainerParams(KindParams):
     """A container row's own fields: its droplets, and whether it holds water."""
+
+    #: each field in words, for a model writing a row (rail_mj.llm.prompts)
+    DOCS: ClassVar[dict[str, str]] = {
+        "droplets.scale": "droplet radius as a fraction of the object's middle OBB dim (the 3x3x3 grid then spans "
+                          "~7 radii)",
+        "droplets.min_radius": "smallest droplet radius, m (a drop of water: 0.004)",
+        "droplets.max_radius": "largest droplet radius, m (what the object carries: a fruit 0.05; inf: no cap; "
+                               "0.004 makes the droplets a liquid)",
+        "holds_water": "true: it holds liquid, so a pose needs a basin that keeps water poured in",
+        "basin_length": "least length of that basin at its spill level, m",
+        "stems": "true: it holds flower stems upright in its water (a vase)",
+    }
 
     droplets: Droplets = Droplets()
     #: it holds liquid, so a pose has a basin on the spill map (water poured in stays; an upturned desk's knee

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import cast
+from typing import ClassVar, cast
 
 from rail_mj.affordances.kinds.base import (
     LEVEL_DEG,
@@ -56,6 +56,9 @@ __all__ = ["SeatParams", "Seat"]
 @dataclass(frozen=True)
 class SeatParams(KindParams):
     """A seat row's own field: how many sit on it side by side."""
+
+    DOCS: ClassVar[dict[str, str]] = {
+        "persons": "people who sit on it side by side (1: a seat for one, refused where a second sitter fits)"}
 
     persons: int = 1  # people who sit on it side by side (1: a seat for one)
 

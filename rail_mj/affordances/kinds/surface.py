@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import cast
+from typing import ClassVar, cast
 
 from rail_mj.affordances.kinds.base import (
     MAX_OBJECT_TILT_DEG,
@@ -32,6 +32,9 @@ __all__ = ["SurfaceParams", "Surface"]
 @dataclass(frozen=True)
 class SurfaceParams(KindParams):
     """A surface row's own field: whether it is used from beside it."""
+
+    DOCS: ClassVar[dict[str, str]] = {
+        "legroom": "true: used from beside it, so a person's feet must get under its top's edge (a table)"}
 
     legroom: bool = False  # used from beside it, so a person's feet go under its top's edge
 

@@ -1,0 +1,161 @@
+"""Stage 0: a use outside the registry becomes a row of a tested kind when the model says one fits, is defined once
+per run, is imagined with the kind's physics (no stages 1-6 asked of the model), and is saved as an affordance file
+that loads with no model. A row that fails a check goes back to the model with the check's words."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+from chat_server import ChatServer, chat_error, completion, offline_completion, schema_name
+from messages_server import Reply
+
+from rail_mj.affordances import known_affordances, load, unload_all
+from rail_mj.llm import definition_row
+from rail_mj.llm.schemas import AffordanceDefinition, DefinitionRequest
+from rail_mj.mesh import object_from_mesh
+from rail_mj.pipeline.chain import classify
+from rail_mj.pipeline.config import RunConfig
+from rail_mj.robot.demo import make_object
+
+FRUIT_BOWL = """[[affordance]]
+name = "fruit bowl"
+kind = "container"
+ibd = "A fruit bowl holds a few apples or oranges in an open, wide cavity (rim 20-40 cm across, 6-15 cm deep)."
+
+[affordance.envelope]
+height = [0.06, 0.2]
+width = [0.18, 0.45]
+aspect = [0.0, 0.6]
+
+[affordance.params.droplets]
+max_radius = 0.05
+"""
+BASIS = ["rim 20-40 cm across, 6-15 cm deep: fruit bowls in catalogues", "fruit 6-10 cm across: apples, oranges"]
+
+
+def _definition(row: str | None, kind: str | None = "container", name: str = "fruit bowl") -> str:
+    return AffordanceDefinition(affordance=name, kind=kind, row_toml=row, size_basis=BASIS if row else [],
+                                reason="a fruit bowl is tested as a bowl is: things dropped in stay").model_dump_json()
+
+
+class Model:
+    """Stage 0 from ``definitions`` in turn; every other stage as the offline library answers it."""
+
+    def __init__(self, *definitions: str) -> None:
+        self.definitions = list(definitions)
+        self.asked: list[str] = []
+        self.repairs: list[str] = []
+
+    def __call__(self, body: dict[str, Any]) -> Reply:
+        name = schema_name(body)
+        self.asked.append(name)
+        if name != "AffordanceDefinition":
+            if name not in ("FunctionalPoseVerdict",):
+                return chat_error(400, f"the model was not to be asked {name}")
+            return offline_completion(body)
+        last = body["messages"][-1]["content"]
+        if "Your previous answer was rejected" in last:
+            self.repairs.append(last)
+        return completion(self.definitions.pop(0), model=body["model"])
+
+
+@pytest.fixture(autouse=True)
+def _fresh(monkeypatch: pytest.MonkeyPatch, tmp_path: Path):
+    unload_all()
+    monkeypatch.setenv("RAIL_MJ_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setenv("RAIL_MJ_MODEL", "test-model")
+    monkeypatch.delenv("OPENAI_API_KEY", raising=False)
+    yield
+    unload_all()
+
+
+def _scaled(kind: str, factor: float):
+    """A demo object made ``factor`` times larger (a 30 cm basin from the 15 cm bowl)."""
+    mesh = make_object(kind, 0).mesh.copy()
+    mesh.apply_scale(factor)
+    return object_from_mesh(mesh, name=f"{kind}_x{factor:g}")
+
+
+def _run(model: Model, objects: list, name: str = "fruit bowl", **settings: Any):
+    with ChatServer(model) as server:
+        config = RunConfig(provider="openai", backend="native", pose="as_placed", max_retries=1,
+                           provider_options={"base_url": server.base_url}, **settings)
+        return classify(objects, [name], config=config, progress=False, workers=1)
+
+
+def test_a_use_a_kind_models_is_a_row_defined_once_and_imagined_with_the_kinds_physics() -> None:
+    model = Model(_definition(FRUIT_BOWL))
+    bowl, plate = _run(model, [_scaled("bowl", 2.0), _scaled("plate", 1.5)])  # 30 x 12 cm basin, 28 cm plate
+    assert model.asked.count("AffordanceDefinition") == 1  # once per run, not per object
+    assert "AffordanceAnalysis" not in model.asked and "ScoringCode" not in model.asked  # stages 1-6: the kind's
+    assert bowl.error is None and bowl.functional, bowl.analyzer_reasons
+    assert plate.error is None and not plate.functional
+    assert bowl.definition is not None and "a row of the container kind" in bowl.definition
+    assert bowl.definition_toml is not None and bowl.definition_toml.endswith(FRUIT_BOWL)
+    # the plate had no candidate to put to stage 7: nothing was asked for it
+    assert bowl.llm_calls == {"affordance_definition": 1, "functional_pose": 1} and plate.llm_calls == {}
+    assert "fruit bowl" in known_affordances()  # registered in this process (and in every worker) for the run
+
+
+def test_a_row_that_fails_a_check_goes_back_with_the_checks_words() -> None:
+    unknown_param = FRUIT_BOWL.replace("max_radius = 0.05", "max_radius = 0.05\nsize = 2")
+    model = Model(_definition(unknown_param), _definition(FRUIT_BOWL))
+    (bowl,) = _run(model, [_scaled("bowl", 2.0)])
+    assert bowl.functional and bowl.llm_repairs == {"affordance_definition": 1}
+    assert "unknown key 'size'" in model.repairs[0] and "valid: scale, min_radius, max_radius" in model.repairs[0]
+
+
+def test_without_a_kind_the_use_keeps_its_own_profile() -> None:
+    model = Model(_definition(None, kind=None, name="ladder"))
+    (result,) = _run(model, [make_object("stool", 0)], name="ladder")
+    assert result.definition is not None and "no kind" in result.definition
+    assert "AffordanceAnalysis" in model.asked  # stage 1 asked of the model: the free-form path
+    assert result.error is not None and "affordance_analyzer" in result.error  # this model answers no stage 1
+
+
+def test_every_check_names_what_is_wrong() -> None:
+    request = DefinitionRequest(affordance="fruit bowl")
+    cases = [
+        (FRUIT_BOWL.replace('name = "fruit bowl"', 'name = "bowl for fruit"'), "must be the requested use"),
+        (FRUIT_BOWL + '\n[[affordance]]\nname = "x"\nkind = "dish"\nibd = "x"\n', "exactly one"),
+        (FRUIT_BOWL.replace('name = "fruit bowl"', 'name = "fruit bowl"\naliases = ["cup"]'), "already registered"),
+        (FRUIT_BOWL.replace("height = [0.06, 0.2]", "height = [0.2, 0.06]"), "height"),
+        ("not toml [", "not valid TOML"),
+    ]
+    for row, words in cases:
+        answer = AffordanceDefinition.model_validate_json(_definition(row))
+        with pytest.raises(Exception, match=words):
+            definition_row(request, answer)
+    other_kind = AffordanceDefinition(affordance="fruit bowl", kind="dish", row_toml=FRUIT_BOWL, size_basis=BASIS,
+                                      reason="r")
+    with pytest.raises(Exception, match="must equal the answer's kind 'dish'"):
+        definition_row(request, other_kind)
+    no_basis = AffordanceDefinition(affordance="fruit bowl", kind="container", row_toml=FRUIT_BOWL, size_basis=[],
+                                    reason="r")
+    with pytest.raises(Exception, match="size_basis"):
+        definition_row(request, no_basis)
+    assert definition_row(request, AffordanceDefinition.model_validate_json(_definition(FRUIT_BOWL))) is not None
+
+
+def test_a_saved_definition_loads_with_no_model(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                               monkeypatch: pytest.MonkeyPatch) -> None:
+    from rail_mj.pipeline import cli
+
+    mesh = tmp_path / "basin.stl"
+    _scaled("bowl", 2.0).mesh.export(mesh)
+    model = Model(_definition(FRUIT_BOWL))
+    with ChatServer(model) as server:
+        monkeypatch.setenv("OPENAI_BASE_URL", server.base_url)
+        rc = cli.main([str(mesh), "-a", "fruit bowl", "--provider", "openai", "--backend", "native",
+                       "--save-affordance", str(tmp_path / "saved"), "--json"])
+    assert rc == 0, capsys.readouterr().err
+    saved = tmp_path / "saved" / "fruit_bowl.toml"
+    text = saved.read_text()
+    assert "defined by openai:test-model" in text and BASIS[0] in text
+    unload_all()
+    (row,) = load(saved)
+    assert row.name == "fruit bowl" and row.kind == "container"
+    json.loads(capsys.readouterr().out.splitlines()[0])
