@@ -217,9 +217,12 @@ def object_from_parts(name: str, hulls: list[np.ndarray] | tuple[np.ndarray, ...
                       mass=volume * density, density=density)
 
 
-def make_object(kind: str, seed: int = 0, density: float = 600.0) -> RailObject:
-    """A table-top object of ``kind`` built from convex parts (mesh frame: upright, base at z = 0)."""
-    return object_from_parts(f"{kind}_{seed}", _parts(kind, np.random.default_rng(seed)), density)
+def make_object(kind: str, seed: int = 0, density: float = 600.0, scale: float = 1.0) -> RailObject:
+    """A table-top object of ``kind`` built from convex parts (mesh frame: upright, base at z = 0), ``scale`` times
+    its size (the furniture is doll-sized at 1: a table 18 cm long)."""
+    parts = _parts(kind, np.random.default_rng(seed))
+    name = f"{kind}_{seed}" if scale == 1.0 else f"{kind}_{seed}_x{scale:g}"
+    return object_from_parts(name, [np.asarray(p, float) * scale for p in parts] if scale != 1.0 else parts, density)
 
 
 def upright_pose(obj: RailObject) -> StablePose:
