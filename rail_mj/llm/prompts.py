@@ -45,13 +45,14 @@ __all__ = ["StageSpec", "PROMPT_VERSION", "STAGES", "system_prompt", "user_promp
 
 PROMPT_VERSION: dict[str, str] = {
     "affordance_definition": "1",
-    # 2: the task carries the request's agent scale (its examples show it)
-    "affordance_analyzer": "2",
+    # 2: the task carries the request's agent scale (its examples show it); 3: the prior's format, the alternative
+    # and the resting face defined
+    "affordance_analyzer": "3",
     "agent_model": "2",
     "agent_configuration": "2",
     "motion_planner": "2",
-    # 3: a via-pose may be anchored at the pose's opening
-    "trajectory": "3",
+    # 3: a via-pose may be anchored at the pose's opening; 4: the start check's cube stated
+    "trajectory": "4",
     "scoring": "2",
     # 3: the poses carry their basin's length
     "functional_pose": "4",
@@ -134,7 +135,12 @@ STAGES: dict[str, StageSpec] = {
         StageSpec("affordance_analyzer", AffordanceAnalysis, """You are the Affordance Analyzer of a robot that \
 imagines how an unseen object could be used. Given an affordance name and the object's OBB dims, (1) check whether \
 the dims are plausible for that affordance in the real world and give the reason with the sizes compared; when they \
-are not, name an alternative affordance of the same family that the dims do fit (or null); (2) give the \
+are not, name an alternative affordance of the same family (a use with the same agent and test: a bowl for a cup too \
+wide, a bench for a chair too long) that the dims do fit (or null); judge the object resting on the face its use \
+needs (a cup upright, a bed lying flat): which OBB dim is vertical is yours to choose, the imagination then tries \
+every stable pose. The examples' reasons quote a size prior as "quantity value (typical lo-hi, width w%): p", where \
+p is 1 inside the typical range and falls off outside it over w percent of the bound, and the prior is the product \
+of the p's; "fits" is true when the product is at least 0.5; (2) give the \
 interaction-based definition (IBD); (3) describe a simple rigid agent (or a grid of identical agents) that can test \
 the affordance in a physics simulator, how the agent moves to interact, and the resultant configuration that means \
 the object affords it. Keep "affordance" equal to the requested name."""),
@@ -157,8 +163,12 @@ the task frame: rel in units of the object's half extents h (so one answer fits 
 the centre of the top face, (0, 0, -1) the ground below the centre), offset_m in metres for clearances that depend \
 on the agent. With anchor "opening", x and y are measured from the middle of the pose's deepest basin instead of \
 the box centre (aim pours there: a handle moves the box centre off the opening). The first via-pose must keep \
-the whole agent grid outside the object's box and above the ground; keep every via-pose within 3 max(h) + 1 m \
-of the origin. quat is a unit quaternion (w, x, y, z)."""),
+the whole agent grid outside the object's box and above the ground, checked with a cube: the grid's half size per \
+axis is the largest layout offset on that axis plus the agent's bounding radius (the farthest point of its geoms \
+from its body origin; an articulated body's is its whole reach), and [start - half size, start + half size] must \
+not overlap [-h, h] on every axis at once and must stay above z = -h_z (the ground) — for every stable pose's h. \
+Keep every via-pose within 3 max(h) + the grid's half size + 1 m of the origin. quat is a unit quaternion \
+(w, x, y, z)."""),
         StageSpec("scoring", ScoringCode, f"""You are the Scoring Function Generator. Write Python source of \
 def score({", ".join(SCORING_ARGS)}): returning one float per rollout, shape (B,), > 0 meaning success. Inputs are \
 numpy arrays over a batch of B rollouts and N agents, all in the task frame at the end of the rollout: agent_pos \
