@@ -23,7 +23,7 @@ from rail_mj.eval.merge import merge_runs
 from rail_mj.eval.run import DatasetConfig, EvalConfig, parse_shard, run_eval
 from rail_mj.eval.summary import _tables, _timing_table
 from rail_mj.llm.providers import PROVIDERS
-from rail_mj.pipeline.cli import add_llm_options, llm_settings
+from rail_mj.pipeline.cli import add_llm_options, run_settings
 from rail_mj.pipeline.tasks import cpu_count
 from rail_mj.stable_poses import StablePoseConfig
 
@@ -48,13 +48,13 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--profile-dir", type=Path, metavar="DIR",
                    help="a profile folder in the paper authors' format, or a folder of them named by affordance: an "
                         "affordance with a folder is imagined from it, the rest from the provider")
-    p.add_argument("--profile-origin", choices=("ground", "center"), default="ground",
+    p.add_argument("--profile-origin", choices=("ground", "center"),
                    help="where the folders' via-points start: the object's footprint centre on the ground, or its "
                         "box centre")
     p.add_argument("--out", type=Path, required=True, help="output folder (one run at a time)")
     p.add_argument("--resume", action="store_true", help="continue an interrupted run in --out")
-    p.add_argument("--provider", default="auto", choices=PROVIDERS)
-    p.add_argument("--backend", default="auto", choices=("auto", "native", "mjx"))
+    p.add_argument("--provider", choices=PROVIDERS, help="default auto")
+    p.add_argument("--backend", choices=("auto", "native", "mjx"), help="default auto")
     add_llm_options(p)
     p.add_argument("--drops", type=int, help=f"drops for stable-pose imagination (default "
                                              f"{StablePoseConfig.model_fields['n_drops'].default})")
@@ -89,12 +89,9 @@ _OPTIONS = {"dataset.per_class": "--per-class", "dataset.seed": "--seed", "run.s
 
 def _config(args: argparse.Namespace) -> EvalConfig:
     split = lambda s: [x.strip() for x in s.split(",") if x.strip()] if s else None  # noqa: E731
-    run: dict = {"provider": args.provider, "backend": args.backend, "affordances_files": args.affordances_file,
-                 "profile_origin": args.profile_origin, **llm_settings(args)}
+    run: dict = {"affordances_files": args.affordances_file, **run_settings(args)}
     if args.drops is not None:  # absent: StablePoseConfig's default, its one home
         run["stable_poses"] = {"n_drops": args.drops}
-    if args.profile_dir is not None:  # absent: the default ($RAIL_MJ_PROFILE_DIR), never an explicit None over it
-        run["profile_dir"] = args.profile_dir
     try:
         return EvalConfig.model_validate({
             "run": run,

@@ -24,7 +24,7 @@ from typing import Any
 from rail_mj.core.cli import EXIT_FAILED, EXIT_OK, report_error
 from rail_mj.core.errors import RailError
 
-__all__ = ["main", "add_llm_options", "llm_settings"]
+__all__ = ["main", "add_llm_options", "llm_settings", "run_settings"]
 
 
 def _number(kind: type, lowest: float, strict: bool, what: str):
@@ -54,6 +54,14 @@ def add_llm_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--max-repairs", type=_number(int, 0, False, "a whole number >= 0"), metavar="N",
                         help=f"repair rounds per stage after a rejected answer (default "
                              f"{fields['max_retries'].default})")
+
+
+def run_settings(args: argparse.Namespace) -> dict[str, Any]:
+    """The :class:`~rail_mj.pipeline.config.RunConfig` fields of the options given (provider, backend, profile
+    folders and origin, the LLM options); one left out keeps RunConfig's default, declared there once."""
+    given = {"provider": args.provider, "backend": args.backend, "profile_origin": args.profile_origin,
+             "profile_dir": args.profile_dir}
+    return {**{k: v for k, v in given.items() if v is not None}, **llm_settings(args)}
 
 
 def llm_settings(args: argparse.Namespace) -> dict[str, Any]:
@@ -174,12 +182,11 @@ def _save_affordances(folder: Path, results) -> None:
         print(f"wrote {path}", file=sys.stderr)
 
 
-def _save_profiles(args: argparse.Namespace, results) -> bool:
+def _save_profiles(args: argparse.Namespace, results, config) -> bool:
     """Write the profile of each result that has one as DIR/<affordance>/, its via-points for the pose shown
     (the functional one, else the best-scoring one); False when one could not be written (its error printed)."""
     from rail_mj.mesh import load_object
     from rail_mj.pipeline.chain import Pipeline
-    from rail_mj.pipeline.config import RunConfig
     from rail_mj.profiles import save_profile
 
     done = [r for r in results if not r.error]
@@ -187,8 +194,7 @@ def _save_profiles(args: argparse.Namespace, results) -> bool:
         print(f"no profile written to {args.save_profile}: every case failed", file=sys.stderr)
         return True
     obj = load_object(args.mesh, units=args.units, up=args.up)
-    pipe = Pipeline(RunConfig(provider=done[0].provider, backend=args.backend,
-                              profile_dir=args.profile_dir, profile_origin=args.profile_origin))
+    pipe = Pipeline(config.model_copy(update={"provider": done[0].provider}))
     ok = True
     for r in done:
         pose = r.functional_pose or (r.stable_poses[r.evidence_pose] if r.evidence_pose is not None else None)
@@ -196,7 +202,7 @@ def _save_profiles(args: argparse.Namespace, results) -> bool:
             folder = save_profile(pipe.profile(r.requested, obj.obb_dims),
                                   args.save_profile / r.affordance.replace(" ", "_"),
                                   half_extents=pose.half_extents if pose is not None else None,
-                                  origin=args.profile_origin)
+                                  origin=config.profile_origin)
         except RailError as exc:  # e.g. an agent shape URDF lacks: that profile is not written, the rest are
             print(f"error: {r.object}: {r.requested!r}: no profile written: {exc}", file=sys.stderr)
             ok = False
@@ -222,7 +228,7 @@ def _parser() -> argparse.ArgumentParser:
                    help="a profile folder in the paper authors' format (analysis.txt, agent.urdf, arrangement.json, "
                         "plan.json / agents_traj.json, evaluation.py), or a folder of them named by affordance: "
                         "an affordance with a folder is imagined from it, the rest from the provider")
-    p.add_argument("--profile-origin", choices=("ground", "center"), default="ground",
+    p.add_argument("--profile-origin", choices=("ground", "center"),
                    help="where the folders' via-points start: the centre of the object's footprint on the ground "
                         "(default) or the centre of its box")
     p.add_argument("--save-profile", type=Path, metavar="DIR",
@@ -233,9 +239,9 @@ def _parser() -> argparse.ArgumentParser:
                         "DIR/<use>.toml, an affordance file that --affordances-file loads with no model")
     p.add_argument("--units", type=_metres_per_unit, default=1.0, help="metres per mesh unit (0.001 for millimetres)")
     p.add_argument("--up", choices=("z", "y"), default="z", help="the mesh's up axis")
-    p.add_argument("--provider", default="auto",
+    p.add_argument("--provider",
                    help="auto | offline | anthropic | openai (OPENAI_BASE_URL, OPENAI_API_KEY, RAIL_MJ_MODEL)")
-    p.add_argument("--backend", default="auto", help="auto | native | mjx")
+    p.add_argument("--backend", help="auto | native | mjx (default auto)")
     add_llm_options(p)
     p.add_argument("--json", action="store_true", help="print the results as JSON lines")
     p.add_argument("--explain", action="store_true",
@@ -270,9 +276,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             from rail_mj.render.mjcf_export import check_scene_dir
 
             check_scene_dir(args.save_scene)  # before any work
-        config = RunConfig(provider=args.provider, backend=args.backend, affordances_files=args.affordances_file,
-                           profile_origin=args.profile_origin, **llm_settings(args),
-                           **({} if args.profile_dir is None else {"profile_dir": args.profile_dir}))
+        config = RunConfig(affordances_files=args.affordances_file, **run_settings(args))
         options: dict[str, Any] = dict(progress=False, config=config)
         item = ObjectInput(path=args.mesh, units=args.units, up=args.up)
         if args.rank:
@@ -295,7 +299,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             _outputs(args, results)
         if args.save_affordance is not None:
             _save_affordances(args.save_affordance, results)
-        if args.save_profile is not None and not _save_profiles(args, results):
+        if args.save_profile is not None and not _save_profiles(args, results, config):
             return EXIT_FAILED
     except (RailError, KeyboardInterrupt) as exc:
         return report_error(exc, json_out=args.json)
