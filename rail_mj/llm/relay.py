@@ -124,7 +124,8 @@ class RelayServer:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m rail_mj.llm.relay", description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m rail_mj.llm.relay",
+                                     description="A chat-completions server that relays each request to files.")
     parser.add_argument("--dir", type=Path, required=True, help="folder of the requests, answers and exchanges")
     parser.add_argument("--port", type=int, default=8765)
     parser.add_argument("--wait", type=float, default=1800.0, help="seconds a request waits for its answer file")
