@@ -23,7 +23,8 @@ from __future__ import annotations
 import hashlib
 import math
 import os
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import replace
 from pathlib import Path
 
@@ -43,6 +44,7 @@ __all__ = [
     "register",
     "load",
     "load_text",
+    "trial",
     "load_files",
     "unload_all",
     "ensure_entry_points",
@@ -317,6 +319,18 @@ def register(entries: Iterable[FileRow], source: str) -> None:
     for entry in entries:
         _add(entry, source, table, index, sources)
     _restore((table, index, sources))
+
+
+@contextmanager
+def trial(entries: Iterable[FileRow], source: str) -> Iterator[None]:
+    """Register rows for the block only (a stage-0 row being proven on its prototypes): afterwards the registry is
+    as it was before, whatever happened in the block."""
+    saved = _snapshot()
+    try:
+        register(entries, source)
+        yield
+    finally:
+        _restore(saved)
 
 
 def load(path: str | os.PathLike[str]) -> tuple[Affordance, ...]:

@@ -19,6 +19,7 @@ from rail_mj.affordances import REGISTRY
 from rail_mj.affordances.envelope import QUANTITIES
 from rail_mj.affordances.files import _toml_value, row_toml
 from rail_mj.affordances.kinds import KINDS
+from rail_mj.affordances.prototypes import SHAPES, Prototype
 from rail_mj.core.types import SCORING_ARGS
 from rail_mj.llm.schemas import (
     AffordanceAnalysis,
@@ -44,7 +45,8 @@ from rail_mj.llm.schemas import (
 __all__ = ["StageSpec", "PROMPT_VERSION", "STAGES", "system_prompt", "user_prompt", "repair_prompt"]
 
 PROMPT_VERSION: dict[str, str] = {
-    "affordance_definition": "1",
+    # 2: the prototypes the row is proven on
+    "affordance_definition": "2",
     # 2: the task carries the request's agent scale (its examples show it); 3: the prior's format, the alternative
     # and the resting face defined
     "affordance_analyzer": "3",
@@ -118,7 +120,18 @@ widths = {{quantity = w}} for a range whose spread differs from the default, wit
 kind's params listed above (numbers >= 0, true / false), nested tables for nested ones; no override key. Sizes are \
 priors, not vetoes: give the range real objects of the use have, for the person (or the scale's agent) using it. \
 size_basis gives one line per range: the real objects measured and where the numbers come from (a standard, \
-catalogue ranges, anthropometry). Keep "affordance" equal to the requested name."""
+catalogue ranges, anthropometry).
+Prototypes prove the row before it judges any object: give at least one "positive" (an obvious object of the use, \
+its sizes inside the row's typical ranges: a prior of at least 0.5, checked) and one "negative", a near miss the \
+use must refuse (the same shell closed or turned into a slab, a box too small, too shallow or too tall). Each is \
+one of: {", ".join(SHAPES)}, with length, width, height and wall in metres, built upright with its base on the \
+floor: open_box / open_cylinder are shells open at the top whose walls and floor are "wall" thick (a cylinder's \
+diameter is length, its width 0); closed_box / closed_cylinder / slab are solid; seat_on_legs is a top length x \
+width, wall thick, whose upper face is height above the floor, on four corner legs; rod is a bar length long and \
+width across lying along x (height 0); sphere is a ball length across (width and height 0). The robot imagines \
+each as it stands with the kind's physics and rules: the positive must come out functional and the negative not. \
+If one does not, the answer comes back with what the simulation saw (the prior, each plan's score, the rules' \
+words) for you to repair the row or the prototypes. Keep "affordance" equal to the requested name."""
 
 
 _FRAME = """Conventions. Units are metres, kilograms, radians. The TASK FRAME has its origin at the centre of the \
@@ -212,12 +225,21 @@ _EXAMPLE_REQUESTS = ("put the apple in the bowl", "Place the dolls onto the chai
 #: Stage 0's examples: two registry rows as a model would write them, with what their sizes are measured from, and
 #: a use that no kind models.
 _EXAMPLE_DEFINITIONS = (
-    ("stool", "seat", ["seat height 0.43-0.8 m: sitting stools 43-48 cm (ANSI/BIFMA X5.1 seat heights), counter "
-                       "and bar stools 61-80 cm", "seat 0.25-0.45 m across: catalogue stools, a person's hips "
-                       "(bi-trochanteric breadth ~0.35 m)"],
+    ("stool", "seat",
+     [Prototype(role="positive", shape="seat_on_legs", length=0.35, width=0.35, height=0.45, wall=0.03,
+                why="a plain four-legged stool, its seat 45 cm up"),
+      Prototype(role="negative", shape="seat_on_legs", length=0.35, width=0.35, height=1.2, wall=0.03,
+                why="the same seat 1.2 m up: too high to sit on")],
+     ["seat height 0.43-0.8 m: sitting stools 43-48 cm (ANSI/BIFMA X5.1 seat heights), counter and bar stools "
+      "61-80 cm", "seat 0.25-0.45 m across: catalogue stools, a person's hips (bi-trochanteric breadth ~0.35 m)"],
      "A stool's test is a person sitting on a seat: the seat kind lowers the body onto it facing each way."),
-    ("bowl", "container", ["rim 12.5-35 cm across, 4.5-20 cm deep: cereal bowls to mixing bowls in catalogues",
-                           "height at most 0.55 of the rim: a bowl is wider than tall, unlike a cup"],
+    ("bowl", "container",
+     [Prototype(role="positive", shape="open_cylinder", length=0.2, width=0.0, height=0.08, wall=0.006,
+                why="a 20 cm bowl 8 cm deep"),
+      Prototype(role="negative", shape="closed_cylinder", length=0.2, width=0.0, height=0.08,
+                why="the same outline closed: nothing stays in it")],
+     ["rim 12.5-35 cm across, 4.5-20 cm deep: cereal bowls to mixing bowls in catalogues",
+      "height at most 0.55 of the rim: a bowl is wider than tall, unlike a cup"],
      "A bowl holds food poured into it: the container kind drops droplets above the opening and keeps them."),
 )
 
@@ -228,9 +250,9 @@ def _examples(stage: str) -> tuple[tuple[str, str], ...]:
     if stage == "affordance_definition":
         pairs = [(DefinitionRequest(affordance=name).model_dump_json(),
                   AffordanceDefinition(affordance=name, kind=kind, row_toml=row_toml(REGISTRY[name]),
-                                       size_basis=basis, reason=reason).model_dump_json())
-                 for name, kind, basis, reason in _EXAMPLE_DEFINITIONS]
-        ladder = AffordanceDefinition(affordance="ladder", kind=None, row_toml=None, size_basis=[],
+                                       size_basis=basis, prototypes=prototypes, reason=reason).model_dump_json())
+                 for name, kind, prototypes, basis, reason in _EXAMPLE_DEFINITIONS]
+        ladder = AffordanceDefinition(affordance="ladder", kind=None, row_toml=None, size_basis=[], prototypes=[],
                                       reason="climbing needs a body that steps and grips rung to rung; no kind "
                                              "tests that")
         return (*pairs, (DefinitionRequest(affordance="ladder").model_dump_json(), ladder.model_dump_json()))

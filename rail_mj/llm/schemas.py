@@ -11,6 +11,7 @@ from typing import Literal
 
 from pydantic import Field
 
+from rail_mj.affordances.prototypes import Prototype
 from rail_mj.core.profile import (
     AgentLayout,
     FunctionalPoseVerdict,
@@ -64,6 +65,9 @@ class AffordanceDefinition(ProfileModel):
                                              "null exactly when kind is null")
     size_basis: list[str] = Field(description="one line per size range of the row: what real objects of the use "
                                               "measure and where that comes from; empty when kind is null")
+    prototypes: list[Prototype] = Field(description="with a kind: at least one positive prototype and one near-miss "
+                                                    "negative, which the row is proven on before use; [] when kind "
+                                                    "is null")
     reason: str = Field(description="why this kind's test is the use's test, or why no kind models the use")
 
 

@@ -10,7 +10,7 @@ request wraps the rollouts' pose candidates (:func:`functional_pose_request`).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -18,6 +18,8 @@ import numpy as np
 from rail_mj.affordances import known_affordances, normalize
 from rail_mj.affordances.files import FileRow, parse
 from rail_mj.affordances.names import owner_scale
+from rail_mj.affordances.prior import FUNCTIONAL
+from rail_mj.affordances.prototypes import Prototype, describe
 from rail_mj.core.errors import AffordanceFileError, ConfigError, UnknownAffordanceError
 from rail_mj.core.profile import AgentLayout, PoseCandidates, ScoringCode
 from rail_mj.imagination.inputs import layout_offsets
@@ -140,12 +142,17 @@ def analyze_functional_poses(request: FunctionalPoseRequest,
     return _provider(provider).answer(STAGES["functional_pose"], request, lambda v: check_verdict(v, request))
 
 
-def define_affordance(request: DefinitionRequest, provider: ProviderLike) -> AffordanceDefinition:
+def define_affordance(request: DefinitionRequest, provider: ProviderLike,
+                      prove: Callable[[AffordanceDefinition, FileRow], None] | None = None) -> AffordanceDefinition:
     """Stage 0, the Affordance Definer, for a name outside the registry: a row of a registered kind (its row_toml
-    passes every check of an affordance file, :func:`definition_row`), or no kind and the reason."""
+    passes every check of an affordance file, :func:`definition_row`), or no kind and the reason. ``prove`` then
+    imagines the answer's prototypes with the row (InvalidAnswerError with what the simulation saw when it fails:
+    the answer goes back to the model for repair like any rejected answer)."""
 
     def check(answer: AffordanceDefinition) -> None:
-        definition_row(request, answer)
+        entry = definition_row(request, answer)
+        if entry is not None and prove is not None:
+            prove(answer, entry)
 
     return _provider(provider).answer(STAGES["affordance_definition"], request, check)
 
@@ -157,8 +164,9 @@ def definition_row(request: DefinitionRequest, answer: AffordanceDefinition) -> 
         raise InvalidAnswerError(f"affordance must be the requested name {request.affordance!r}; got "
                                  f"{answer.affordance!r}")
     if answer.kind is None:
-        if answer.row_toml is not None or answer.size_basis:
-            raise InvalidAnswerError("kind is null, so row_toml must be null and size_basis []: no kind's row")
+        if answer.row_toml is not None or answer.size_basis or answer.prototypes:
+            raise InvalidAnswerError("kind is null, so row_toml must be null, size_basis [] and prototypes []: no "
+                                     "kind's row")
         if not answer.reason.strip():
             raise InvalidAnswerError("reason must say what the use needs that no kind tests")
         return None
@@ -184,7 +192,31 @@ def definition_row(request: DefinitionRequest, answer: AffordanceDefinition) -> 
     if not any(line.strip() for line in answer.size_basis):
         raise InvalidAnswerError("size_basis must give, for each size range of the row, what real objects of the "
                                  "use measure and where that comes from")
+    roles = [p.role for p in answer.prototypes]
+    if "positive" not in roles or "negative" not in roles:
+        raise InvalidAnswerError(f"prototypes must hold at least one positive and one negative prototype; got roles "
+                                 f"{roles}")
+    for p in answer.prototypes:
+        if p.role != "positive":
+            continue
+        dims = sorted(_extents(p), reverse=True)
+        half = [v / 2 for v in _extents(p)]
+        prior = entry.row.size_prior(dims) * entry.row.pose_prior(half, None)
+        if prior.value < FUNCTIONAL:
+            raise InvalidAnswerError(f"the positive prototype {describe(p)} is not inside the row's typical sizes "
+                                     f"(prior {prior.value:.2f} < {FUNCTIONAL:g}: {prior.doc()}); give one that is")
     return entry
+
+
+def _extents(p: Prototype) -> list[float]:
+    """The prototype's box extents x, y, z as built (:mod:`rail_mj.affordances.prototypes`)."""
+    if p.shape in ("open_cylinder", "closed_cylinder"):
+        return [p.length, p.length, p.height]
+    if p.shape == "sphere":
+        return [p.length] * 3
+    if p.shape == "rod":
+        return [p.length, p.width, p.width]
+    return [p.length, p.width, p.height]
 
 
 def _known(name: str) -> bool:

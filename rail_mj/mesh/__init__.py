@@ -16,7 +16,7 @@ from rail_mj.mesh.decomposition import (
     reduce_hull,
     second_decomposition,
 )
-from rail_mj.mesh.object import DEFAULT_DENSITY, load_object, object_from_mesh, redecomposed
+from rail_mj.mesh.object import DEFAULT_DENSITY, load_object, object_from_mesh, object_from_parts, redecomposed
 from rail_mj.mesh.quality import MAX_EXCESS, MAX_MISSING, HullQuality, hull_quality
 from rail_mj.mesh.read import MAX_FILE_BYTES, SUPPORTED_EXTENSIONS, load_mesh
 from rail_mj.mesh.repair import FACE_BUDGET, MAX_EXTENT, MAX_FACES, MIN_EXTENT, mesh_notes, repair_mesh
@@ -46,6 +46,7 @@ __all__ = [
     "HullQuality",
     "hull_quality",
     "object_from_mesh",
+    "object_from_parts",
     "load_object",
     "redecomposed",
 ]

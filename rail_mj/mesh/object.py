@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
-from typing import Literal
+from typing import Literal, cast
 
 import numpy as np
 import trimesh
@@ -21,7 +21,7 @@ from rail_mj.mesh.quality import _guarded_hulls
 from rail_mj.mesh.read import load_mesh
 from rail_mj.mesh.repair import _NOTES_KEY, mesh_notes, repair_mesh
 
-__all__ = ["DEFAULT_DENSITY", "object_from_mesh", "load_object", "redecomposed"]
+__all__ = ["DEFAULT_DENSITY", "object_from_mesh", "object_from_parts", "load_object", "redecomposed"]
 
 #: kg/m^3; a household-object average (wood ~500-700, plastic shells less) — mass matters for tipping.
 DEFAULT_DENSITY = 500.0
@@ -97,3 +97,16 @@ def redecomposed(obj: RailObject) -> RailObject:
     """``obj`` with the hulls of its second decomposition (:func:`second_decomposition`, cached like the first):
     the same mesh, mass and centre of mass; only the convex hulls the physics collides differ."""
     return dataclasses.replace(obj, hulls=decompose(obj.mesh, second_decomposition(obj.mesh)))
+
+
+def object_from_parts(name: str, hulls: list[np.ndarray] | tuple[np.ndarray, ...], density: float = 600.0
+                      ) -> RailObject:
+    """An object whose convex parts are given (vertex arrays; mesh frame as given): its hulls are the parts, no
+    decomposition (demo objects, prototypes)."""
+    hulls = tuple(np.asarray(h, float) for h in hulls)
+    mesh = cast(trimesh.Trimesh, trimesh.util.concatenate([trimesh.convex.convex_hull(h) for h in hulls]))
+    volume = float(sum(trimesh.convex.convex_hull(h).volume for h in hulls))
+    # content hash: stable poses are cached by it, so a resized demo object must not reuse old ones
+    return RailObject(name=name, mesh=mesh, hulls=hulls, mesh_hash=mesh_hash(mesh),
+                      obb_dims=np.sort(mesh.extents)[::-1].copy(), com=np.asarray(mesh.center_mass, float),
+                      mass=volume * density, density=density)

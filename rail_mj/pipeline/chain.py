@@ -372,7 +372,8 @@ class Pipeline:
         return results
 
     def _definition(self, affordance: str) -> tuple[str | None, str | None]:
-        """A result's words on how the provider defined ``affordance`` (stage 0), and its row as a file."""
+        """A result's words on how the provider defined ``affordance`` (stage 0) and its proof, and its row as a
+        file."""
         defined = next((d for d in self.config.definitions if d.name == affordance.strip()), None)
         if defined is None:
             return None, None
@@ -380,6 +381,8 @@ class Pipeline:
         words = (f"{defined.by} defined it as a row of the {row.kind} kind, imagined with that kind's tested "
                  f"physics: {defined.reason}" if row is not None else
                  f"{defined.by} found no kind that models it ({defined.reason}): its own profile (stages 1-6)")
+        if defined.profile_check:
+            words += f"; {defined.profile_check}"
         return words, definitions.file_text(defined)
 
     def _error(self, name: str, affordance: str, exc: Exception) -> AffordanceResult:
@@ -433,7 +436,8 @@ def classify(
     pipe = Pipeline(cfg)
     pipe.check_affordances(affordances)
     # stage 0, once per run for each use outside the registry: its definition goes to every worker
-    defined = definitions.define(affordances, pipe.provider, cfg, lambda a: pipe.profile_folder(a) is not None)
+    defined = definitions.define(affordances, pipe.provider, cfg, lambda a: pipe.profile_folder(a) is not None,
+                                 _prototype_runner(cfg))
     if defined:
         cfg = cfg.model_copy(update={"definitions": [*cfg.definitions, *defined]})
     task_cfg = cfg.model_copy(update={"provider": pipe.provider_name, "backend": pipe.backend})
@@ -467,6 +471,14 @@ def classify(
         if first is not None and d.llm_repairs:
             first.llm_repairs = {"affordance_definition": d.llm_repairs, **first.llm_repairs}
     return results
+
+
+def _prototype_runner(cfg: RunConfig) -> definitions.CaseRunner:
+    """The physics a stage-0 row is proven with: the kind's profile and rules alone (the offline library, no model
+    call), each prototype imagined as it stands."""
+    proof = RunConfig(provider="offline", backend=cfg.backend, imagination=cfg.imagination)
+    # a fresh Pipeline each time: a repaired row of the same name must not meet the last one's cached profile
+    return lambda obj, name: Pipeline(proof).run(obj, as_placed_pose(obj), name)
 
 
 def run_object(task: ObjectTask) -> str:

@@ -33,6 +33,7 @@ class Definition(BaseModel):
     row_toml: str | None = Field(description="its [[affordance]] table; None: no kind models it")
     reason: str = Field(description="why the kind's test is the use's test, or why no kind's is")
     size_basis: list[str] = Field(default_factory=list, description="what each size range of the row comes from")
+    profile_check: str | None = Field(default=None, description="the row's proof on its prototypes, in words")
     by: str = Field(description="provider:model that wrote it")
     llm_calls: int = Field(default=0, description="requests stage 0 sent for it (0: answered from the cache)")
     llm_repairs: int = Field(default=0, description="repair rounds among them")

@@ -15,15 +15,14 @@ import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, cast
+from typing import Any, Callable
 
 import numpy as np
-import trimesh
 
 from rail_mj.affordances import get
 from rail_mj.core.errors import ConfigError
 from rail_mj.core.types import Outcomes, RailObject, StablePose
-from rail_mj.mesh import mesh_hash
+from rail_mj.mesh import object_from_parts
 from rail_mj.robot.control import RobotConfig
 from rail_mj.robot.executor import ExecutionResult, ScoringFunction, execute
 from rail_mj.robot.request import parse_request
@@ -203,18 +202,6 @@ def _parts(kind: str, rng: np.random.Generator) -> list[np.ndarray]:
     if builder is None:
         raise ConfigError(f"unknown demo object {kind!r}; known: {', '.join(OBJECT_KINDS)}")
     return builder(kind, u)
-
-
-def object_from_parts(name: str, hulls: list[np.ndarray] | tuple[np.ndarray, ...], density: float = 600.0
-                      ) -> RailObject:
-    """An object whose convex parts are given (vertex arrays; mesh frame as given): its hulls are the parts."""
-    hulls = tuple(np.asarray(h, float) for h in hulls)
-    mesh = cast(trimesh.Trimesh, trimesh.util.concatenate([trimesh.convex.convex_hull(h) for h in hulls]))
-    volume = float(sum(trimesh.convex.convex_hull(h).volume for h in hulls))
-    # content hash: stable poses are cached by it, so a resized demo object must not reuse old ones
-    return RailObject(name=name, mesh=mesh, hulls=hulls, mesh_hash=mesh_hash(mesh),
-                      obb_dims=np.sort(mesh.extents)[::-1].copy(), com=np.asarray(mesh.center_mass, float),
-                      mass=volume * density, density=density)
 
 
 def make_object(kind: str, seed: int = 0, density: float = 600.0, scale: float = 1.0) -> RailObject:

@@ -13,6 +13,7 @@ from chat_server import ChatServer, chat_error, completion, offline_completion, 
 from messages_server import Reply
 
 from rail_mj.affordances import known_affordances, load, unload_all
+from rail_mj.affordances.prototypes import Prototype
 from rail_mj.llm import definition_row
 from rail_mj.llm.schemas import AffordanceDefinition, DefinitionRequest
 from rail_mj.mesh import object_from_mesh
@@ -34,10 +35,16 @@ aspect = [0.0, 0.6]
 max_radius = 0.05
 """
 BASIS = ["rim 20-40 cm across, 6-15 cm deep: fruit bowls in catalogues", "fruit 6-10 cm across: apples, oranges"]
+BOWL = Prototype(role="positive", shape="open_cylinder", length=0.3, width=0.0, height=0.12, wall=0.008,
+                 why="a 30 cm fruit bowl 12 cm deep")
+LID = Prototype(role="negative", shape="closed_cylinder", length=0.3, width=0.0, height=0.12, why="closed")
+SLAB = Prototype(role="positive", shape="slab", length=0.3, width=0.3, height=0.12, why="a block: wrong on purpose")
 
 
-def _definition(row: str | None, kind: str | None = "container", name: str = "fruit bowl") -> str:
+def _definition(row: str | None, kind: str | None = "container", name: str = "fruit bowl",
+                prototypes: tuple[Prototype, ...] = (BOWL, LID)) -> str:
     return AffordanceDefinition(affordance=name, kind=kind, row_toml=row, size_basis=BASIS if row else [],
+                                prototypes=list(prototypes) if row else [],
                                 reason="a fruit bowl is tested as a bowl is: things dropped in stay").model_dump_json()
 
 
@@ -94,6 +101,8 @@ def test_a_use_a_kind_models_is_a_row_defined_once_and_imagined_with_the_kinds_p
     assert bowl.error is None and bowl.functional, bowl.analyzer_reasons
     assert plate.error is None and not plate.functional
     assert bowl.definition is not None and "a row of the container kind" in bowl.definition
+    assert "proven: positive prototype open_cylinder 0.30 x 0.12 m" in bowl.definition
+    assert "negative prototype closed_cylinder 0.30 x 0.12 m: not functional" in bowl.definition
     assert bowl.definition_toml is not None and bowl.definition_toml.endswith(FRUIT_BOWL)
     # the plate had no candidate to put to stage 7: nothing was asked for it
     assert bowl.llm_calls == {"affordance_definition": 1, "functional_pose": 1} and plate.llm_calls == {}
@@ -130,11 +139,18 @@ def test_every_check_names_what_is_wrong() -> None:
         with pytest.raises(Exception, match=words):
             definition_row(request, answer)
     other_kind = AffordanceDefinition(affordance="fruit bowl", kind="dish", row_toml=FRUIT_BOWL, size_basis=BASIS,
-                                      reason="r")
+                                      prototypes=[BOWL, LID], reason="r")
     with pytest.raises(Exception, match="must equal the answer's kind 'dish'"):
         definition_row(request, other_kind)
     no_basis = AffordanceDefinition(affordance="fruit bowl", kind="container", row_toml=FRUIT_BOWL, size_basis=[],
-                                    reason="r")
+                                    prototypes=[BOWL, LID], reason="r")
+    one_role = no_basis.model_copy(update={"size_basis": BASIS, "prototypes": [BOWL]})
+    with pytest.raises(Exception, match="at least one positive and one negative"):
+        definition_row(request, one_role)
+    huge = no_basis.model_copy(update={"size_basis": BASIS, "prototypes": [
+        BOWL.model_copy(update={"length": 1.5, "height": 0.8}), LID]})
+    with pytest.raises(Exception, match="not inside the row's typical sizes"):
+        definition_row(request, huge)
     with pytest.raises(Exception, match="size_basis"):
         definition_row(request, no_basis)
     assert definition_row(request, AffordanceDefinition.model_validate_json(_definition(FRUIT_BOWL))) is not None
@@ -159,3 +175,39 @@ def test_a_saved_definition_loads_with_no_model(tmp_path: Path, capsys: pytest.C
     (row,) = load(saved)
     assert row.name == "fruit bowl" and row.kind == "container"
     json.loads(capsys.readouterr().out.splitlines()[0])
+
+
+def test_a_row_that_fails_its_proof_goes_back_with_what_the_simulation_saw() -> None:
+    """A slab named as the positive prototype cannot hold fruit: the answer comes back with the scores and the
+    rules' words, and the repaired answer (a bowl-shaped positive) is proven and used."""
+    model = Model(_definition(FRUIT_BOWL, prototypes=(SLAB, LID)), _definition(FRUIT_BOWL))
+    (bowl,) = _run(model, [_scaled("bowl", 2.0)])
+    assert bowl.functional and bowl.llm_repairs == {"affordance_definition": 1}
+    (feedback,) = model.repairs
+    assert "failed its proof" in feedback and "positive prototype slab 0.30 x 0.30 x 0.12 m: not functional" in feedback
+    assert "Scores per plan: above" in feedback and "What the rules saw" in feedback
+
+
+def test_a_row_that_never_passes_its_proof_is_refused_naming_what_failed() -> None:
+    model = Model(_definition(FRUIT_BOWL, prototypes=(SLAB, LID)), _definition(FRUIT_BOWL, prototypes=(SLAB, LID)))
+    with pytest.raises(Exception, match="failed its proof.*positive prototype slab"):
+        _run(model, [_scaled("bowl", 2.0)])
+
+
+def test_the_prompts_examples_pass_their_own_proof() -> None:
+    """Stage 0's worked examples (a stool, a bowl) are shown to every model: their prototypes must be proven by the
+    registered rows as a model's would be."""
+    from rail_mj.affordances import REGISTRY
+    from rail_mj.affordances.files import FileRow
+    from rail_mj.llm.prompts import _EXAMPLE_DEFINITIONS
+    from rail_mj.pipeline.chain import _prototype_runner
+    from rail_mj.pipeline.definitions import prover
+
+    for name, kind, prototypes, basis, reason in _EXAMPLE_DEFINITIONS:
+        proofs: dict[str, str] = {}
+        answer = AffordanceDefinition(affordance=name, kind=kind, row_toml="x", size_basis=basis,
+                                      prototypes=prototypes, reason=reason)
+        renamed = REGISTRY[name].__class__(**{**REGISTRY[name].__dict__, "name": f"example {name}", "aliases": ()})
+        prover(_prototype_runner(RunConfig(backend="native")), proofs)(answer, FileRow(renamed, False))
+        assert proofs["x"].startswith("proven:"), (name, proofs)
+
