@@ -27,13 +27,19 @@ from pydantic import BaseModel, ConfigDict, Field
 from rail_mj.core.types import RailObject
 from rail_mj.mesh.object import object_from_parts
 
-__all__ = ["SHAPES", "Prototype", "build", "describe"]
+__all__ = ["SHAPES", "Prototype", "build", "extents", "describe"]
 
 Shape = Literal["open_box", "closed_box", "open_cylinder", "closed_cylinder", "slab", "seat_on_legs", "rod",
                 "sphere"]
 SHAPES: tuple[str, ...] = Shape.__args__  # type: ignore[attr-defined]
-#: the sides of a cylinder's outline and of its wall
+#: the sides of a cylinder's outline and of its wall: a 16-gon's area is within 2.6% of the circle's
 _SEGMENTS = 16
+#: the largest size of a prototype, m: a bed or a sofa is at most about 2.5 m long; twice that is no household object
+_MAX_SIZE = 5.0
+#: the thickest wall, m: a 20 cm wall is a solid block, not a shell
+_MAX_WALL = 0.2
+#: a leg's least side, m: a slim metal stool leg is about 3 cm across
+_MIN_LEG = 0.03
 
 
 class Prototype(BaseModel):
@@ -43,12 +49,13 @@ class Prototype(BaseModel):
 
     role: Literal["positive", "negative"]
     shape: Shape
-    length: float = Field(gt=0.0, le=5.0, description="x extent, m (a cylinder's or a sphere's diameter)")
-    width: float = Field(ge=0.0, le=5.0, description="y extent, m (a rod's thickness; 0 for a cylinder or a "
+    length: float = Field(gt=0.0, le=_MAX_SIZE, description="x extent, m (a cylinder's or a sphere's diameter)")
+    width: float = Field(ge=0.0, le=_MAX_SIZE, description="y extent, m (a rod's thickness; 0 for a cylinder or a "
                                                      "sphere)")
-    height: float = Field(ge=0.0, le=5.0, description="z extent, m (the top's upper face for seat_on_legs; 0 for "
+    height: float = Field(ge=0.0, le=_MAX_SIZE, description="z extent, m (the top's upper face for seat_on_legs; 0 for "
                                                       "a rod or a sphere)")
-    wall: float = Field(default=0.01, gt=0.0, le=0.2, description="wall and floor thickness of a shell, a "
+    # default: a 1 cm wall, a plastic or ceramic vessel's
+    wall: float = Field(default=0.01, gt=0.0, le=_MAX_WALL, description="wall and floor thickness of a shell, a "
                                                                   "seat_on_legs top's thickness, m")
     why: str = Field(description="why the use must find it functional (positive) or not (negative)")
 
@@ -83,7 +90,7 @@ def _parts(p: Prototype) -> list[np.ndarray]:
             parts.append(np.array([(x, y, z) for x, y in ring for z in (t, H)]))
         return parts
     if p.shape == "seat_on_legs":
-        leg = max(2 * t, 0.03)
+        leg = max(2 * t, _MIN_LEG)
         top = [_box([-L / 2, -W / 2, H - t], [L / 2, W / 2, H])]
         return top + [_box([sx * L / 2 - (leg if sx > 0 else 0), sy * W / 2 - (leg if sy > 0 else 0), 0.0],
                            [sx * L / 2 + (0 if sx > 0 else leg), sy * W / 2 + (0 if sy > 0 else leg), H - t])
@@ -93,6 +100,17 @@ def _parts(p: Prototype) -> list[np.ndarray]:
         disc = _disc(p.width, -L / 2, L / 2)  # along z, then turned onto x
         return [np.c_[disc[:, 2], disc[:, 1], disc[:, 0] + r]]
     return [trimesh.creation.icosphere(subdivisions=2, radius=L / 2).vertices + [0.0, 0.0, L / 2]]
+
+
+def extents(p: Prototype) -> list[float]:
+    """The prototype's box extents x, y, z as :func:`build` makes it."""
+    if p.shape in ("open_cylinder", "closed_cylinder"):
+        return [p.length, p.length, p.height]
+    if p.shape == "sphere":
+        return [p.length] * 3
+    if p.shape == "rod":
+        return [p.length, p.width, p.width]
+    return [p.length, p.width, p.height]
 
 
 def build(p: Prototype, name: str) -> RailObject:

@@ -15,11 +15,11 @@ from typing import Any
 
 import numpy as np
 
-from rail_mj.affordances import known_affordances, normalize
 from rail_mj.affordances.files import FileRow, parse
+from rail_mj.affordances.judge import rules_row
 from rail_mj.affordances.names import owner_scale
 from rail_mj.affordances.prior import FUNCTIONAL
-from rail_mj.affordances.prototypes import Prototype, describe
+from rail_mj.affordances.prototypes import describe, extents
 from rail_mj.core.errors import AffordanceFileError, ConfigError, UnknownAffordanceError
 from rail_mj.core.profile import AgentLayout, PoseCandidates, ScoringCode
 from rail_mj.imagination.inputs import layout_offsets
@@ -186,7 +186,7 @@ def definition_row(request: DefinitionRequest, answer: AffordanceDefinition) -> 
         raise InvalidAnswerError(f"row_toml's kind {entry.row.kind!r} must equal the answer's kind {answer.kind!r}")
     if entry.override:
         raise InvalidAnswerError("row_toml must not override a registered row: leave out override")
-    taken = [n for n in (entry.row.name, *entry.row.aliases) if n in known_affordances() or _known(n)]
+    taken = [n for n in (entry.row.name, *entry.row.aliases) if rules_row(n) is not None]
     if taken:
         raise InvalidAnswerError(f"row_toml names {taken}, already registered uses; a new use takes new names")
     if not any(line.strip() for line in answer.size_basis):
@@ -199,32 +199,13 @@ def definition_row(request: DefinitionRequest, answer: AffordanceDefinition) -> 
     for p in answer.prototypes:
         if p.role != "positive":
             continue
-        dims = sorted(_extents(p), reverse=True)
-        half = [v / 2 for v in _extents(p)]
+        box = extents(p)
+        dims, half = sorted(box, reverse=True), [v / 2 for v in box]
         prior = entry.row.size_prior(dims) * entry.row.pose_prior(half, None)
         if prior.value < FUNCTIONAL:
             raise InvalidAnswerError(f"the positive prototype {describe(p)} is not inside the row's typical sizes "
                                      f"(prior {prior.value:.2f} < {FUNCTIONAL:g}: {prior.doc()}); give one that is")
     return entry
-
-
-def _extents(p: Prototype) -> list[float]:
-    """The prototype's box extents x, y, z as built (:mod:`rail_mj.affordances.prototypes`)."""
-    if p.shape in ("open_cylinder", "closed_cylinder"):
-        return [p.length, p.length, p.height]
-    if p.shape == "sphere":
-        return [p.length] * 3
-    if p.shape == "rod":
-        return [p.length, p.width, p.width]
-    return [p.length, p.width, p.height]
-
-
-def _known(name: str) -> bool:
-    try:
-        normalize(name)
-    except UnknownAffordanceError:
-        return False
-    return True
 
 
 def parse_request_text(request: RequestText, provider: ProviderLike = "offline") -> Request:

@@ -178,13 +178,15 @@ class Pipeline:
         t = time.perf_counter()
         profile = self.profile(affordance, obj.obb_dims)
         timings["profile"] = time.perf_counter() - t
-        result = self._result(obj, poses, affordance, profile)
+        # the registry row whose kind's rules judge the use (None outside the registry: the generic rules)
+        row = rules_row(profile.affordance, profile.scale)
+        result = self._result(obj, poses, affordance, profile, row)
         result.timings = timings
-        gate = self._prior_gate(obj, poses, profile, result)
+        gate = self._prior_gate(obj, poses, profile, row, result)
         if gate is None:
             return result
         kept, priors, skipped = gate
-        evidence, stage7 = self._imagine(obj, poses, profile, kept, priors, result)
+        evidence, stage7 = self._imagine(obj, poses, profile, row, kept, priors, result)
         if stage7 is None:
             result.analyzer_reasons = [*skipped, "no plan scored above 0 in any imagined stable pose"]
         else:
@@ -193,10 +195,9 @@ class Pipeline:
         self._pick(result, profile, evidence, stage7)
         return result
 
-    def _result(self, obj: RailObject, poses: StablePoses, affordance: str,
-                profile: ImaginationProfile) -> AffordanceResult:
+    def _result(self, obj: RailObject, poses: StablePoses, affordance: str, profile: ImaginationProfile,
+                row: Affordance | None) -> AffordanceResult:
         """The case's result before any physics: the profile's plans, agent, scoring and size check."""
-        row = rules_row(profile.affordance, profile.scale)
         words, toml = self._definition(affordance)
         return AffordanceResult(
             definition=words,
@@ -215,7 +216,7 @@ class Pipeline:
             backend=self.backend,
         )
 
-    def _prior_gate(self, obj: RailObject, poses: StablePoses, profile: ImaginationProfile,
+    def _prior_gate(self, obj: RailObject, poses: StablePoses, profile: ImaginationProfile, row: Affordance | None,
                     result: AffordanceResult) -> tuple[list[int], dict[int, Prior], list[str]] | None:
         """The poses worth imagining, their priors and the reasons for those skipped; None, with the result's
         probability set to the prior, when no physics could make the object functional.
@@ -227,7 +228,6 @@ class Pipeline:
         no prior: 1, and every pose is imagined).
         """
         analysis = profile.analysis
-        row = rules_row(profile.affordance, profile.scale)
         dims = row.dims_prior(obj.obb_dims) if row is not None else Prior()
         if dims.value < NEGLIGIBLE or (row is None and not analysis.fits):
             result.analyzer_reasons = [analysis.reason]
@@ -248,14 +248,13 @@ class Pipeline:
             return None
         return worth, priors, skipped
 
-    def _imagine(self, obj: RailObject, poses: StablePoses, profile: ImaginationProfile, kept: list[int],
-                 priors: dict[int, Prior], result: AffordanceResult
+    def _imagine(self, obj: RailObject, poses: StablePoses, profile: ImaginationProfile, row: Affordance | None,
+                 kept: list[int], priors: dict[int, Prior], result: AffordanceResult
                  ) -> tuple[ImaginedWorlds, FunctionalPoseVerdict | None]:
         """Up to three batched calls — the nominal world, the perturbed worlds, the second decomposition — into one
         :class:`ImaginedWorlds`, the provider's stage 7 on the nominal world, and the poses' verdicts
         (``result.pose_verdicts``, judged after the perturbed worlds and again with the second decomposition)."""
         timings = result.timings
-        row = rules_row(profile.affordance, profile.scale)
         agents = agent_setup(profile.agent.mjcf, profile.layout)
         result.agent_offsets = agents.offsets.tolist()
         pose_list = cast(Sequence[StablePose], poses)  # StablePoses reads as a sequence of StablePose

@@ -19,9 +19,9 @@ from collections.abc import Callable, Sequence
 
 from rail_mj import llm
 from rail_mj.affordances.files import FileRow
+from rail_mj.affordances.judge import rules_row
 from rail_mj.affordances.prototypes import build, describe
 from rail_mj.affordances.registry import load_text, trial
-from rail_mj.core.errors import UnknownAffordanceError
 from rail_mj.core.results import AffordanceResult
 from rail_mj.core.types import RailObject
 from rail_mj.llm.checks import InvalidAnswerError
@@ -107,7 +107,7 @@ def define(affordances: Sequence[str], provider: llm.Provider, config: RunConfig
     out: list[Definition] = []
     known = {d.name for d in config.definitions}
     for name in dict.fromkeys(a.strip() for a in affordances):
-        if name in known or has_folder(name) or _registered(name):
+        if name in known or has_folder(name) or rules_row(name) is not None:
             continue
         # the row is for the use's own user (its scale field); a request's agent scales it later, as any row
         stage = "affordance_definition"
@@ -122,11 +122,3 @@ def define(affordances: Sequence[str], provider: llm.Provider, config: RunConfig
         register([d])
         out.append(d)
     return out
-
-
-def _registered(name: str) -> bool:
-    try:
-        llm.normalize_affordance(name)
-    except UnknownAffordanceError:
-        return False
-    return True

@@ -8,11 +8,10 @@ model and no internet.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable
 from typing import Any
 
-from messages_server import _STAGE_REQUESTS, MessagesServer, Reply
+from messages_server import _STAGE_REQUESTS, MessagesServer, Reply, request_payload
 
 __all__ = ["ChatServer", "chat_error", "completion", "offline_completion", "request_payload", "schema_name"]
 
@@ -37,12 +36,6 @@ def chat_error(status: int, message: str = "test error") -> Reply:
 def schema_name(body: dict[str, Any]) -> str:
     """The name of the structured-output schema the provider sent (the stage's answer type)."""
     return body["response_format"]["json_schema"]["name"]
-
-
-def request_payload(body: dict[str, Any]) -> dict[str, Any]:
-    """The stage request JSON from the first user message (``Request:\\n{...}``)."""
-    content = next(m["content"] for m in body["messages"] if m["role"] == "user")
-    return json.loads(content.split("\n", 1)[1])
 
 
 def offline_completion(body: dict[str, Any]) -> Reply:

@@ -21,6 +21,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from messages_server import request_payload
 from paths import FIXTURES
 
 from rail_mj.core.paths import cache_dir
@@ -59,14 +60,6 @@ def case_name(case: dict[str, Any]) -> str:
     return f"{case['demo']}_0_x{case['scale']:g}" if "demo" in case else Path(case["real"]).stem
 
 
-def payload(body: dict[str, Any]) -> dict[str, Any]:
-    """The stage request of a provider's body (its first user message, ``Request:\\n{...}``)."""
-    first = next(m for m in body["messages"] if m["role"] == "user")
-    content = first["content"]
-    text = content if isinstance(content, str) else " ".join(b.get("text", "") for b in content)
-    return json.loads(text.split("\n", 1)[1])
-
-
 def attempt(body: dict[str, Any]) -> int:
     """0 for a stage's first request, k for its k-th repair round."""
     return sum(m["role"] == "assistant" for m in body["messages"])
@@ -94,7 +87,7 @@ class Replay:
         self.served = 0
 
     def __call__(self, body: dict[str, Any]):
-        k = key(self.schema_of(body), payload(body), attempt(body))
+        k = key(self.schema_of(body), request_payload(body), attempt(body))
         if k not in self.answers:
             self.missing.append(k)
             return self.error(400, f"the recorded corpus has no answer to {k[:300]}: re-record it (docs/llm.md)")
@@ -144,7 +137,7 @@ def _keep(args: argparse.Namespace) -> int:
     kept = []
     for e in read_exchanges(args.relay):
         body = {"messages": e["messages"]}
-        kept.append({"schema": e["schema"], "request": payload(body), "attempt": attempt(body),
+        kept.append({"schema": e["schema"], "request": request_payload(body), "attempt": attempt(body),
                      "answer": e["answer"]})
     (CORPUS / "exchanges.jsonl").write_text("".join(json.dumps(e) + "\n" for e in kept))
     lines = [line for path in args.results for line in Path(path).read_text().splitlines() if line.strip()]

@@ -69,9 +69,10 @@ def schema_title(body: dict[str, Any]) -> str:
 
 
 def request_payload(body: dict[str, Any]) -> dict[str, Any]:
-    """The stage request JSON from the first user message (``Request:\\n{...}``)."""
-    content = body["messages"][0]["content"]
-    text = content if isinstance(content, str) else content[0]["text"]
+    """The stage request JSON from the first user message (``Request:\\n{...}``), in either API's shape (OpenAI's
+    messages open with the system prompt; a message's content is text or a list of text blocks)."""
+    content = next(m["content"] for m in body["messages"] if m["role"] == "user")
+    text = content if isinstance(content, str) else " ".join(b.get("text", "") for b in content)
     return json.loads(text.split("\n", 1)[1])
 
 
