@@ -67,7 +67,8 @@ def functional_poses(affordance: str, scale: float, poses: Sequence[PoseCandidat
     """Stage 7 by the rules: accept a pose when its kind's rules accept one of its candidates; the best pose is the
     one the kind ranks first, then the one accepted with the most plans, the top score, the most probable.
 
-    Affordances outside the registry get the generic rules (object not tipped, agents not mostly on the ground).
+    Affordances outside the registry get the generic rules (object not tipped, agents not mostly on the ground
+    away from it).
     """
     aff = rules_row(affordance, scale)
     kind = kind_of(aff) if aff is not None else None

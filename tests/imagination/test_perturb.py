@@ -134,7 +134,8 @@ def _probabilities(ps, out, scores, poses, unstable=None):
     """The verdicts of a batch of every world, split as the pipeline runs it: nominal, then perturbed."""
     if unstable is not None:
         out = replace(out, unstable=unstable)
-    # an affordance outside the registry: the generic rules (object upright, agents off the ground), no size prior
+    # an affordance outside the registry: the generic rules (object upright, agents not on the ground away from it),
+    # no size prior
     evidence = ImaginedWorlds("frobnicate", 1.0, _plans(2), poses, [0, 1], [_pour_plans(poses)] * 2, ps)
     evidence.add_nominal(_take(out, slice(0, 4)), scores[:4])
     evidence.add_perturbed(_take(out, slice(4, None)), scores[4:], [(k, j) for k in (0, 1) for j in (0, 1)], [0, 1])

@@ -229,14 +229,17 @@ def tipping(c: CandidateInteraction) -> str:
 
 
 def judge_unregistered(c: CandidateInteraction) -> tuple[bool, str]:
-    """Stage 7's rules for an affordance outside the registry: the object did not tip, most agents stayed off
-    the ground."""
+    """Stage 7's rules for an affordance outside the registry: the object did not tip, and the agents did not end
+    mostly on the ground away from it. Agents on the ground that touch the object were held by it (books leaning
+    on a bookend, feet under a desk): the object made their place; agents on the ground that do not touch it came
+    to rest as they would without it (droplets spilled beside a cup)."""
     why = tipping(c)
     if why:
         return False, why
-    if c.summary.frac_on_ground >= MOST:
-        return False, "most agents ended on the ground"
-    return True, "the object stayed upright and the agents did not end on the ground"
+    s = c.summary
+    if s.frac_on_ground >= MOST and s.frac_touching_object < MOST:
+        return False, "most agents ended on the ground, away from the object"
+    return True, "the object stayed upright and the agents rest on it or against it, not on the ground away from it"
 
 
 def rest_words(aff: Affordance) -> str:

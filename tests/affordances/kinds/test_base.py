@@ -100,3 +100,20 @@ def test_the_offline_provider_answers_every_stage_for_a_row_of_the_new_kind(plan
                                                              poses=[standing, fallen]), "offline")
     assert [v.accept for v in verdict.poses] == [True, False]
     assert verdict.best_pose == 0 and verdict.best_plan == "above"
+
+
+@pytest.mark.parametrize("on_ground, touching, tilt, accepted, words", [
+    (0.0, 1.0, 0.5, True, "rest on it or against it"),
+    (1.0, 1.0, 0.5, True, "rest on it or against it"),  # books on the floor leaning on a bookend
+    (0.9, 0.1, 0.5, False, "on the ground, away from the object"),  # droplets spilled beside a cup
+    (0.0, 1.0, 60.0, False, "tipping"),
+])
+def test_the_generic_rules_refuse_tipping_and_agents_that_ended_on_the_ground_away_from_the_object(
+        on_ground, touching, tilt, accepted, words) -> None:
+    from rail_mj.affordances.kinds import judge_unregistered
+
+    summary = ResultSummary(frac_inside_bbox=0.0, frac_on_ground=on_ground, frac_touching_object=touching,
+                            mean_height=-0.5, object_tilt_deg=tilt, agent_tilt_deg=5.0, agent_speed=0.0)
+    ok, why = judge_unregistered(CandidateInteraction(plan="front", description="lean", score=0.5, summary=summary,
+                                                      via_poses=[[2.0, 0.0, 0.0], [1.1, 0.0, 0.0]]))
+    assert ok is accepted and words in why
