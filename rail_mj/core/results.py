@@ -147,6 +147,9 @@ class AffordanceResult(BaseModel):
                                                              "defined it (stage 0)")
     definition_toml: str | None = Field(default=None, description="the row it wrote, as an affordance file's "
                                                                   "[[affordance]] table; None without one")
+    profile_check: str | None = Field(default=None, description="a model-written affordance's (row or profile) "
+                                                                "proof on its prototypes, before it judged any "
+                                                                "object; None for the library's and a folder's")
     llm_calls: dict[str, int] = Field(default_factory=dict, description="requests this case sent to the model, per "
                                                                         "stage (a profile reused from an earlier "
                                                                         "case sends none; the offline library none)")

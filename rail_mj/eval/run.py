@@ -43,6 +43,7 @@ from typing import Literal
 from pydantic import BaseModel, ConfigDict, Field
 
 from rail_mj.affordances import PAPER_AFFORDANCES, load_files
+from rail_mj.affordances.judge import rules_row
 from rail_mj.core.errors import ConfigError, DatasetError
 from rail_mj.core.runfiles import atomic_write_text, folder_lock
 from rail_mj.dataset import ground_truth, labels, procedural, shapes
@@ -51,7 +52,7 @@ from rail_mj.dataset.labels import LabelRecord, read_labels
 from rail_mj.dataset.procedural import generate
 from rail_mj.eval.report import write_report
 from rail_mj.eval.summary import _line, summarize
-from rail_mj.pipeline.chain import Pipeline, object_task
+from rail_mj.pipeline.chain import Pipeline, define_uses, definition_counter, object_task
 from rail_mj.pipeline.config import ObjectInput, RunConfig
 from rail_mj.pipeline.parallel import check_executor, run_tasks
 from rail_mj.pipeline.ray_executor import Placement
@@ -278,6 +279,11 @@ def _run_locked(
 
     run_cfg = cfg.run
     pipe = Pipeline(run_cfg)
+    # stage 0 once for the run, before any object: each use outside the registry a proven row or profile
+    # a label key outside the registry ("fruit_bowl") is put to the model in words, as a person names the use
+    use = {a: a if rules_row(a) is not None else " ".join(a.split("_")) for _, affs in pending for a in affs}
+    run_cfg, defined = define_uses(list(dict.fromkeys(use.values())), pipe, run_cfg)
+    count = definition_counter(defined)
     config = {**cfg.model_dump(mode="json"), "backend_used": pipe.backend}
     plan = {"config": config, "shard": list(shard) if shard else None, "dataset_root": str(root.resolve()),
             "keys": all_keys, "expected": expected}
@@ -287,8 +293,8 @@ def _run_locked(
     task_cfg = run_cfg.model_copy(update={"provider": pipe.provider_name, "backend": pipe.backend})
     tasks = [
         # absolute: a Ray worker resolves a relative path against its own folder, not this process's
-        object_task(i, ObjectInput(path=root.resolve() / r.mesh, units=r.units, up=r.up, name=r.mesh), affs,
-                    task_cfg)
+        object_task(i, ObjectInput(path=root.resolve() / r.mesh, units=r.units, up=r.up, name=r.mesh),
+                    [use[a] for a in affs], task_cfg)
         for i, (r, affs) in enumerate(pending)
     ]
     if executor == "local":
@@ -313,8 +319,9 @@ def _run_locked(
                                   placement=placement))
             )
             for task, results in stream:
-                record = pending[task.index][0]
-                for a, result in zip(task.affordances, results):
+                record, keys = pending[task.index]
+                for a, result in zip(keys, results):
+                    count(result)
                     fh.write(json.dumps(_line(record, a, result)) + "\n")
                     fh.flush()
                     os.fsync(fh.fileno())  # a finished case survives a kill or a power cut

@@ -31,6 +31,7 @@ from rail_mj.llm.stages import (
     plan_motions,
     task_description,
     task_profile,
+    use_task,
 )
 
 __all__ = [
@@ -60,5 +61,6 @@ __all__ = [
     "plan_motions",
     "task_description",
     "task_profile",
+    "use_task",
 ]
 __all__ += schemas.__all__

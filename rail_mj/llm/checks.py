@@ -15,6 +15,8 @@ from typing import cast
 import mujoco
 import numpy as np
 
+from rail_mj.affordances.prior import FUNCTIONAL
+from rail_mj.affordances.prototypes import describe, extents
 from rail_mj.core.errors import LLMError, ScoringRuntimeError
 from rail_mj.core.profile import AgentLayout, ScoringCode
 from rail_mj.imagination.inputs import via_positions
@@ -38,6 +40,7 @@ __all__ = [
     "check_agent",
     "check_layout",
     "candidate_half_extents",
+    "task_half_extents",
     "check_trajectories",
     "check_scoring",
     "check_verdict",
@@ -79,19 +82,52 @@ def agent_geometry(agent: AgentModel) -> AgentGeometry:
 
 
 def check_analysis(analysis: AffordanceAnalysis, task: TaskDescription) -> None:
-    """The analysis must be about the requested affordance and fill in every text."""
+    """The analysis must be about the requested affordance and fill in every text; for a task of no obb_dims (a
+    profile for every object of the use) it gives the use's sizes and prototypes (a positive inside the sizes and
+    a negative), fits is true and there is no alternative; with obb_dims it gives neither."""
     if analysis.affordance.strip().lower() != task.affordance.strip().lower():
         raise InvalidAnswerError(f"analysis is about {analysis.affordance!r}; it must analyse {task.affordance!r}")
     empty = [n for n in ("reason", "ibd", "agent_description", "interaction_description", "expected_outcome")
              if not getattr(analysis, n).strip()]
     if empty:
         raise InvalidAnswerError(f"analysis fields must not be empty: {', '.join(empty)}")
+    if task.obb_dims is not None:
+        if analysis.sizes is not None or analysis.prototypes:
+            raise InvalidAnswerError("the task gives the object's obb_dims: sizes must be null and prototypes [] "
+                                     "(they are for a profile that serves every object of the use)")
+        return
+    if analysis.sizes is None:
+        raise InvalidAnswerError("the task has no obb_dims, so the profile serves every object of the use: give "
+                                 "sizes, the typical largest and smallest OBB dims of its objects with their basis")
+    if not analysis.fits or analysis.alternative is not None:
+        raise InvalidAnswerError("the task has no obb_dims: there is no object to check, so fits must be true and "
+                                 "alternative null (each object is weighed by sizes)")
+    roles = [p.role for p in analysis.prototypes]
+    if "positive" not in roles or "negative" not in roles:
+        raise InvalidAnswerError(f"prototypes must hold at least one positive and one near-miss negative prototype; "
+                                 f"got roles {roles}")
+    for p in analysis.prototypes:
+        prior = analysis.sizes.prior(extents(p))
+        if p.role == "positive" and prior.value < FUNCTIONAL:
+            raise InvalidAnswerError(f"the positive prototype {describe(p)} is not inside sizes (prior "
+                                     f"{prior.value:.2f} < {FUNCTIONAL:g}: {prior.doc()}); give one that is")
 
 
-def check_agent(agent: AgentModel, task: TaskDescription) -> AgentGeometry:
-    """Fragment rules plus a size and mass plausible for the object."""
+def task_half_extents(task: TaskDescription, analysis: AffordanceAnalysis | None) -> list[np.ndarray]:
+    """The half extents an answer is checked for: the object's box in each axis-aligned orientation, or, for a
+    task of no obb_dims, each extreme typical box of the analysis's sizes in each orientation."""
+    if task.obb_dims is not None:
+        return candidate_half_extents(list(task.obb_dims))
+    if analysis is None or analysis.sizes is None:
+        raise InvalidAnswerError("the task has no obb_dims and the analysis no sizes: nothing to check against")
+    return [h for box in analysis.sizes.boxes() for h in candidate_half_extents(box)]
+
+
+def check_agent(agent: AgentModel, task: TaskDescription, analysis: AffordanceAnalysis | None = None) -> AgentGeometry:
+    """Fragment rules plus a size and mass plausible for the object (for every object of the use: its largest
+    typical size)."""
     geometry = agent_geometry(agent)
-    largest = max(task.obb_dims)
+    largest = max(task.obb_dims) if task.obb_dims is not None else max(map(max, task_half_extents(task, analysis))) * 2
     limit = max(MAX_AGENT_SCALE * largest, MAX_AGENT_RADIUS_M)
     if not 0.001 <= geometry.radius <= limit:
         raise InvalidAnswerError(
@@ -182,7 +218,7 @@ def check_scoring(scoring: ScoringCode, request: ScoringRequest) -> None:
 
     score = compile_scoring(scoring.source)
     outcomes = probe_outcomes(request.layout.n_agents, len(request.plans.plans),  # each row: 3 half extents
-                              cast(Sequence[Sequence[float]], candidate_half_extents(request.task.obb_dims)))
+                              cast(Sequence[Sequence[float]], task_half_extents(request.task, request.analysis)))
     try:
         score(outcomes)
     except WorkerStartError:

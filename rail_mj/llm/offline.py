@@ -61,11 +61,19 @@ def _row(task: TaskDescription) -> Affordance:
     return get(task.affordance).scaled(task.scale)
 
 
+def _dims(task: TaskDescription) -> list[float]:
+    """The task's object dims: the library's profiles are made for an object (a task of none is a model's)."""
+    if task.obb_dims is None:
+        raise ConfigError(f"the offline library writes {task.affordance!r}'s profile for an object's obb_dims; a "
+                          "profile for every object of a use (obb_dims null) is written by a model")
+    return list(task.obb_dims)
+
+
 def _resolve(task: TaskDescription) -> tuple[Affordance, kinds.Kind, kinds.AgentShape]:
     """The task's registry row, its kind and the kind's agent scaled to the object."""
     aff = _row(task)
     kind = kinds.kind_of(aff)
-    return aff, kind, kind.agent(aff, list(task.obb_dims))
+    return aff, kind, kind.agent(aff, _dims(task))
 
 
 def offline_analysis(task: TaskDescription) -> AffordanceAnalysis:
@@ -75,7 +83,7 @@ def offline_analysis(task: TaskDescription) -> AffordanceAnalysis:
     first), and the chain still imagines the requested use unless its prior is negligible."""
     aff = _row(task)
     kind = kinds.kind_of(aff)
-    dims = list(task.obb_dims)
+    dims = _dims(task)
     prior = aff.dims_prior(dims)
     fits = prior.value >= FUNCTIONAL
     sizes = f"{dims[0]:.3f} x {dims[1]:.3f} x {dims[2]:.3f} m"

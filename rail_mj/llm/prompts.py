@@ -19,7 +19,8 @@ from rail_mj.affordances import REGISTRY
 from rail_mj.affordances.envelope import QUANTITIES
 from rail_mj.affordances.files import _toml_value, row_toml
 from rail_mj.affordances.kinds import KINDS
-from rail_mj.affordances.prototypes import SHAPES, Prototype
+from rail_mj.affordances.prototypes import SHAPES, Prototype, extents
+from rail_mj.affordances.sizes import UseSizes
 from rail_mj.core.types import SCORING_ARGS
 from rail_mj.llm.schemas import (
     AffordanceAnalysis,
@@ -48,14 +49,17 @@ PROMPT_VERSION: dict[str, str] = {
     # 2: the prototypes the row is proven on
     "affordance_definition": "2",
     # 2: the task carries the request's agent scale (its examples show it); 3: the prior's format, the alternative
-    # and the resting face defined
-    "affordance_analyzer": "3",
-    "agent_model": "2",
-    "agent_configuration": "2",
-    "motion_planner": "2",
-    # 3: a via-pose may be anchored at the pose's opening; 4: the start check's cube stated
-    "trajectory": "4",
-    "scoring": "2",
+    # and the resting face defined; 4: a task of no obb_dims (one profile per use) gives sizes and prototypes
+    "affordance_analyzer": "4",
+    # 3 (all stages 2-6): the task of no obb_dims and its example; the agent's size and mass bounds stated
+    "agent_model": "3",
+    "agent_configuration": "3",
+    "motion_planner": "3",
+    # 3: a via-pose may be anchored at the pose's opening; 4: the start check's cube stated; 5: the boxes checked
+    # for a task of no obb_dims
+    "trajectory": "5",
+    # 3: the synthetic batch and the proof on prototypes stated
+    "scoring": "3",
     # 3: the poses carry their basin's length
     "functional_pose": "4",
     # 2: the owner the object's name gives (a doll's chair)
@@ -98,6 +102,14 @@ def _default(model: type, key: str) -> object:
     return value
 
 
+_PROTOTYPE_SHAPES = f"""Each is one of: {", ".join(SHAPES)}, with length, width, height and wall in metres, \
+built upright with its base on the floor: open_box / open_cylinder are shells open at the top whose walls \
+and floor are "wall" thick (a cylinder's diameter is length, its width 0); closed_box / closed_cylinder / slab are \
+solid; seat_on_legs is a top length x width, wall thick, whose upper face is height above the floor, on four corner \
+legs; rod is a bar length long and width across lying along x (height 0); sphere is a ball length across (width \
+and height 0)."""
+
+
 def _definition_instructions() -> str:
     return f"""You are the Affordance Definer of a robot that imagines how an unseen object could be used. The \
 requested use is not in the robot's registry. The robot has these kinds of physics, each tested on many real \
@@ -123,12 +135,8 @@ size_basis gives one line per range: the real objects measured and where the num
 catalogue ranges, anthropometry).
 Prototypes prove the row before it judges any object: give at least one "positive" (an obvious object of the use, \
 its sizes inside the row's typical ranges: a prior of at least 0.5, checked) and one "negative", a near miss the \
-use must refuse (the same shell closed or turned into a slab, a box too small, too shallow or too tall). Each is \
-one of: {", ".join(SHAPES)}, with length, width, height and wall in metres, built upright with its base on the \
-floor: open_box / open_cylinder are shells open at the top whose walls and floor are "wall" thick (a cylinder's \
-diameter is length, its width 0); closed_box / closed_cylinder / slab are solid; seat_on_legs is a top length x \
-width, wall thick, whose upper face is height above the floor, on four corner legs; rod is a bar length long and \
-width across lying along x (height 0); sphere is a ball length across (width and height 0). The robot imagines \
+use must refuse (the same shell closed or turned into a slab, a box too small, too shallow or too tall). \
+{_PROTOTYPE_SHAPES} The robot imagines \
 each as it stands with the kind's physics and rules: the positive must come out functional and the negative not. \
 If one does not, the answer comes back with what the simulation saw (the prior, each plan's score, the rules' \
 words) for you to repair the row or the prototypes. Keep "affordance" equal to the requested name."""
@@ -140,6 +148,13 @@ object occupies [-h, h] per axis, where h are its half extents in that pose; its
 at z = -h_z. Directions: front = +x, back = -x, left = +y, right = -y. Quaternions are (w, x, y, z). OBB dims are \
 the object's oriented-bounding-box extents sorted in descending order; which of them is vertical depends on the \
 stable pose."""
+
+#: The stages that write a profile (1-6) are also asked for one that serves every object of a use.
+_PER_USE = """A task whose obb_dims is null asks for one profile that serves every object of the use: positions are \
+relative to each object's h (as every trajectory is), and the agent's and the layout's sizes are the use's (the \
+analysis's sizes give its objects' typical range)."""
+_PROFILE_STAGES = ("affordance_analyzer", "agent_model", "agent_configuration", "motion_planner", "trajectory",
+                   "scoring")
 
 STAGES: dict[str, StageSpec] = {
     s.name: s
@@ -156,11 +171,26 @@ p is 1 inside the typical range and falls off outside it over w percent of the b
 of the p's; "fits" is true when the product is at least 0.5; (2) give the \
 interaction-based definition (IBD); (3) describe a simple rigid agent (or a grid of identical agents) that can test \
 the affordance in a physics simulator, how the agent moves to interact, and the resultant configuration that means \
-the object affords it. Keep "affordance" equal to the requested name."""),
+the object affords it. With obb_dims given, "sizes" is null and "prototypes" []. Keep "affordance" equal to the \
+requested name.
+When the task's obb_dims is null, the profile you start is written once and serves EVERY object of the use, each \
+weighed by the sizes you give: there is no object to check, so "fits" is true, "alternative" null and "reason" \
+says what the sizes rest on. "sizes" holds "largest" and "smallest", each [lo, hi] in metres with 0 < lo <= hi and \
+smallest's lo <= largest's hi: the typical range of the largest and of the smallest OBB dim of the use's real \
+objects, for the person (or the task's scale's agent) using it; each object's prior is the product of the two \
+plausibilities (1 inside, half gone 10% past a bound); "basis" gives one line per range: the real objects measured \
+and where the numbers come from (a standard, catalogues, anthropometry). "prototypes" holds at least one \
+"positive" (an obvious object of the use, its sizes inside "sizes": a prior of at least 0.5, checked) and one \
+"negative" (a near miss the use must refuse: the same shell closed or turned into a slab, too small, too shallow, \
+too tall), each with its role, shape, sizes and "why". {_PROTOTYPE_SHAPES} Before the profile judges any object \
+the robot imagines each prototype as it stands with the whole profile (the agent, layout, plans, trajectories and \
+scoring of the next stages): the positive must come out functional and the negative not."""),
         StageSpec("agent_model", AgentModel, """You are the Agent Model Generator. Write the agent described in the \
 analysis as an MJCF fragment: <mujoco><worldbody><body name="..."><geom .../></body></worldbody></mujoco> with \
 EXACTLY ONE body, NO joints (the simulator adds a free joint), primitive geoms (sphere, box, cylinder, capsule, \
-ellipsoid) with explicit mass, sizes in metres (MuJoCo sizes are half sizes / radii) scaled to the object."""),
+ellipsoid) with explicit mass, sizes in metres (MuJoCo sizes are half sizes / radii) scaled to the object (with \
+obb_dims null: to the use's objects, the analysis's sizes). Its bounding radius must be 0.001 m to max(1.5 x the \
+object's largest dim (with obb_dims null: the largest's hi), 1.1 m); its mass 1e-05 to 200 kg."""),
         StageSpec("agent_configuration", AgentLayout, """You are the Agent Configuration Generator. Arrange identical \
 agents in a world-aligned grid about the layout centre: counts nx, ny, nz >= 1 and spacings sx, sy, sz (m) between \
 neighbouring agent centres. Spacing along an axis with more than one agent must be at least the agent's bounding \
@@ -179,7 +209,9 @@ the box centre (aim pours there: a handle moves the box centre off the opening).
 the whole agent grid outside the object's box and above the ground, checked with a cube: the grid's half size per \
 axis is the largest layout offset on that axis plus the agent's bounding radius (the farthest point of its geoms \
 from its body origin; an articulated body's is its whole reach), and [start - half size, start + half size] must \
-not overlap [-h, h] on every axis at once and must stay above z = -h_z (the ground) — for every stable pose's h. \
+not overlap [-h, h] on every axis at once and must stay above z = -h_z (the ground) — for every stable pose's h \
+(every axis-aligned orientation of the OBB; with obb_dims null, of every extreme box of the analysis's sizes: \
+largest at its lo and hi, smallest at its lo and hi, the middle dim equal to either). \
 Keep every via-pose within 3 max(h) + the grid's half size + 1 m of the origin. quat is a unit quaternion \
 (w, x, y, z)."""),
         StageSpec("scoring", ScoringCode, f"""You are the Scoring Function Generator. Write Python source of \
@@ -188,7 +220,15 @@ numpy arrays over a batch of B rollouts and N agents, all in the task frame at t
 (B, N, 3), agent_quat (B, N, 4) wxyz, agent_vel (B, N, 3) m/s, contacts_object / contacts_agents / contacts_ground \
 (B, N) contact-point counts, object_pos (B, 3) displacement of the object, object_tilt (B,) rad, object_half_extents \
 (B, 3). Vectorise over the batch (reduce over the agent axis with np functions); use only `np` (already provided); \
-no imports, no dunder names, no I/O, no loops over rollouts."""),
+no imports, no dunder names, no I/O, no loops over rollouts. The code is run on a synthetic batch of the request's \
+agents and plans (every orientation of the object's box; with obb_dims null, of every extreme box of the \
+analysis's sizes) and must return a finite float array of shape (B,). With obb_dims null the whole profile is then \
+imagined on the analysis's prototypes, each as it stands: the positive must come out functional (a plan scores \
+> 0 in most of the robot's perturbed worlds, with the object not tipped over and not with most agents on the \
+ground away from the object: agents on the ground must touch it) and the negative not; otherwise your code comes \
+back with what the simulation saw, plan by plan (the score, where the agents came to rest: inside the object's \
+box, beside it, on the ground, how far; contacts; the object's tilt), to \
+repair: the agent, layout and trajectories are fixed by then, so make the score tell the two apart."""),
         StageSpec("functional_pose", FunctionalPoseVerdict, """You are the Functional Pose Analyzer. For each stable \
 pose you get its probability, its half extents and the candidate interactions that the scoring function called \
 successful, each with its plan, via-poses (task frame, m), score and a summary of the resultant configuration \
@@ -217,6 +257,17 @@ _EXAMPLE_TASKS = (
     TaskDescription(affordance="cup", obb_dims=[0.11, 0.085, 0.085]),
     TaskDescription(affordance="chair", obb_dims=[0.9, 0.5, 0.48]),
 )
+
+#: Stage 1's answer for every cup (a task of no obb_dims): its sizes and prototypes, the rest as the library's.
+_EXAMPLE_USE_ANALYSIS = offline.offline_analysis(_EXAMPLE_TASKS[0]).model_copy(update={
+    "reason": "A profile for every cup: sizes from catalogue cups and mugs, each object weighed by them.",
+    "sizes": UseSizes(largest=(0.07, 0.16), smallest=(0.05, 0.11), basis=[
+        "largest 0.07-0.16 m: espresso cups 6-7 cm tall to tall mugs 12-16 cm with a handle, in catalogues",
+        "smallest 0.05-0.11 m: a cup's rim 5-9 cm across, a mug's up to 11 cm, held in one hand"]),
+    "prototypes": [Prototype(role="positive", shape="open_cylinder", length=0.08, width=0.0, height=0.1, wall=0.004,
+                             why="a plain 8 cm mug, 10 cm tall"),
+                   Prototype(role="negative", shape="closed_cylinder", length=0.08, width=0.0, height=0.1,
+                             why="the same outline closed: nothing poured stays in it")]})
 
 #: Sentences whose offline parses are the request parser's few-shot examples.
 _EXAMPLE_REQUESTS = ("put the apple in the bowl", "Place the dolls onto the chairs.", "put the cup on the doll's table")
@@ -259,37 +310,45 @@ def _examples(stage: str) -> tuple[tuple[str, str], ...]:
     if stage == "request_parser":
         return tuple((RequestText(text=t).model_dump_json(), offline.offline_request(RequestText(text=t))
                       .model_dump_json()) for t in _EXAMPLE_REQUESTS)
-    pairs = []
-    for task in _EXAMPLE_TASKS:
-        analysis = offline.offline_analysis(task)
-        agent = offline.offline_agent(task)
-        layout = offline.offline_layout(task)
-        plans = offline.offline_plans(task)
-        request: BaseModel
-        answer: BaseModel
-        if stage == "affordance_analyzer":
-            request, answer = AnalyzerRequest(task=task), analysis
-        elif stage == "agent_model":
-            request, answer = AgentModelRequest(task=task, analysis=analysis), agent
-        elif stage == "agent_configuration":
-            request, answer = LayoutRequest(task=task, analysis=analysis, agent=agent), layout
-        elif stage == "motion_planner":
-            request, answer = PlannerRequest(task=task, analysis=analysis), plans
-        elif stage == "trajectory":
-            request = TrajectoryRequest(task=task, analysis=analysis, agent=agent, layout=layout, plans=plans)
-            answer = offline.offline_trajectories(task, layout)
-        elif stage == "scoring":
-            request = ScoringRequest(task=task, analysis=analysis, agent=agent, layout=layout, plans=plans)
-            answer = offline.offline_scoring(task)
-        else:
-            return ()
-        pairs.append((request.model_dump_json(), answer.model_dump_json()))
-    return tuple(pairs)
+    pairs = [_profile_example(stage, task, task, offline.offline_analysis(task)) for task in _EXAMPLE_TASKS]
+    # one profile for every cup: the same answers made for its positive prototype, under a task of no obb_dims
+    cup = _EXAMPLE_USE_ANALYSIS
+    reference = TaskDescription(affordance="cup", obb_dims=sorted(extents(cup.prototypes[0]), reverse=True))
+    pairs.append(_profile_example(stage, TaskDescription(affordance="cup", obb_dims=None), reference, cup))
+    return tuple(p for p in pairs if p is not None)
+
+
+def _profile_example(stage: str, shown: TaskDescription, task: TaskDescription,
+                     analysis: AffordanceAnalysis) -> tuple[str, str] | None:
+    """(request, answer) JSON of a profile stage (1-6): the offline library's answer for ``task``, the request as
+    ``shown`` (a task of no obb_dims shows one), with ``analysis`` as stage 1's answer; None for another stage."""
+    agent = offline.offline_agent(task)
+    layout = offline.offline_layout(task)
+    plans = offline.offline_plans(task)
+    request: BaseModel
+    answer: BaseModel
+    if stage == "affordance_analyzer":
+        request, answer = AnalyzerRequest(task=shown), analysis
+    elif stage == "agent_model":
+        request, answer = AgentModelRequest(task=shown, analysis=analysis), agent
+    elif stage == "agent_configuration":
+        request, answer = LayoutRequest(task=shown, analysis=analysis, agent=agent), layout
+    elif stage == "motion_planner":
+        request, answer = PlannerRequest(task=shown, analysis=analysis), plans
+    elif stage == "trajectory":
+        request = TrajectoryRequest(task=shown, analysis=analysis, agent=agent, layout=layout, plans=plans)
+        answer = offline.offline_trajectories(task, layout)
+    elif stage == "scoring":
+        request = ScoringRequest(task=shown, analysis=analysis, agent=agent, layout=layout, plans=plans)
+        answer = offline.offline_scoring(task)
+    else:
+        return None
+    return request.model_dump_json(), answer.model_dump_json()
 
 
 def system_prompt(stage: StageSpec) -> str:
     """Role and rules of the stage, the frame conventions, and worked examples."""
-    parts = [stage.instructions, _FRAME]
+    parts = [stage.instructions, _FRAME, *([_PER_USE] if stage.name in _PROFILE_STAGES else [])]
     if stage.name == "scoring":
         from rail_mj.scoring import scoring_rules  # the sandbox's allow-list, one source of truth
 

@@ -12,6 +12,7 @@ from typing import Literal
 from pydantic import Field
 
 from rail_mj.affordances.prototypes import Prototype
+from rail_mj.affordances.sizes import UseSizes
 from rail_mj.core.profile import (
     AgentLayout,
     FunctionalPoseVerdict,
@@ -72,10 +73,12 @@ class AffordanceDefinition(ProfileModel):
 
 
 class TaskDescription(ProfileModel):
-    """d_task: the requested affordance and the object's OBB extents (m, sorted descending)."""
+    """d_task: the requested affordance and the object's OBB extents (m, sorted descending), or none: a profile for
+    every object of the use (a use no kind models: its sizes and prototypes come from stage 1)."""
 
     affordance: str
-    obb_dims: Vec3
+    obb_dims: Vec3 | None = Field(description="the object's OBB extents, m, sorted descending; null: the profile "
+                                              "serves every object of the use")
     scale: Scale = 1.0
 
 
@@ -96,6 +99,11 @@ class AffordanceAnalysis(ProfileModel):
     agent_description: str = Field(description="shape, size and layout of the agent(s)")
     interaction_description: str = Field(description="how the agents move to interact with the object")
     expected_outcome: str = Field(description="resultant configuration that means the object affords it")
+    sizes: UseSizes | None = Field(default=None, description="with a task of no obb_dims: the use's typical sizes, "
+                                                             "the prior each object is weighed by; else null")
+    prototypes: list[Prototype] = Field(default_factory=list, description="with a task of no obb_dims: a positive "
+                                                                          "and a near-miss negative prototype the "
+                                                                          "profile is proven on; else []")
 
 
 class AgentModelRequest(ProfileModel):
@@ -173,10 +181,11 @@ class FunctionalPoseRequest(ProfileModel):
 
 
 class ImaginationProfile(ProfileModel):
-    """Outputs of stages 1–6 for one affordance and one object size; JSON round-trips."""
+    """Outputs of stages 1–6 for one affordance and one object size, or every object of the use (``obb_dims``
+    None); JSON round-trips."""
 
     affordance: str
-    obb_dims: Vec3
+    obb_dims: Vec3 | None
     provider: str
     model: str
     scale: Scale = 1.0

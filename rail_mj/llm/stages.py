@@ -26,13 +26,13 @@ from rail_mj.imagination.inputs import layout_offsets
 from rail_mj.llm.checks import (
     InvalidAnswerError,
     agent_geometry,
-    candidate_half_extents,
     check_agent,
     check_analysis,
     check_layout,
     check_scoring,
     check_trajectories,
     check_verdict,
+    task_half_extents,
 )
 from rail_mj.llm.prompts import PROMPT_VERSION, STAGES
 from rail_mj.llm.providers import Provider, get_provider
@@ -68,6 +68,7 @@ __all__ = [
     "generate_scoring",
     "analyze_functional_poses",
     "task_description",
+    "use_task",
     "task_profile",
     "generate_profile",
     "functional_pose_request",
@@ -89,7 +90,8 @@ def analyze_affordance(request: AnalyzerRequest, provider: ProviderLike = "offli
 
 def generate_agent_model(request: AgentModelRequest, provider: ProviderLike = "offline") -> AgentModel:
     """Stage 2: the agent as a one-body, joint-free MJCF fragment scaled to the object."""
-    return _provider(provider).answer(STAGES["agent_model"], request, lambda a: check_agent(a, request.task))
+    return _provider(provider).answer(STAGES["agent_model"], request,
+                                      lambda a: check_agent(a, request.task, request.analysis))
 
 
 def generate_layout(request: LayoutRequest, provider: ProviderLike = "offline") -> AgentLayout:
@@ -118,7 +120,7 @@ def generate_trajectories(request: TrajectoryRequest, provider: ProviderLike = "
     the OBB is checked.
     """
     if half_extents is None:
-        poses = candidate_half_extents(request.task.obb_dims)
+        poses = task_half_extents(request.task, request.analysis)
     else:
         arr = np.asarray(half_extents, dtype=float).reshape(-1, 3)
         if arr.size == 0 or not np.all(np.isfinite(arr)) or np.any(arr <= 0):
@@ -131,9 +133,18 @@ def generate_trajectories(request: TrajectoryRequest, provider: ProviderLike = "
     )
 
 
-def generate_scoring(request: ScoringRequest, provider: ProviderLike = "offline") -> ScoringCode:
-    """Stage 6: numpy scoring source accepted by the scoring sandbox and run there on a synthetic batch."""
-    return _provider(provider).answer(STAGES["scoring"], request, lambda s: check_scoring(s, request))
+def generate_scoring(request: ScoringRequest, provider: ProviderLike = "offline",
+                     prove: Callable[[ScoringCode], None] | None = None) -> ScoringCode:
+    """Stage 6: numpy scoring source accepted by the scoring sandbox and run there on a synthetic batch; ``prove``
+    then imagines the whole profile with it (InvalidAnswerError with what the simulation saw when it fails: the code
+    goes back to the model for repair, as Eureka improves reward code with simulation feedback)."""
+
+    def check(scoring: ScoringCode) -> None:
+        check_scoring(scoring, request)
+        if prove is not None:
+            prove(scoring)
+
+    return _provider(provider).answer(STAGES["scoring"], request, check)
 
 
 def analyze_functional_poses(request: FunctionalPoseRequest,
@@ -250,9 +261,18 @@ def task_description(affordance: str, obb_dims: Sequence[float] | np.ndarray, pr
     return TaskDescription(affordance=provider.affordance_name(affordance), obb_dims=dims, scale=scale)
 
 
+def use_task(affordance: str, *, scale: float = 1.0) -> TaskDescription:
+    """The task of a profile that serves every object of a use (no obb_dims): its stage 1 gives the use's sizes and
+    prototypes, and every position of the profile is relative to each object's half extents."""
+    return TaskDescription(affordance=" ".join(affordance.split()), obb_dims=None, scale=scale)
+
+
 def task_profile(task: TaskDescription, provider: Provider, *,
-                 half_extents: Sequence[Sequence[float]] | np.ndarray | None = None) -> ImaginationProfile:
-    """Stages 1–6 for a task from :func:`task_description` (``half_extents``: see :func:`generate_trajectories`)."""
+                 half_extents: Sequence[Sequence[float]] | np.ndarray | None = None,
+                 prove: Callable[[ImaginationProfile], None] | None = None) -> ImaginationProfile:
+    """Stages 1–6 for a task from :func:`task_description` or :func:`use_task` (``half_extents``: see
+    :func:`generate_trajectories`); ``prove`` imagines the whole profile before stage 6's answer is accepted (see
+    :func:`generate_scoring`)."""
     analysis = analyze_affordance(AnalyzerRequest(task=task), provider)
     agent = generate_agent_model(AgentModelRequest(task=task, analysis=analysis), provider)
     layout = generate_layout(LayoutRequest(task=task, analysis=analysis, agent=agent), provider)
@@ -261,14 +281,18 @@ def task_profile(task: TaskDescription, provider: Provider, *,
         TrajectoryRequest(task=task, analysis=analysis, agent=agent, layout=layout, plans=plans), provider,
         half_extents=half_extents,
     )
+
+    def assemble(scoring: ScoringCode) -> ImaginationProfile:
+        return ImaginationProfile(
+            affordance=task.affordance, obb_dims=None if task.obb_dims is None else list(task.obb_dims),
+            provider=provider.name, model=provider.model, scale=task.scale,
+            prompt_versions={k: v for k, v in PROMPT_VERSION.items() if k != "functional_pose"},
+            analysis=analysis, agent=agent, layout=layout, plans=plans, trajectories=trajectories, scoring=scoring,
+        )
+
     scoring = generate_scoring(ScoringRequest(task=task, analysis=analysis, agent=agent, layout=layout, plans=plans),
-                               provider)
-    return ImaginationProfile(
-        affordance=task.affordance, obb_dims=list(task.obb_dims), provider=provider.name, model=provider.model,
-        scale=task.scale,
-        prompt_versions={k: v for k, v in PROMPT_VERSION.items() if k != "functional_pose"},
-        analysis=analysis, agent=agent, layout=layout, plans=plans, trajectories=trajectories, scoring=scoring,
-    )
+                               provider, None if prove is None else lambda s: prove(assemble(s)))
+    return assemble(scoring)
 
 
 def generate_profile(

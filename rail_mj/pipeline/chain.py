@@ -8,8 +8,10 @@ compiled scoring functions).
 from __future__ import annotations
 
 import json
+import logging
 import math
 import time
+from collections import Counter
 from collections.abc import Callable, Iterable, Sequence
 from contextlib import closing
 from pathlib import Path
@@ -32,16 +34,18 @@ from rail_mj.imagination.worlds import ImaginedWorlds
 from rail_mj.llm.schemas import FunctionalPoseVerdict, ImaginationProfile
 from rail_mj.mesh import load_object, mesh_notes, redecomposed
 from rail_mj.pipeline import definitions
-from rail_mj.pipeline.config import ObjectInput, RunConfig
+from rail_mj.pipeline.config import Definition, ObjectInput, RunConfig
 from rail_mj.pipeline.parallel import run_tasks
 from rail_mj.pipeline.tasks import ObjectTask
 from rail_mj.pipeline.verdicts import candidate_slots, judge, most_probable, pose_prior, undecided
 from rail_mj.scoring import ScoringFunction, compile_scoring
 from rail_mj.stable_poses import find_stable_poses, pose_from_up
 
-__all__ = ["Pipeline", "classify", "provider_for", "as_placed_pose", "object_task", "run_object"]
+__all__ = ["Pipeline", "classify", "define_uses", "definition_counter", "provider_for", "as_placed_pose",
+           "object_task", "run_object"]
 
 ProgressCallback = Callable[[int, int, AffordanceResult], None]
+logger = logging.getLogger(__name__)
 
 
 def _check_names(affordances: Sequence[str]) -> None:
@@ -85,6 +89,8 @@ class Pipeline:
         # interpreter
         load_files(self.config.affordances_files)
         self._defined = definitions.register(self.config.definitions)
+        # the uses no kind models: their one profile for every object, written and proven once for the run
+        self._written = {_norm(d.name): d.profile for d in self.config.definitions if d.profile is not None}
         self.backend = resolve_backend(self.config.backend)
         # the run's LLM settings go to the provider once; every stage then reads them from it
         self.provider = provider_for(self.config)
@@ -138,14 +144,18 @@ class Pipeline:
     def profile(self, affordance: str, obb_dims: Sequence[float] | np.ndarray) -> ImaginationProfile:
         """A profile for this affordance, reused for objects of similar size and for every spelling
         of the name that the provider resolves alike ("mug" and "cup" share one); imported from the run's
-        profile folder for it when there is one (:mod:`rail_mj.profiles`)."""
+        profile folder for it when there is one (:mod:`rail_mj.profiles`); for a use no kind models, the one
+        profile the run's definition wrote for every object (:mod:`rail_mj.pipeline.definitions`)."""
+        written = self._written.get(_norm(affordance))
+        if written is not None:
+            return written
         folder = self.profile_folder(affordance)
         scale = request_scale(self.config.agent, self.config.owner)
         task = (llm.task_description(affordance, obb_dims, self.provider, scale=scale) if folder is None
                 else profiles.folder_task(affordance, obb_dims, self.provider, scale=scale))
         b = math.log1p(self.config.profile_bin)
         # lower case: a novel name (an LLM provider's) is kept as written, in any case
-        key = (task.affordance.lower(), task.scale, *(round(math.log(max(d, 1e-4)) / b) for d in task.obb_dims))
+        key = (task.affordance.lower(), task.scale, *(round(math.log(max(d, 1e-4)) / b) for d in task.obb_dims or ()))
         if key not in self._profiles:
             # a use the provider defined as a row of a tested kind: stages 1-6 are the kind's (no model call)
             stages = llm.get_provider("offline") if task.affordance in self._defined else self.provider
@@ -174,9 +184,15 @@ class Pipeline:
     def run(self, obj: RailObject, poses: StablePoses, affordance: str) -> AffordanceResult:
         """Imagine one affordance on one object whose stable poses are known: profile → prior gate → imagine (up to
         three batched calls) → judge → pick."""
+        return self.imagine_case(obj, poses, affordance)[0]
+
+    def imagine_case(self, obj: RailObject, poses: StablePoses, affordance: str,
+                     profile: ImaginationProfile | None = None) -> tuple[AffordanceResult, ImaginedWorlds | None]:
+        """:meth:`run` with a given ``profile`` (None: the run's for the use) and the worlds it imagined (None when
+        the prior gate imagined none)."""
         timings: dict[str, float] = {}
         t = time.perf_counter()
-        profile = self.profile(affordance, obj.obb_dims)
+        profile = profile or self.profile(affordance, obj.obb_dims)
         timings["profile"] = time.perf_counter() - t
         # the registry row whose kind's rules judge the use (None outside the registry: the generic rules)
         row = rules_row(profile.affordance, profile.scale)
@@ -184,7 +200,7 @@ class Pipeline:
         result.timings = timings
         gate = self._prior_gate(obj, poses, profile, row, result)
         if gate is None:
-            return result
+            return result, None
         kept, priors, skipped = gate
         evidence, stage7 = self._imagine(obj, poses, profile, row, kept, priors, result)
         if stage7 is None:
@@ -193,21 +209,22 @@ class Pipeline:
             result.analyzer_reasons = ([f"pose {v.pose_index}: {v.reason}" for v in stage7.poses] + skipped
                                        + [stage7.reason])
         self._pick(result, profile, evidence, stage7)
-        return result
+        return result, evidence
 
     def _result(self, obj: RailObject, poses: StablePoses, affordance: str, profile: ImaginationProfile,
                 row: Affordance | None) -> AffordanceResult:
         """The case's result before any physics: the profile's plans, agent, scoring and size check."""
-        words, toml = self._definition(affordance)
+        words, toml, check = self._definition(affordance)
         return AffordanceResult(
             definition=words,
             definition_toml=toml,
+            profile_check=check,
             object=obj.name,
             affordance=profile.affordance,
             requested=affordance,
             alternative=profile.analysis.alternative,
-            dims_fit=(profile.analysis.fits if row is None
-                      else row.dims_prior(obj.obb_dims).value >= FUNCTIONAL),
+            dims_fit=self._size_prior(obj, profile, row).value >= FUNCTIONAL if row is not None
+            or profile.analysis.sizes is not None else profile.analysis.fits,
             stable_poses=[PoseInfo.from_pose(i, poses[i]) for i in range(len(poses))],
             plans=[p.name for p in profile.plans.plans],
             agent_fragment=profile.agent.mjcf,
@@ -228,14 +245,15 @@ class Pipeline:
         no prior: 1, and every pose is imagined).
         """
         analysis = profile.analysis
-        dims = row.dims_prior(obj.obb_dims) if row is not None else Prior()
-        if dims.value < NEGLIGIBLE or (row is None and not analysis.fits):
+        dims = self._size_prior(obj, profile, row)
+        vetoed = row is None and analysis.sizes is None and not analysis.fits
+        if dims.value < NEGLIGIBLE or vetoed:
             result.analyzer_reasons = [analysis.reason]
-            result.probability = dims.value if row is not None else 0.0
+            result.probability = 0.0 if vetoed else dims.value
             result.prior = dims.doc()
             return None
         kept = [i for i, p in enumerate(poses) if p.probability >= self.config.min_pose_probability] or [0]
-        priors = {i: pose_prior(row, obj.obb_dims, poses[i]) for i in kept}
+        priors = {i: pose_prior(row, obj.obb_dims, poses[i], analysis.sizes) for i in kept}
         skipped = [f"pose {i}: not imagined: its prior {priors[i].value:.3f} is below {NEGLIGIBLE:g} "
                    f"({priors[i].doc()}), so no physics could make it functional"
                    for i in kept if priors[i].value < NEGLIGIBLE]
@@ -247,6 +265,14 @@ class Pipeline:
             result.prior = priors[top].doc()
             return None
         return worth, priors, skipped
+
+    @staticmethod
+    def _size_prior(obj: RailObject, profile: ImaginationProfile, row: Affordance | None) -> Prior:
+        """The object's size prior: its row's, else the sizes of a profile for every object of the use, else none."""
+        if row is not None:
+            return row.dims_prior(obj.obb_dims)
+        sizes = profile.analysis.sizes
+        return sizes.prior(obj.obb_dims) if sizes is not None else Prior()
 
     def _imagine(self, obj: RailObject, poses: StablePoses, profile: ImaginationProfile, row: Affordance | None,
                  kept: list[int], priors: dict[int, Prior], result: AffordanceResult
@@ -300,7 +326,8 @@ class Pipeline:
         request = llm.functional_pose_request(profile, evidence.candidates(nominal))
         stage7 = None if request is None else llm.analyze_functional_poses(request, self.provider)
         veto = self.provider_name != "offline"  # a model's common sense; the offline answer is the rules' own
-        result.pose_verdicts = judge(evidence, obj.obb_dims, stage7, llm_veto=veto)
+        sizes = profile.analysis.sizes
+        result.pose_verdicts = judge(evidence, obj.obb_dims, stage7, llm_veto=veto, sizes=sizes)
         timings["functional_pose_analyzer"] = time.perf_counter() - t
         # the second decomposition: one more world for the poses whose verdict it could still change
         open_slots = undecided(result.pose_verdicts, slots) if self._decomposition_matters(row) else []
@@ -311,7 +338,7 @@ class Pipeline:
                                agents, [evidence.trajectories[k] for k in open_slots], backend=self.backend,
                                config=self.config.imagination)
             evidence.add_second_decomposition(rollouts, scorer(rollouts), open_slots)
-            result.pose_verdicts = judge(evidence, obj.obb_dims, stage7, llm_veto=veto)
+            result.pose_verdicts = judge(evidence, obj.obb_dims, stage7, llm_veto=veto, sizes=sizes)
             timings["second_decomposition"] = time.perf_counter() - t
         return evidence, stage7
 
@@ -370,26 +397,26 @@ class Pipeline:
             results.append(r)
         return results
 
-    def _definition(self, affordance: str) -> tuple[str | None, str | None]:
-        """A result's words on how the provider defined ``affordance`` (stage 0) and its proof, and its row as a
-        file."""
+    def _definition(self, affordance: str) -> tuple[str | None, str | None, str | None]:
+        """A result's words on how the provider defined ``affordance`` (stage 0), its row as a file and its proof
+        on its prototypes."""
         defined = next((d for d in self.config.definitions if d.name == affordance.strip()), None)
         if defined is None:
-            return None, None
+            return None, None, None
         row = rules_row(defined.name) if defined.row_toml else None
         words = (f"{defined.by} defined it as a row of the {row.kind} kind, imagined with that kind's tested "
                  f"physics: {defined.reason}" if row is not None else
-                 f"{defined.by} found no kind that models it ({defined.reason}): its own profile (stages 1-6)")
-        if defined.profile_check:
-            words += f"; {defined.profile_check}"
-        return words, definitions.file_text(defined)
+                 f"{defined.by} found no kind that models it ({defined.reason}): its own profile (stages 1-6), "
+                 f"written once for every object of the use")
+        return words, definitions.file_text(defined), defined.profile_check
 
     def _error(self, name: str, affordance: str, exc: Exception) -> AffordanceResult:
         """A failed case: no check ran, so ``dims_fit`` stays None (never a passed check)."""
-        words, toml = self._definition(affordance)
+        words, toml, check = self._definition(affordance)
         return AffordanceResult(
             definition=words,
             definition_toml=toml,
+            profile_check=check,
             object=name,
             affordance=affordance,
             requested=affordance,
@@ -434,11 +461,7 @@ def classify(
     cfg = cfg.model_copy(update={"profile_dir": cfg.profile_dir})
     pipe = Pipeline(cfg)
     pipe.check_affordances(affordances)
-    # stage 0, once per run for each use outside the registry: its definition goes to every worker
-    defined = definitions.define(affordances, pipe.provider, cfg, lambda a: pipe.profile_folder(a) is not None,
-                                 _prototype_runner(cfg))
-    if defined:
-        cfg = cfg.model_copy(update={"definitions": [*cfg.definitions, *defined]})
+    cfg, defined = define_uses(affordances, pipe, cfg)
     task_cfg = cfg.model_copy(update={"provider": pipe.provider_name, "backend": pipe.backend})
     tasks = [object_task(i, item, affordances, task_cfg) for i, item in enumerate(objects)]
     total = len(tasks) * len(affordances)
@@ -463,13 +486,39 @@ def classify(
         if bar is not None:
             bar.close()
     results = [r for results in per_object for r in results]
-    for d in defined:  # stage 0 ran here, once per use: its requests are counted on the use's first case
-        first = next((r for r in results if r.requested.strip() == d.name), None)
-        if first is not None and d.llm_calls:
-            first.llm_calls = {"affordance_definition": d.llm_calls, **first.llm_calls}
-        if first is not None and d.llm_repairs:
-            first.llm_repairs = {"affordance_definition": d.llm_repairs, **first.llm_repairs}
+    count = definition_counter(defined)
+    for r in results:
+        count(r)
     return results
+
+
+def define_uses(affordances: Sequence[str], pipe: Pipeline, cfg: RunConfig) -> tuple[RunConfig, list[Definition]]:
+    """Stage 0, once per run before any object, for each of ``affordances`` outside the registry (a row proven on
+    its prototypes, or a profile for every object proven on its own): ``cfg`` with their definitions, which go to
+    every worker, and the new ones; each written to ``cfg.save_affordance`` as soon as it is proven."""
+    defined = definitions.define(affordances, pipe.provider, cfg, lambda a: pipe.profile_folder(a) is not None,
+                                 _prototype_runner(cfg), _profile_runner(cfg), request_scale(cfg.agent, cfg.owner))
+    if not defined:
+        return cfg, []
+    cfg = cfg.model_copy(update={"definitions": [*cfg.definitions, *defined]})
+    if cfg.save_affordance is not None:  # proven: written before any object, so a long run's crash keeps them
+        for path in definitions.save(defined, cfg.save_affordance):
+            logger.info("wrote %s", path)
+    return cfg, defined
+
+
+def definition_counter(defined: Sequence[Definition]) -> Callable[[AffordanceResult], None]:
+    """A function that adds each definition's requests (stage 0 and a profile's stages 1-6, sent once for the
+    run) to the first result of its use that it is shown, in the order results come."""
+    waiting = {d.name: d for d in defined}
+
+    def count(r: AffordanceResult) -> None:
+        d = waiting.pop(r.requested.strip(), None)
+        if d is not None:
+            r.llm_calls = dict(Counter(d.llm_calls) + Counter(r.llm_calls))
+            r.llm_repairs = dict(Counter(d.llm_repairs) + Counter(r.llm_repairs))
+
+    return count
 
 
 def _prototype_runner(cfg: RunConfig) -> definitions.CaseRunner:
@@ -478,6 +527,23 @@ def _prototype_runner(cfg: RunConfig) -> definitions.CaseRunner:
     proof = RunConfig(provider="offline", backend=cfg.backend, imagination=cfg.imagination)
     # a fresh Pipeline each time: a repaired row of the same name must not meet the last one's cached profile
     return lambda obj, name: Pipeline(proof).run(obj, as_placed_pose(obj), name)
+
+
+def _profile_runner(cfg: RunConfig) -> definitions.ProfileRunner:
+    """The physics a free-form profile is proven with: the profile itself, the generic rules for stage 7 (no model
+    call), each prototype imagined as it stands; with what the simulation saw, plan by plan."""
+    proof = RunConfig(provider="offline", backend=cfg.backend, imagination=cfg.imagination)
+
+    def run(obj: RailObject, profile: ImaginationProfile) -> tuple[AffordanceResult, str]:
+        result, evidence = Pipeline(proof).imagine_case(obj, as_placed_pose(obj), profile.affordance, profile)
+        return result, definitions.plans_seen(result, evidence)
+
+    return run
+
+
+def _norm(name: str) -> str:
+    """A use's name as its profile is looked up: lower case, words separated by one space."""
+    return " ".join(name.lower().split())
 
 
 def run_object(task: ObjectTask) -> str:

@@ -41,8 +41,9 @@ def _number(kind: type, lowest: float, strict: bool, what: str):
 
 
 def add_llm_options(parser: argparse.ArgumentParser) -> None:
-    """``--model``, ``--llm-timeout`` and ``--max-repairs``, which every command that imagines takes: a model the
-    server names, a slow model waited for, how often a rejected answer goes back (defaults: the provider's)."""
+    """``--model``, ``--llm-timeout``, ``--max-repairs`` and ``--save-affordance``, which every command that imagines
+    takes: a model the server names, a slow model waited for, how often a rejected answer goes back (defaults: the
+    provider's), and where the uses the model defined are written."""
     from rail_mj.llm.provider_base import LLMConfig
 
     fields = LLMConfig.model_fields
@@ -54,6 +55,10 @@ def add_llm_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--max-repairs", type=_number(int, 0, False, "a whole number >= 0"), metavar="N",
                         help=f"repair rounds per stage after a rejected answer (default "
                              f"{fields['max_retries'].default})")
+    parser.add_argument("--save-affordance", type=Path, metavar="DIR",
+                        help="write each use outside the registry that the model defined, once proven on its "
+                             "prototypes: a row of a kind as DIR/<use>.toml (for --affordances-file), a profile of its "
+                             "own as DIR/<use>/ (for --profile-dir); both load with no model")
 
 
 def run_settings(args: argparse.Namespace) -> dict[str, Any]:
@@ -66,7 +71,8 @@ def run_settings(args: argparse.Namespace) -> dict[str, Any]:
 
 def llm_settings(args: argparse.Namespace) -> dict[str, Any]:
     """The :class:`~rail_mj.pipeline.config.RunConfig` fields of :func:`add_llm_options`' options that were given."""
-    given = {"model": args.model, "llm_timeout": args.llm_timeout, "max_retries": args.max_repairs}
+    given = {"model": args.model, "llm_timeout": args.llm_timeout, "max_retries": args.max_repairs,
+             "save_affordance": args.save_affordance}
     return {k: v for k, v in given.items() if v is not None}
 
 
@@ -165,21 +171,15 @@ def _outputs(args: argparse.Namespace, results) -> None:
               file=sys.stderr)
 
 
-def _save_affordances(folder: Path, results) -> None:
-    """Write each use the provider defined as a row (stage 0) as FOLDER/<use>.toml, an affordance file that
-    ``--affordances-file`` loads with no model."""
-    from rail_mj.core.runfiles import atomic_write_text
-
-    rows = {r.requested.strip(): r.definition_toml for r in results if r.definition_toml}
-    if not rows:
-        print(f"no affordance written to {folder}: no requested use was defined as a row of a kind here "
-              "(registered uses, and uses no kind models, have none)", file=sys.stderr)
-        return
-    folder.mkdir(parents=True, exist_ok=True)
-    for name, text in rows.items():
-        path = folder / f"{'_'.join(name.lower().split())}.toml"
-        atomic_write_text(path, text)
+def _saved_affordances(folder: Path, results) -> None:
+    """Say where classify wrote the uses the model defined (RunConfig.save_affordance), or that there were none."""
+    names = sorted({"_".join(r.requested.lower().split()) for r in results if r.definition})
+    paths = [p for n in names for p in (folder / f"{n}.toml", folder / n) if p.exists()]
+    for path in paths:
         print(f"wrote {path}", file=sys.stderr)
+    if not paths:
+        print(f"no affordance written to {folder}: no requested use was defined by the model here (registered "
+              "uses and profile folders need none)", file=sys.stderr)
 
 
 def _save_profiles(args: argparse.Namespace, results, config) -> bool:
@@ -234,9 +234,6 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--save-profile", type=Path, metavar="DIR",
                    help="write each affordance's profile as DIR/<affordance>/ in the same format (with rail_mj's "
                         "scoring.py and rail_mj.json), for --profile-dir DIR to read back")
-    p.add_argument("--save-affordance", type=Path, metavar="DIR",
-                   help="write each use outside the registry that the model defined as a row of a kind (stage 0) as "
-                        "DIR/<use>.toml, an affordance file that --affordances-file loads with no model")
     p.add_argument("--units", type=_metres_per_unit, default=1.0, help="metres per mesh unit (0.001 for millimetres)")
     p.add_argument("--up", choices=("z", "y"), default="z", help="the mesh's up axis")
     p.add_argument("--provider",
@@ -298,7 +295,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.render or args.contact_sheet or args.save_scene is not None:
             _outputs(args, results)
         if args.save_affordance is not None:
-            _save_affordances(args.save_affordance, results)
+            _saved_affordances(args.save_affordance, results)
         if args.save_profile is not None and not _save_profiles(args, results, config):
             return EXIT_FAILED
     except (RailError, KeyboardInterrupt) as exc:

@@ -14,6 +14,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from rail_mj.imagination.config import ImaginationConfig
+from rail_mj.llm.schemas import ImaginationProfile
 from rail_mj.mesh import DecompositionConfig
 from rail_mj.profiles import PROFILE_DIR_ENV, Origin, default_profile_dir
 from rail_mj.stable_poses.config import StablePoseConfig
@@ -33,10 +34,16 @@ class Definition(BaseModel):
     row_toml: str | None = Field(description="its [[affordance]] table; None: no kind models it")
     reason: str = Field(description="why the kind's test is the use's test, or why no kind's is")
     size_basis: list[str] = Field(default_factory=list, description="what each size range of the row comes from")
-    profile_check: str | None = Field(default=None, description="the row's proof on its prototypes, in words")
+    profile: ImaginationProfile | None = Field(
+        default=None, description="without a row: the free-form profile (stages 1-6) written once for every object "
+                                  "of the use, at the run's agent scale, proven on its prototypes")
+    profile_check: str | None = Field(default=None, description="the row's or the profile's proof on its "
+                                                                "prototypes, in words")
     by: str = Field(description="provider:model that wrote it")
-    llm_calls: int = Field(default=0, description="requests stage 0 sent for it (0: answered from the cache)")
-    llm_repairs: int = Field(default=0, description="repair rounds among them")
+    llm_calls: dict[str, int] = Field(default_factory=dict, description="requests sent for it, per stage (stage 0, "
+                                                                        "and stages 1-6 for a profile; none: "
+                                                                        "answered from the cache)")
+    llm_repairs: dict[str, int] = Field(default_factory=dict, description="repair rounds among them, per stage")
 
 
 class RunOptions(BaseModel):
@@ -77,6 +84,10 @@ class RunOptions(BaseModel):
                                           "every worker (absolute paths: a worker may run elsewhere)"
     )
 
+    save_affordance: Path | None = Field(
+        default=None, description="write each use the provider defined, once proven and before any object: a row as "
+                                  "DIR/<use>.toml (an affordance file), a profile as DIR/<use>/ (a profile folder "
+                                  "with definition.txt); both load with no model (--affordances-file, --profile-dir)")
     definitions: list[Definition] = Field(
         default_factory=list, description="uses outside the registry that the provider defined (stage 0), filled "
                                           "by classify before any object: a row is registered here and in every "
@@ -98,7 +109,7 @@ class RunOptions(BaseModel):
     def _absolute(cls, paths: list[Path]) -> list[Path]:
         return [p.resolve() for p in paths]
 
-    @field_validator("profile_dir")
+    @field_validator("profile_dir", "save_affordance")
     @classmethod
     def _absolute_dir(cls, path: Path | None) -> Path | None:
         return None if path is None else path.expanduser().resolve()

@@ -53,6 +53,7 @@ from rail_mj.affordances import Affordance
 from rail_mj.affordances.judge import judge_pose, rules_row, world_row
 from rail_mj.affordances.kinds import kind_of
 from rail_mj.affordances.prior import FUNCTIONAL, Prior
+from rail_mj.affordances.sizes import UseSizes
 from rail_mj.core.profile import FunctionalPoseVerdict
 from rail_mj.core.results import PoseProbability
 from rail_mj.core.types import StablePose
@@ -89,11 +90,13 @@ def undecided(verdicts: Sequence[PoseProbability], slots: Sequence[int]) -> list
     return out
 
 
-def pose_prior(aff: Affordance | None, obb_dims: Sequence[float] | np.ndarray, pose: StablePose) -> Prior:
+def pose_prior(aff: Affordance | None, obb_dims: Sequence[float] | np.ndarray, pose: StablePose,
+               sizes: UseSizes | None = None) -> Prior:
     """One pose's prior: the size prior of the object's OBB times the pose's envelope prior (its basin's rim for
-    a vessel's aspect); no factor for an affordance outside the registry."""
+    a vessel's aspect); for an affordance outside the registry, the ``sizes`` of its profile for every object
+    (no factor without them)."""
     if aff is None:
-        return Prior()
+        return sizes.prior(obb_dims) if sizes is not None else Prior()
     return aff.size_prior([float(d) for d in obb_dims]) * aff.pose_prior(
         [float(v) for v in pose.half_extents], None if pose.basin is None else pose.basin.rim)
 
@@ -123,11 +126,13 @@ def _blown(world: World, names: Sequence[str]) -> dict[int, list[str]]:
 
 
 def judge(evidence: ImaginedWorlds, obb_dims: Sequence[float] | np.ndarray,
-          stage7: FunctionalPoseVerdict | None = None, llm_veto: bool = False) -> list[PoseProbability]:
+          stage7: FunctionalPoseVerdict | None = None, llm_veto: bool = False,
+          sizes: UseSizes | None = None) -> list[PoseProbability]:
     """One :class:`PoseProbability` per imagined pose (``evidence.kept``, in that order), from every world of the
     ``evidence``, each judged once by the rules (:func:`rail_mj.affordances.judge.judge_pose`).
 
-    ``obb_dims`` are the object's (its size prior). ``stage7`` is the provider's verdict on the nominal world: its
+    ``obb_dims`` are the object's (its size prior; ``sizes``: a profile's for every object of a use outside the
+    registry, :func:`pose_prior`). ``stage7`` is the provider's verdict on the nominal world: its
     plan for a pose breaks a tie between plans; with ``llm_veto`` (a model's answer, not the rules' own), a pose it
     rejected has physics 0: common sense vetoes what the rules would let through. Here the model's answer and the
     rules meet.
@@ -161,10 +166,11 @@ def judge(evidence: ImaginedWorlds, obb_dims: Sequence[float] | np.ndarray,
         chosen, row = stage7_plans.get(i), scores0[k * len(names) : (k + 1) * len(names)]
         best = (max(wins[k], key=lambda name: (wins[k][name], name == chosen, float(row[names.index(name)])))
                 if successes else None)
-        p = pose_prior(aff, obb_dims, evidence.poses[i])
+        p = pose_prior(aff, obb_dims, evidence.poses[i], sizes)
         if aff is not None and best is not None and rests[k].get(best):
             p = p * aff.rest_prior(float(np.median(rests[k][best])))
-        prior, doc = p.value, (p.doc() if aff is not None else "outside the registry: no size prior")
+        prior = p.value
+        doc = p.doc() if aff is not None or sizes is not None else "outside the registry: no size prior"
         imagined = evidence.imagined(k)
         physics = successes / imagined
         out.append(PoseProbability(

@@ -27,6 +27,7 @@ from typing import Literal
 import numpy as np
 
 import rail_mj.profiles.files as F
+from rail_mj.affordances.prototypes import extents
 from rail_mj.core.errors import ProfileFolderError, UnknownAffordanceError
 from rail_mj.core.profile import AgentLayout, MotionPlan, PlanTrajectory, ScoringCode, ViaPose
 from rail_mj.imagination.inputs import layout_offsets, trajectory_array
@@ -256,7 +257,7 @@ def import_profile(folder: str | Path, task: TaskDescription, provider: Provider
                                                  old.agent, old.layout, old.plans, old.trajectories,
                                                  old.scoring) else None
     return ImaginationProfile(
-        affordance=task.affordance, obb_dims=list(task.obb_dims), scale=task.scale,
+        affordance=task.affordance, obb_dims=task.obb_dims, scale=task.scale,
         provider=exact.provider if exact else f"folder+{provider.name}",
         model=exact.model if exact else provider.model,
         prompt_versions=exact.prompt_versions if exact else used,
@@ -265,7 +266,7 @@ def import_profile(folder: str | Path, task: TaskDescription, provider: Provider
 
 def _scoring(folder: Path, lift: float, n_agents: int, n_plans: int, task: TaskDescription) -> ScoringCode | None:
     """evaluation.py (the paper's), else scoring.py (rail_mj's own), else None."""
-    h = [list(map(float, row)) for row in candidate_half_extents(list(task.obb_dims))]
+    h = [list(map(float, row)) for row in candidate_half_extents(list(task.obb_dims or ()))]
     if (folder / F.EVALUATION).is_file():
         path = folder / F.EVALUATION
         return evaluation_scoring(F.read_text(path), str(path), lift=lift, n_agents=n_agents, n_plans=n_plans,
@@ -286,11 +287,16 @@ def save_profile(profile: ImaginationProfile, folder: str | Path, *, half_extent
     """Write ``profile`` as a paper-format folder (created if needed; these files replaced) and return it.
 
     Via-points are metres for the object's half extents ``half_extents`` (a pose's; default the OBB's, its
-    largest along x and smallest up) from ``origin``. ProfileFolderError when the agent has a shape URDF lacks.
+    largest along x and smallest up; for a profile of every object of the use, its positive prototype's) from
+    ``origin``. ProfileFolderError when the agent has a shape URDF lacks.
     """
     folder = Path(folder)
     lift = _lift(origin)
-    h = [float(v) for v in (half_extents if half_extents is not None else np.asarray(profile.obb_dims) / 2)]
+    if half_extents is None:
+        positive = next((p for p in profile.analysis.prototypes if p.role == "positive"), None)
+        dims = profile.obb_dims if profile.obb_dims is not None else extents(positive) if positive is not None else []
+        half_extents = [v / 2 for v in dims]
+    h = [float(v) for v in half_extents]
     if len(h) != 3 or not all(np.isfinite(h)) or min(h) <= 0:
         raise ProfileFolderError(f"half_extents must be three positive finite numbers; got {h}")
     offsets = layout_offsets(profile.layout)

@@ -22,7 +22,7 @@ from rail_mj.core.geometry import quat_conj, quat_mul, quat_rotate, task_origin
 from rail_mj.core.types import RailObject, StablePose
 from rail_mj.llm.schemas import Request
 from rail_mj.mesh import object_from_mesh
-from rail_mj.pipeline.chain import classify, provider_for
+from rail_mj.pipeline.chain import Pipeline, classify, define_uses, provider_for
 from rail_mj.pipeline.config import RunConfig
 from rail_mj.robot.control import RobotConfig
 from rail_mj.robot.demo import case_from_result
@@ -153,6 +153,9 @@ def run_table(req: Request, placed: Sequence[Placed], *, scan: bool = True, conf
     out: dict[str, Any] = {"request": req.text, "agent": req.agent, "affordance": req.affordance,
                            "preposition": req.preposition, "scale": scale,
                            "paper": req.affordance in PAPER_AFFORDANCES}
+
+    # a use outside the registry is defined (and proven) once for the table, not once per object
+    imagination, _ = define_uses([req.affordance], Pipeline(imagination), imagination)
 
     def imagine(o: RailObject):
         return classify([o], [req.affordance], config=imagination, progress=False, workers=1)[0]

@@ -184,3 +184,50 @@ def test_loopback_run_time_error_is_fed_back_and_the_repair_accepted(provider_fo
     feedback = repair[2]["content"]
     assert "synthetic batch" in feedback
     assert re.search(message, feedback), feedback
+
+
+# ---- a profile for every object of a use (a task of no obb_dims) ------------------------------------------------
+def _use_analysis(**update):
+    from rail_mj.llm.prompts import _EXAMPLE_USE_ANALYSIS
+
+    return _EXAMPLE_USE_ANALYSIS.model_copy(update=update)
+
+
+USE = TaskDescription(affordance="cup", obb_dims=None)
+
+
+def test_the_prompts_per_use_example_passes_its_checks() -> None:
+    from rail_mj.llm.checks import check_analysis
+
+    check_analysis(_use_analysis(), USE)
+
+
+@pytest.mark.parametrize("update, words", [
+    ({"sizes": None}, "give sizes"),
+    ({"fits": False}, "fits must be true"),
+    ({"prototypes": []}, "at least one positive and one near-miss negative"),
+    ({"sizes": _use_analysis().sizes.model_copy(update={"largest": (0.3, 0.5)})}, "is not inside sizes"),
+])
+def test_a_per_use_analysis_without_what_the_profile_is_proven_and_weighed_by_is_refused(update, words) -> None:
+    from rail_mj.llm.checks import check_analysis
+
+    with pytest.raises(InvalidAnswerError, match=words):
+        check_analysis(_use_analysis(**update), USE)
+
+
+def test_an_object_analysis_gives_no_sizes() -> None:
+    from rail_mj.llm.checks import check_analysis
+
+    with pytest.raises(InvalidAnswerError, match="sizes must be null"):
+        check_analysis(_use_analysis(), CUP)
+
+
+def test_a_per_use_answer_is_checked_on_every_extreme_typical_box() -> None:
+    from rail_mj.llm.checks import task_half_extents
+
+    halves = task_half_extents(USE, _use_analysis())
+    assert len(halves) > len(candidate_half_extents(CUP.obb_dims or []))
+    assert min(float(h.min()) for h in halves) == pytest.approx(0.025)  # the smallest's lo, halved
+    assert max(float(h.max()) for h in halves) == pytest.approx(0.08)  # the largest's hi, halved
+    with pytest.raises(InvalidAnswerError, match="no sizes"):
+        task_half_extents(USE, None)

@@ -10,12 +10,15 @@ from typing import Any
 
 import pytest
 from chat_server import ChatServer, chat_error, completion, offline_completion, schema_name
-from messages_server import Reply
+from messages_server import Reply, request_payload
 
 from rail_mj.affordances import known_affordances, load, unload_all
 from rail_mj.affordances.prototypes import Prototype
-from rail_mj.llm import definition_row
-from rail_mj.llm.schemas import AffordanceDefinition, DefinitionRequest
+from rail_mj.affordances.sizes import UseSizes
+from rail_mj.core.errors import RailError, StageError
+from rail_mj.core.types import SCORING_ARGS
+from rail_mj.llm import definition_row, offline
+from rail_mj.llm.schemas import AffordanceDefinition, DefinitionRequest, ScoringCode, TaskDescription
 from rail_mj.mesh import object_from_mesh
 from rail_mj.pipeline.chain import classify
 from rail_mj.pipeline.config import RunConfig
@@ -101,8 +104,9 @@ def test_a_use_a_kind_models_is_a_row_defined_once_and_imagined_with_the_kinds_p
     assert bowl.error is None and bowl.functional, bowl.analyzer_reasons
     assert plate.error is None and not plate.functional
     assert bowl.definition is not None and "a row of the container kind" in bowl.definition
-    assert "proven: positive prototype open_cylinder 0.30 x 0.12 m" in bowl.definition
-    assert "negative prototype closed_cylinder 0.30 x 0.12 m: not functional" in bowl.definition
+    assert bowl.profile_check is not None and bowl.profile_check.startswith("proven: positive prototype "
+                                                                            "open_cylinder 0.30 x 0.12 m")
+    assert "negative prototype closed_cylinder 0.30 x 0.12 m: not functional" in bowl.profile_check
     assert bowl.definition_toml is not None and bowl.definition_toml.endswith(FRUIT_BOWL)
     # the plate had no candidate to put to stage 7: nothing was asked for it
     assert bowl.llm_calls == {"affordance_definition": 1, "functional_pose": 1} and plate.llm_calls == {}
@@ -119,10 +123,81 @@ def test_a_row_that_fails_a_check_goes_back_with_the_checks_words() -> None:
 
 def test_without_a_kind_the_use_keeps_its_own_profile() -> None:
     model = Model(_definition(None, kind=None, name="ladder"))
-    (result,) = _run(model, [make_object("stool", 0)], name="ladder")
-    assert result.definition is not None and "no kind" in result.definition
-    assert "AffordanceAnalysis" in model.asked  # stage 1 asked of the model: the free-form path
-    assert result.error is not None and "affordance_analyzer" in result.error  # this model answers no stage 1
+    with pytest.raises(RailError, match="affordance_analyzer"):  # this model answers no stage 1
+        _run(model, [make_object("stool", 0)], name="ladder")
+    assert "AffordanceAnalysis" in model.asked  # stage 1 asked of the model: the free-form path, before any object
+
+
+SIZES = UseSizes(largest=(0.2, 0.45), smallest=(0.06, 0.2), basis=["fruit bowls 20-45 cm across, 6-20 cm deep"])
+#: a score that calls every rollout a success: the closed negative passes it, so the proof must send it back
+EVERYTHING = ScoringCode(description="every rollout succeeds",
+                         source=f"def score({', '.join(SCORING_ARGS)}):\n    return np.ones(agent_pos.shape[0])\n")
+
+
+class FreeFormModel:
+    """Stage 0: no kind; stage 1: the use's sizes and prototypes (a 30 cm bowl, the same closed); stages 2-5 the
+    offline bowl's answers for the positive prototype; stage 6 ``scorings`` in turn (the offline bowl's when they
+    run out); stage 7 the rules'."""
+
+    def __init__(self, *scorings: ScoringCode) -> None:
+        self.scorings = list(scorings)
+        self.asked: list[str] = []
+        self.repairs: list[str] = []
+        self.reference = TaskDescription(affordance="bowl", obb_dims=[0.3, 0.3, 0.12])
+
+    def __call__(self, body: dict[str, Any]) -> Reply:
+        name = schema_name(body)
+        self.asked.append(name)
+        last = body["messages"][-1]["content"]
+        if "Your previous answer was rejected" in last:
+            self.repairs.append(last)
+        task = self.reference
+        answers: dict[str, Any] = {
+            "AffordanceDefinition": lambda: AffordanceDefinition(
+                affordance="fruit bowl", kind=None, row_toml=None, size_basis=[], prototypes=[],
+                reason="say no kind fits, to test the free-form path"),
+            "AffordanceAnalysis": lambda: offline.offline_analysis(task).model_copy(update={
+                "affordance": "fruit bowl", "sizes": SIZES, "prototypes": [BOWL, LID],
+                "reason": "one profile for every fruit bowl"}),
+            "AgentModel": lambda: offline.offline_agent(task),
+            "AgentLayout": lambda: offline.offline_layout(task),
+            "MotionPlans": lambda: offline.offline_plans(task),
+            "Trajectories": lambda: offline.offline_trajectories(task, offline.offline_layout(task)),
+            "ScoringCode": lambda: self.scorings.pop(0) if self.scorings else offline.offline_scoring(task),
+        }
+        if name == "FunctionalPoseVerdict":
+            return offline_completion(body)
+        request = request_payload(body)
+        if name != "AffordanceDefinition":
+            assert request["task"] == {"affordance": "fruit bowl", "obb_dims": None, "scale": 1.0}, request
+        return completion(answers[name]().model_dump_json(), model=body["model"])
+
+
+def test_without_a_kind_one_profile_serves_every_object_and_is_proven_first() -> None:
+    """Stages 1-6 once per run for every object (no object dims in the task); its scoring code, which calls the
+    closed negative a fruit bowl, goes back with what the simulation saw plan by plan; the repaired profile is
+    proven and judges each object, weighed by the sizes stage 1 gave."""
+    model = FreeFormModel(EVERYTHING)
+    basin, plate, big = _run(model, [_scaled("bowl", 2.0), _scaled("plate", 1.5), _scaled("bowl", 2.6)])
+    profile_stages = ["AffordanceAnalysis", "AgentModel", "AgentLayout", "MotionPlans", "Trajectories"]
+    assert [model.asked.count(s) for s in profile_stages] == [1] * 5  # once per run, not per object
+    assert model.asked.count("ScoringCode") == 2  # one repair round
+    (feedback,) = model.repairs
+    assert "failed its proof" in feedback and "negative prototype closed_cylinder 0.30 x 0.12 m: functional" in feedback
+    assert "Per plan: above: score 1.00" in feedback and "inside the box" in feedback and "on the ground" in feedback
+    assert basin.error is None and basin.functional, basin.analyzer_reasons
+    assert big.error is None and big.functional, big.analyzer_reasons  # a 39 cm basin: the same profile
+    assert plate.error is None and not plate.functional and "smallest dim" in (plate.prior or "")
+    assert basin.profile_check is not None and basin.profile_check.startswith("proven: positive prototype")
+    assert basin.definition is not None and "written once for every object of the use" in basin.definition
+    assert basin.llm_calls["affordance_analyzer"] == 1 and basin.llm_repairs == {"scoring": 1}
+    assert "affordance_analyzer" not in plate.llm_calls  # counted once, on the use's first case
+
+
+def test_a_profile_that_never_passes_its_proof_is_refused_naming_what_failed() -> None:
+    model = FreeFormModel(EVERYTHING, EVERYTHING)
+    with pytest.raises(StageError, match="failed its proof.*negative prototype closed_cylinder"):
+        _run(model, [_scaled("bowl", 2.0)])
 
 
 def test_every_check_names_what_is_wrong() -> None:
@@ -211,3 +286,44 @@ def test_the_prompts_examples_pass_their_own_proof() -> None:
         prover(_prototype_runner(RunConfig(backend="native")), proofs)(answer, FileRow(renamed, False))
         assert proofs["x"].startswith("proven:"), (name, proofs)
 
+
+
+def test_a_saved_profile_loads_with_no_model(tmp_path: Path) -> None:
+    """A proven free-form profile is written as a profile folder before any object; the offline provider imagines
+    the use from it, with the sizes its stage 1 gave, and no model."""
+    saved = tmp_path / "saved"
+    (first,) = _run(FreeFormModel(), [_scaled("bowl", 2.0)], save_affordance=saved)
+    folder = saved / "fruit_bowl"
+    assert (folder / "agent.urdf").is_file() and "proven: positive prototype" in (folder / "definition.txt").read_text()
+    config = RunConfig(provider="offline", backend="native", pose="as_placed", profile_dir=folder)
+    basin, plate = classify([_scaled("bowl", 2.0), _scaled("plate", 1.5)], ["fruit bowl"], config=config,
+                            progress=False, workers=1)
+    assert basin.error is None and basin.functional == first.functional is True, basin.analyzer_reasons
+    assert plate.error is None and not plate.functional and "smallest dim" in (plate.prior or "")
+    assert basin.llm_calls == {} and basin.definition is None
+
+
+def test_an_eval_defines_a_use_once_and_counts_its_requests_per_stage(tmp_path: Path) -> None:
+    """``python -m rail_mj.eval`` on a labelled set naming a use outside the registry (its label key "fruit_bowl" put
+    to the model in words): stage 0 and the profile once for the run, summary.json's requests per stage."""
+    from rail_mj.eval import run as rail_eval
+
+    data = tmp_path / "data"
+    (data / "meshes").mkdir(parents=True)
+    for name, obj, label in (("basin", _scaled("bowl", 2.0), True), ("plate", _scaled("plate", 1.5), False)):
+        obj.mesh.export(data / "meshes" / f"{name}.stl")
+        with (data / "labels.jsonl").open("a") as fh:
+            up = {"functional_up": [0, 0, 1]} if label else {}
+            fh.write(json.dumps({"mesh": f"meshes/{name}.stl", "class": name, "affordances": {"fruit_bowl": label},
+                                 "nominal_up": [0, 0, 1], **up}) + "\n")
+    model = FreeFormModel()
+    with ChatServer(model) as server:
+        cfg = rail_eval.EvalConfig(dataset={"source": str(data)}, render=False, run={
+            "provider": "openai", "backend": "native", "pose": "as_placed", "max_retries": 1,
+            "provider_options": {"base_url": server.base_url}})
+        summary = rail_eval.run_eval(cfg, tmp_path / "out", progress=False, workers=1)
+    assert model.asked.count("AffordanceDefinition") == model.asked.count("AffordanceAnalysis") == 1
+    assert summary["classification"]["overall"] == 1.0, summary["classification"]
+    assert summary["llm_calls"]["affordance_definition"] == summary["llm_calls"]["scoring"] == 1
+    lines = [json.loads(line) for line in (tmp_path / "out" / "results.jsonl").read_text().splitlines()]
+    assert sorted(ln["key"] for ln in lines) == ["meshes/basin.stl::fruit_bowl", "meshes/plate.stl::fruit_bowl"]
