@@ -6,6 +6,7 @@ mesh and the label a person gives. To record a model (docs/llm.md)::
     python -m rail_mj.llm.relay --dir RELAY &        # answer each RELAY/NNNN.prompt.md in RELAY/NNNN.answer.json
     python tests/helpers/corpus.py record "fruit bowl" --relay http://127.0.0.1:8765/v1 --out RESULTS.jsonl
     python tests/helpers/corpus.py keep RELAY RESULTS.jsonl...   # writes the fixture's exchanges and verdicts
+    python tests/helpers/corpus.py keep RELAY RESULTS.jsonl --only footrest   # re-recorded uses only
 
 :class:`Replay` answers a provider's request (OpenAI's or Anthropic's format) with the recorded answer to the same
 stage request: stage 0 by the use's name, stage 7 by the use and each pose's candidate plans (the rollouts'
@@ -126,9 +127,16 @@ def _record(args: argparse.Namespace) -> int:
         for case, r in zip(cases, results):
             out.write(json.dumps({"case": f"{args.name}::{case_name(case)}", "label": case["label"],
                                   "functional": r.functional, "probability": r.probability, "error": r.error,
-                                  "definition": r.definition, "llm_calls": r.llm_calls,
+                                  "definition": r.definition, "profile_check": r.profile_check,
+                                  "llm_calls": r.llm_calls,
                                   "llm_repairs": r.llm_repairs}) + "\n")
     return 0
+
+
+def use_of(exchange: dict[str, Any]) -> str:
+    """The use an exchange was about: stage 0's and stage 7's name it, stages 1-6 in their task."""
+    request = exchange["request"]
+    return request["affordance"] if "affordance" in request else request["task"]["affordance"]
 
 
 def _keep(args: argparse.Namespace) -> int:
@@ -139,8 +147,11 @@ def _keep(args: argparse.Namespace) -> int:
         body = {"messages": e["messages"]}
         kept.append({"schema": e["schema"], "request": request_payload(body), "attempt": attempt(body),
                      "answer": e["answer"]})
-    (CORPUS / "exchanges.jsonl").write_text("".join(json.dumps(e) + "\n" for e in kept))
     lines = [line for path in args.results for line in Path(path).read_text().splitlines() if line.strip()]
+    if args.only:  # the other uses keep what was recorded before
+        kept = [e for e in exchanges() if use_of(e) not in args.only] + kept
+        lines = [json.dumps(v) for k, v in verdicts().items() if k.split("::")[0] not in args.only] + lines
+    (CORPUS / "exchanges.jsonl").write_text("".join(json.dumps(e) + "\n" for e in kept))
     (CORPUS / "verdicts.jsonl").write_text("\n".join(sorted(lines)) + "\n")
     print(f"kept {len(kept)} exchanges and {len(lines)} verdicts in {CORPUS}")
     return 0
@@ -156,5 +167,6 @@ if __name__ == "__main__":
     keep = sub.add_parser("keep", help="write the relay's exchanges and the verdicts into the fixture")
     keep.add_argument("relay", type=Path)
     keep.add_argument("results", nargs="+", type=Path)
+    keep.add_argument("--only", nargs="+", choices=sorted(CASES), help="re-recorded uses: replace only theirs")
     parsed = parser.parse_args()
     sys.exit(_record(parsed) if parsed.command == "record" else _keep(parsed))
