@@ -8,15 +8,15 @@ the Anthropic provider sends that message back for a repair round.
 from __future__ import annotations
 
 import itertools
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import cast
 
 import mujoco
 import numpy as np
 
-from rail_mj.affordances.prior import FUNCTIONAL
-from rail_mj.affordances.prototypes import describe, extents
+from rail_mj.affordances.prior import FUNCTIONAL, Prior
+from rail_mj.affordances.prototypes import Prototype, describe, extents
 from rail_mj.core.errors import LLMError, ScoringRuntimeError
 from rail_mj.core.profile import AgentLayout, ScoringCode
 from rail_mj.imagination.inputs import via_positions
@@ -37,6 +37,7 @@ __all__ = [
     "AgentGeometry",
     "agent_geometry",
     "check_analysis",
+    "check_prototypes",
     "check_agent",
     "check_layout",
     "candidate_half_extents",
@@ -102,15 +103,22 @@ def check_analysis(analysis: AffordanceAnalysis, task: TaskDescription) -> None:
     if not analysis.fits or analysis.alternative is not None:
         raise InvalidAnswerError("the task has no obb_dims: there is no object to check, so fits must be true and "
                                  "alternative null (each object is weighed by sizes)")
-    roles = [p.role for p in analysis.prototypes]
+    sizes = analysis.sizes
+    check_prototypes(analysis.prototypes, lambda p: sizes.prior(extents(p)), "sizes")
+
+
+def check_prototypes(prototypes: Sequence[Prototype], prior: Callable[[Prototype], Prior], sizes: str) -> None:
+    """At least one positive and one near-miss negative prototype, each positive inside the typical ``sizes`` (its
+    ``prior`` at least FUNCTIONAL): what a model-written row or profile is proven on."""
+    roles = [p.role for p in prototypes]
     if "positive" not in roles or "negative" not in roles:
         raise InvalidAnswerError(f"prototypes must hold at least one positive and one near-miss negative prototype; "
                                  f"got roles {roles}")
-    for p in analysis.prototypes:
-        prior = analysis.sizes.prior(extents(p))
-        if p.role == "positive" and prior.value < FUNCTIONAL:
-            raise InvalidAnswerError(f"the positive prototype {describe(p)} is not inside sizes (prior "
-                                     f"{prior.value:.2f} < {FUNCTIONAL:g}: {prior.doc()}); give one that is")
+    for p in prototypes:
+        value = prior(p)
+        if p.role == "positive" and value.value < FUNCTIONAL:
+            raise InvalidAnswerError(f"the positive prototype {describe(p)} is not inside {sizes} (prior "
+                                     f"{value.value:.2f} < {FUNCTIONAL:g}: {value.doc()}); give one that is")
 
 
 def task_half_extents(task: TaskDescription, analysis: AffordanceAnalysis | None) -> list[np.ndarray]:

@@ -18,8 +18,8 @@ import numpy as np
 from rail_mj.affordances.files import FileRow, parse
 from rail_mj.affordances.judge import rules_row
 from rail_mj.affordances.names import owner_scale
-from rail_mj.affordances.prior import FUNCTIONAL
-from rail_mj.affordances.prototypes import describe, extents
+from rail_mj.affordances.prior import Prior
+from rail_mj.affordances.prototypes import Prototype, extents
 from rail_mj.core.errors import AffordanceFileError, ConfigError, UnknownAffordanceError
 from rail_mj.core.profile import AgentLayout, PoseCandidates, ScoringCode
 from rail_mj.imagination.inputs import layout_offsets
@@ -29,6 +29,7 @@ from rail_mj.llm.checks import (
     check_agent,
     check_analysis,
     check_layout,
+    check_prototypes,
     check_scoring,
     check_trajectories,
     check_verdict,
@@ -203,19 +204,13 @@ def definition_row(request: DefinitionRequest, answer: AffordanceDefinition) -> 
     if not any(line.strip() for line in answer.size_basis):
         raise InvalidAnswerError("size_basis must give, for each size range of the row, what real objects of the "
                                  "use measure and where that comes from")
-    roles = [p.role for p in answer.prototypes]
-    if "positive" not in roles or "negative" not in roles:
-        raise InvalidAnswerError(f"prototypes must hold at least one positive and one negative prototype; got roles "
-                                 f"{roles}")
-    for p in answer.prototypes:
-        if p.role != "positive":
-            continue
+    row = entry.row
+
+    def prior(p: Prototype) -> Prior:
         box = extents(p)
-        dims, half = sorted(box, reverse=True), [v / 2 for v in box]
-        prior = entry.row.size_prior(dims) * entry.row.pose_prior(half, None)
-        if prior.value < FUNCTIONAL:
-            raise InvalidAnswerError(f"the positive prototype {describe(p)} is not inside the row's typical sizes "
-                                     f"(prior {prior.value:.2f} < {FUNCTIONAL:g}: {prior.doc()}); give one that is")
+        return row.size_prior(sorted(box, reverse=True)) * row.pose_prior([v / 2 for v in box], None)
+
+    check_prototypes(answer.prototypes, prior, "the row's typical sizes")
     return entry
 
 

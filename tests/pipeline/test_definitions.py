@@ -220,7 +220,7 @@ def test_every_check_names_what_is_wrong() -> None:
     no_basis = AffordanceDefinition(affordance="fruit bowl", kind="container", row_toml=FRUIT_BOWL, size_basis=[],
                                     prototypes=[BOWL, LID], reason="r")
     one_role = no_basis.model_copy(update={"size_basis": BASIS, "prototypes": [BOWL]})
-    with pytest.raises(Exception, match="at least one positive and one negative"):
+    with pytest.raises(Exception, match="at least one positive and one near-miss negative"):
         definition_row(request, one_role)
     huge = no_basis.model_copy(update={"size_basis": BASIS, "prototypes": [
         BOWL.model_copy(update={"length": 1.5, "height": 0.8}), LID]})
