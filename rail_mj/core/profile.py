@@ -40,6 +40,7 @@ __all__ = [
     "SegmentState",
     "ResultSummary",
     "CandidateInteraction",
+    "PoseShape",
     "PoseCandidates",
     "PoseVerdict",
     "FunctionalPoseVerdict",
@@ -146,8 +147,8 @@ class SegmentState(ProfileModel):
     height: float = Field(description="height of the segment's origin (its proximal joint) above the ground, m")
     up: float = Field(ge=-1, le=1, description="cosine of the angle between the segment's own z axis and the "
                                                "vertical (1: upright, 0: level)")
-    touching_object: bool
-    on_ground: bool
+    touching_object: bool = Field(description="the segment touches the object")
+    on_ground: bool = Field(description="the segment touches the ground")
     reaches_object: bool = Field(default=False, description="touching nothing, the segment reaches the object: a "
                                                             "foot by bending the knee on to its limit (a rung), a "
                                                             "thigh over a seat pan it rose off (a low seat); for a "
@@ -161,7 +162,7 @@ class ResultSummary(ProfileModel):
     frac_on_ground: float = Field(description="agents touching the ground")
     frac_touching_object: float = Field(description="agents touching the object")
     mean_height: float = Field(description="mean agent z divided by h_z (task frame; top = 1, ground = -1)")
-    object_tilt_deg: float
+    object_tilt_deg: float = Field(description="how far the object tilted from its pose, deg")
     agent_tilt_deg: float = Field(description="mean angle between agent +z and task +z")
     agent_speed: float = Field(description="mean agent speed at the end, m/s")
     frac_through_object: float = Field(
@@ -185,19 +186,31 @@ class ResultSummary(ProfileModel):
 class CandidateInteraction(ProfileModel):
     """A plan and what happened: a candidate when its score said success, evidence when it said failure."""
 
-    plan: str
-    description: str
+    plan: str = Field(description="the plan's name")
+    description: str = Field(description="the plan in words")
     via_poses: list[Vec3] = Field(description="layout-centre positions in this pose's task frame, m")
-    score: float
-    summary: ResultSummary
+    score: float = Field(description="the scoring function's value: > 0 is success")
+    summary: ResultSummary = Field(description="where the agents came to rest")
+
+
+class PoseShape(ProfileModel):
+    """The object's shape as one pose shows it (rail_mj.stable_poses.shape): what a model judging the pose cannot
+    read from the rollouts' numbers."""
+
+    open_faces: list[str] = Field(description="faces of the pose's box (top, bottom, front, back, left, right) "
+                                              "through which most of the object's cavity sees out; [] for none")
+    cavity: float = Field(ge=0, le=1, description="share of the pose's box that is cavity: empty, and bounded by the "
+                                                  "object on at least 4 of its 6 sides")
+    as_it_came: bool = Field(description="this pose has the mesh file's own up axis up (within 20 deg): the pose "
+                                         "the object was modelled or scanned in")
 
 
 class PoseCandidates(ProfileModel):
     """One stable pose and its candidate functional interactions."""
 
-    pose_index: int = Field(ge=0)
-    probability: float = Field(ge=0, le=1)
-    half_extents: Vec3
+    pose_index: int = Field(ge=0, description="the stable pose's index")
+    probability: float = Field(ge=0, le=1, description="how often drops of the object end in this pose")
+    half_extents: Vec3 = Field(description="half sizes h (m) of the object's world-aligned box in this pose, x, y, z")
     basin: BasinInfo | None = Field(default=None, description="where water poured into the object's deepest basin "
                                                               "stands in this pose: its spill level (the rim's lowest "
                                                               "point, below a rising handle), opening and length; "
@@ -205,7 +218,10 @@ class PoseCandidates(ProfileModel):
     toe_room: float | None = Field(default=None, description="the widest foot (m) that gets under the middle of the "
                                                              "object at toe height from beside it (0: a wall all "
                                                              "round at the floor); null where not mapped")
-    candidates: list[CandidateInteraction]
+    shape: PoseShape | None = Field(default=None, description="the object's shape in this pose; null where not "
+                                                              "measured")
+    candidates: list[CandidateInteraction] = Field(description="the pose's plans the scoring function called "
+                                                               "successful")
     failed: list[CandidateInteraction] = Field(
         default_factory=list, description="the pose's plans that the scoring function called failures: evidence"
     )

@@ -21,6 +21,8 @@ from rail_mj.affordances.files import _toml_value, row_toml
 from rail_mj.affordances.kinds import KINDS
 from rail_mj.affordances.prototypes import SHAPES, Prototype, extents
 from rail_mj.affordances.sizes import UseSizes
+from rail_mj.core.profile import CandidateInteraction, PoseCandidates, PoseShape, ResultSummary, SegmentState
+from rail_mj.core.results import BasinInfo
 from rail_mj.core.types import SCORING_ARGS
 from rail_mj.llm.schemas import (
     AffordanceAnalysis,
@@ -30,6 +32,7 @@ from rail_mj.llm.schemas import (
     AgentModelRequest,
     AnalyzerRequest,
     DefinitionRequest,
+    FunctionalPoseRequest,
     FunctionalPoseVerdict,
     LayoutRequest,
     MotionPlans,
@@ -60,8 +63,9 @@ PROMPT_VERSION: dict[str, str] = {
     "trajectory": "5",
     # 3: the synthetic batch and the proof on prototypes stated
     "scoring": "3",
-    # 3: the poses carry their basin's length
-    "functional_pose": "4",
+    # 3: the poses carry their basin's length; 5: each pose's shape, the object's as it came, the drop frequency;
+    # 6: every field of the request named with its meaning
+    "functional_pose": "6",
     # 2: the owner the object's name gives (a doll's chair)
     "request_parser": "2",
 }
@@ -91,6 +95,19 @@ def _kinds() -> str:
         params = "; ".join(f"{key}: {doc} (default {_toml_value(_default(kind.params_model, key))})"
                            for key, doc in docs.items())
         lines.append(f"- {name}: {test} Params: {params or 'none'}.")
+    return "\n".join(lines)
+
+
+def _glossary() -> str:
+    """Every field of stage 7's request a model must read, by name, with its meaning (the request carries values
+    only)."""
+    models = (FunctionalPoseRequest, PoseCandidates, PoseShape, BasinInfo, CandidateInteraction, ResultSummary,
+              SegmentState)
+    lines = []
+    for model in models:
+        fields = "; ".join(f"{name}: {field.description}" for name, field in model.model_fields.items()
+                           if field.description)
+        lines.append(f"- {model.__name__}: {fields}.")
     return "\n".join(lines)
 
 
@@ -229,18 +246,22 @@ ground away from the object: agents on the ground must touch it) and the negativ
 back with what the simulation saw, plan by plan (the score, where the agents came to rest: inside the object's \
 box, beside it, on the ground, how far; contacts; the object's tilt), to \
 repair: the agent, layout and trajectories are fixed by then, so make the score tell the two apart."""),
-        StageSpec("functional_pose", FunctionalPoseVerdict, """You are the Functional Pose Analyzer. For each stable \
-pose you get its probability, its half extents and the candidate interactions that the scoring function called \
-successful, each with its plan, via-poses (task frame, m), score and a summary of the resultant configuration \
-(fractions of agents inside the bounding box / on the ground / touching the object / on the ground beneath the \
-object's middle, mean agent height in units of h_z where +1 is the top and -1 the ground, object and agent tilts in \
-degrees, agent speed); `failed` lists the pose's other plans, which the scoring function called failures, as \
-evidence about the object. Decide per pose whether the success is consistent with common sense for the affordance \
-(reject successes that rely on the object tipping over, agents arriving from an implausible direction, or resting \
-at an implausible height, and a container through which agents poured at its centre reached the ground \
-beneath it: it leaks), give a reason, the best \
-accepted plan of the pose, and the best (pose, plan) overall (null when none is accepted). One verdict per pose, in \
-the same order."""),
+        StageSpec("functional_pose", FunctionalPoseVerdict, f"""You are the Functional Pose Analyzer. For each \
+stable pose you get how often drops of the object end in it, its box, its basin and its shape (which faces its \
+cavity opens through, whether it is the pose the object came in: the mesh file's own up, the pose it was modelled \
+or scanned in, as files usually store an object as built), and the candidate interactions that the scoring \
+function called successful, each with its plan, via-poses (task frame, m), score and a summary of the resultant \
+configuration; `failed` lists the pose's other plans, which the scoring function called failures, as evidence \
+about the object. "came_in" is the object's shape as it came, whether or not that pose is among them. Decide per \
+pose whether the success is consistent with common sense for the affordance (reject successes that rely on the \
+object tipping over, agents arriving from an implausible direction, or resting at an implausible height, and a \
+container through which agents poured at its centre reached the ground beneath it: it leaks); weigh whether a \
+person would use the object in that pose (an object whose cavity opens sideways as it came, a shelf box or a \
+cubby, holds what is dropped in only on its back, a pose its maker did not design it for) and say it in the \
+reason. Give a reason, the best accepted plan of the pose, and the best (pose, plan) overall (null when none is \
+accepted). One verdict per pose, in the same order.
+The request's fields:
+{_glossary()}"""),
         StageSpec("request_parser", Request, """You are the Request Parser of a robot that places things. Given a \
 sentence asking it to put an agent in or on an object ("put the apple in the bowl", "place the doll on the toy \
 chair"), answer the agent (what is placed: singular, lower case, no article), the affordance the object must have \

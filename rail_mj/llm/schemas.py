@@ -19,6 +19,7 @@ from rail_mj.core.profile import (
     MotionPlan,
     PlanTrajectory,
     PoseCandidates,
+    PoseShape,
     PoseVerdict,
     ProfileModel,
     Scale,
@@ -174,10 +175,13 @@ class ScoringRequest(ProfileModel):
 class FunctionalPoseRequest(ProfileModel):
     """Input of stage 7, the Functional Pose Analyzer."""
 
-    affordance: str
-    expected_outcome: str
-    poses: list[PoseCandidates]
+    affordance: str = Field(description="the use judged")
+    expected_outcome: str = Field(description="stage 1's resultant configuration that means the object affords it")
+    poses: list[PoseCandidates] = Field(description="the stable poses with a candidate")
     scale: Scale = 1.0
+    came_in: PoseShape | None = Field(default=None, description="the object's shape as it came (its mesh file's own "
+                                                                "up axis up), whether or not that is a stable pose; "
+                                                                "null where not measured")
 
 
 class ImaginationProfile(ProfileModel):

@@ -21,7 +21,7 @@ from rail_mj.affordances.names import owner_scale
 from rail_mj.affordances.prior import Prior
 from rail_mj.affordances.prototypes import Prototype, extents
 from rail_mj.core.errors import AffordanceFileError, ConfigError, UnknownAffordanceError
-from rail_mj.core.profile import AgentLayout, PoseCandidates, ScoringCode
+from rail_mj.core.profile import AgentLayout, PoseCandidates, PoseShape, ScoringCode
 from rail_mj.imagination.inputs import layout_offsets
 from rail_mj.llm.checks import (
     InvalidAnswerError,
@@ -318,13 +318,17 @@ def generate_profile(
     return task_profile(task_description(affordance, obb_dims, prov), prov, half_extents=half_extents)
 
 
-def functional_pose_request(profile: ImaginationProfile,
-                            candidates: Sequence[PoseCandidates]) -> FunctionalPoseRequest | None:
+def functional_pose_request(profile: ImaginationProfile, candidates: Sequence[PoseCandidates],
+                            shape: Callable[[int], PoseShape] | None = None,
+                            came_in: PoseShape | None = None) -> FunctionalPoseRequest | None:
     """Stage 7's request: the poses of the nominal world with a candidate
-    (:meth:`rail_mj.imagination.worlds.ImaginedWorlds.candidates`); None when no plan scored above 0 in any pose."""
+    (:meth:`rail_mj.imagination.worlds.ImaginedWorlds.candidates`), each with its ``shape(pose index)`` and the
+    object's shape as it ``came_in`` when given (a model's request: what it cannot read from the numbers); None
+    when no plan scored above 0 in any pose."""
     if not candidates:
         return None
+    poses = [p.model_copy(update={"shape": shape(p.pose_index)}) for p in candidates] if shape else list(candidates)
     return FunctionalPoseRequest(
-        affordance=profile.affordance, expected_outcome=profile.analysis.expected_outcome, poses=list(candidates),
-        scale=profile.scale,
+        affordance=profile.affordance, expected_outcome=profile.analysis.expected_outcome, poses=poses,
+        scale=profile.scale, came_in=came_in,
     )

@@ -40,6 +40,7 @@ from rail_mj.pipeline.tasks import ObjectTask
 from rail_mj.pipeline.verdicts import candidate_slots, judge, most_probable, pose_prior, undecided
 from rail_mj.scoring import ScoringFunction, compile_scoring
 from rail_mj.stable_poses import find_stable_poses, pose_from_up
+from rail_mj.stable_poses.shape import ObjectShapes
 
 __all__ = ["Pipeline", "classify", "define_uses", "definition_counter", "provider_for", "as_placed_pose",
            "object_task", "run_object"]
@@ -98,8 +99,9 @@ class Pipeline:
             profiles.check_profile_dir(self.config.profile_dir)
         self._profiles: dict[tuple, ImaginationProfile] = {}
         self._scorers: dict[str, ScoringFunction] = {}
-        # the last object's second decomposition: an object's affordances run one after another
+        # the last object's second decomposition and shape facts: an object's affordances run one after another
         self._second_of: tuple[RailObject, RailObject] | None = None
+        self._shapes_of: ObjectShapes | None = None
 
     @property
     def provider_name(self) -> str:
@@ -168,6 +170,12 @@ class Pipeline:
         if source not in self._scorers:
             self._scorers[source] = compile_scoring(source)
         return self._scorers[source]
+
+    def _shapes(self, obj: RailObject, poses: StablePoses) -> ObjectShapes:
+        """The object's shape facts for stage 7's model, measured once per object (its affordances run in turn)."""
+        if self._shapes_of is None or self._shapes_of.obj is not obj:
+            self._shapes_of = ObjectShapes(obj, cast(Sequence[StablePose], poses))
+        return self._shapes_of
 
     def _decomposition_matters(self, row: Affordance | None) -> bool:
         """Whether the use's verdict is also imagined on the object's second decomposition: the config asks for it
@@ -323,9 +331,13 @@ class Pipeline:
             evidence.add_perturbed(rollouts, scorer(rollouts), pairs, slots)
         timings["perturbed_worlds"] = time.perf_counter() - t
         t = time.perf_counter()
-        request = llm.functional_pose_request(profile, evidence.candidates(nominal))
-        stage7 = None if request is None else llm.analyze_functional_poses(request, self.provider)
         veto = self.provider_name != "offline"  # a model's common sense; the offline answer is the rules' own
+        # a model also gets the shape facts it cannot read from the numbers; the rules read the physics alone
+        shapes = self._shapes(obj, poses) if veto else None
+        request = llm.functional_pose_request(profile, evidence.candidates(nominal),
+                                              shapes.pose if shapes is not None else None,
+                                              shapes.came_in if shapes is not None else None)
+        stage7 = None if request is None else llm.analyze_functional_poses(request, self.provider)
         sizes = profile.analysis.sizes
         result.pose_verdicts = judge(evidence, obj.obb_dims, stage7, llm_veto=veto, sizes=sizes)
         timings["functional_pose_analyzer"] = time.perf_counter() - t

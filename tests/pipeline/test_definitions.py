@@ -327,3 +327,24 @@ def test_an_eval_defines_a_use_once_and_counts_its_requests_per_stage(tmp_path: 
     assert summary["llm_calls"]["affordance_definition"] == summary["llm_calls"]["scoring"] == 1
     lines = [json.loads(line) for line in (tmp_path / "out" / "results.jsonl").read_text().splitlines()]
     assert sorted(ln["key"] for ln in lines) == ["meshes/basin.stl::fruit_bowl", "meshes/plate.stl::fruit_bowl"]
+
+
+def test_a_models_stage_7_sees_the_shape_of_each_pose_and_of_the_object_as_it_came() -> None:
+    """What the numbers cannot say: which faces the cavity opens through, whether a pose is the one the object came
+    in, the object's shape as it came. The rules (the offline provider) read the physics alone and get none."""
+    seen: list[dict[str, Any]] = []
+    model = Model(_definition(FRUIT_BOWL))
+
+    def responder(body: dict[str, Any]) -> Reply:
+        if schema_name(body) == "FunctionalPoseVerdict":
+            seen.append(request_payload(body))
+        return model(body)
+
+    with ChatServer(responder) as server:
+        config = RunConfig(provider="openai", backend="native", pose="as_placed", max_retries=1,
+                           provider_options={"base_url": server.base_url})
+        (bowl,) = classify([_scaled("bowl", 2.0)], ["fruit bowl"], config=config, progress=False, workers=1)
+    assert bowl.functional
+    (request,) = seen
+    assert request["came_in"]["open_faces"] == ["top"] and request["came_in"]["as_it_came"]
+    assert request["poses"][0]["shape"] == request["came_in"]  # as placed: the pose it came in
