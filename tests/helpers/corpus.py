@@ -81,8 +81,8 @@ class Replay:
     """Answers each request with the recorded answer to the same question; ``missing`` lists those it had none
     for (answered HTTP 400 by the caller's ``error``)."""
 
-    def __init__(self, schema_of, reply, error) -> None:
-        self.answers = {key(e["schema"], e["request"], e["attempt"]): e["answer"] for e in exchanges()}
+    def __init__(self, schema_of, reply, error, path: Path | None = None) -> None:
+        self.answers = {key(e["schema"], e["request"], e["attempt"]): e["answer"] for e in exchanges(path)}
         self.schema_of, self.reply, self.error = schema_of, reply, error
         self.missing: list[str] = []
         self.served = 0
@@ -96,8 +96,8 @@ class Replay:
         return self.reply(self.answers[k])
 
 
-def exchanges() -> list[dict[str, Any]]:
-    path = CORPUS / "exchanges.jsonl"
+def exchanges(path: Path | None = None) -> list[dict[str, Any]]:
+    path = path or CORPUS / "exchanges.jsonl"
     return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
 
 
@@ -139,14 +139,20 @@ def use_of(exchange: dict[str, Any]) -> str:
     return request["affordance"] if "affordance" in request else request["task"]["affordance"]
 
 
-def _keep(args: argparse.Namespace) -> int:
+def relay_exchanges(relay: Path) -> list[dict[str, Any]]:
+    """A relay folder's exchanges as the fixture keeps them: the stage's schema, request, attempt and answer."""
     from rail_mj.llm.relay import read_exchanges
 
     kept = []
-    for e in read_exchanges(args.relay):
+    for e in read_exchanges(relay):
         body = {"messages": e["messages"]}
         kept.append({"schema": e["schema"], "request": request_payload(body), "attempt": attempt(body),
                      "answer": e["answer"]})
+    return kept
+
+
+def _keep(args: argparse.Namespace) -> int:
+    kept = relay_exchanges(args.relay)
     lines = [line for path in args.results for line in Path(path).read_text().splitlines() if line.strip()]
     if args.only:  # the other uses keep what was recorded before
         kept = [e for e in exchanges() if use_of(e) not in args.only] + kept

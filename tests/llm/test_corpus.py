@@ -95,3 +95,31 @@ def test_the_corpus_replays_to_the_recorded_verdicts(provider: str) -> None:
     assert ran >= 2 * len(CASES)
     if root is not None:  # .ci/run fetches the corpus's real meshes: then every case runs
         assert ran == sum(map(len, CASES.values()))
+
+
+def test_with_the_shape_facts_a_recorded_model_turns_a_cubby_on_its_back_away_as_a_toy_basket() -> None:
+    """Issue 42: stage 7's numbers alone let a model accept an open-front cubby and a wall shelf box lying on their
+    backs as baskets at probability 1.0 (recorded before the shape facts). With each pose's shape and the object's as
+    it came, the same model's recorded answers reject both; the replay must give the recorded verdicts."""
+    import json
+
+    import numpy as np
+    from corpus import CORPUS
+
+    from rail_mj.dataset.shapes.catalog import GENERATORS
+    from rail_mj.mesh import object_from_mesh
+
+    folder = CORPUS / "shape_facts"
+    recorded = json.loads((folder / "verdicts.json").read_text())
+    before = {v["case"]: v for v in recorded["before"]}
+    assert before["toy basket::cubby_0"]["probability"] == before["toy basket::wall_shelf_box_0"]["probability"] == 1.0
+    objects = [object_from_mesh(GENERATORS[c.split("::")[1][:-2]](np.random.default_rng(0)).mesh,
+                                name=c.split("::")[1]) for c in before]
+    replay = Replay(schema_name, lambda text: completion(text, model=MODEL), chat_error, folder / "exchanges.jsonl")
+    with ChatServer(replay, max_requests=20, lifetime_s=600) as server:
+        results = run("toy basket", objects, server.base_url)
+    assert not replay.missing, replay.missing
+    for want, r in zip(recorded["after"], results):
+        assert r.error is None and (r.functional, round(r.probability, 6)) == (want["functional"],
+                                                                              round(want["probability"], 6)), want
+    assert all(not v["functional"] for v in recorded["after"][1:3])  # the cubby and the shelf box: refused now
