@@ -2,7 +2,8 @@
 
 Meshes over :data:`FACE_BUDGET` faces are decimated (closed ones by manifold3d, so they stay
 closed; others by quadric decimation, trimesh's ``simplify_quadric_decimation`` backed by
-fast-simplification) before any step whose cost grows faster than the face count;
+fast-simplification) before any step whose cost grows faster than the face count; a mesh of more than
+:data:`MAX_PIECES` closed pieces is united into one surface (manifold3d);
 :func:`mesh_notes` says what was done. Meshes over :data:`MAX_FACES` faces are refused at once.
 """
 
@@ -18,6 +19,7 @@ __all__ = [
     "MIN_EXTENT",
     "FACE_BUDGET",
     "MAX_FACES",
+    "MAX_PIECES",
     "repair_mesh",
     "mesh_notes",
 ]
@@ -34,6 +36,11 @@ FACE_BUDGET = 20_000
 #: Meshes with more faces are refused: reading, cleaning and decimating cost ~3 s of CPU and ~0.6 GB
 #: per million faces here (2M: 5.3 s, 1.2 GB), so this many take ~12 s and ~2.5 GB before CoACD.
 MAX_FACES = 4_000_000
+#: A mesh of more closed pieces than this is united into one surface. Up to it the decomposition takes each piece
+#: on its own (DecompositionConfig's default hull cap, 32: a convex piece is its own hull); past it CoACD took the
+#: pieces as one surface, and a bowl exported, as collision geometry often is, as about forty overlapping convex
+#: pieces ran out of CoACD's time budget. Their union is the surface a simulator collides with.
+MAX_PIECES = 32
 # manifold3d's simplification gives up (quadric decimation takes over) past this tolerance, a fraction
 # of the largest extent: beyond it the surface may move more than CoACD's own concavity tolerance.
 _MAX_SIMPLIFY_TOLERANCE = 0.02
@@ -209,6 +216,10 @@ def repair_mesh(mesh: trimesh.Trimesh, *, label: str = "mesh") -> trimesh.Trimes
         out = _decimate(out, label, FACE_BUDGET)
         notes.append(f"decimated from {n_faces:,} to {len(out.faces):,} faces (face budget {FACE_BUDGET:,})")
     _check_not_a_soup(label, out)
+    united = _united(out)
+    if united is not None:
+        notes.append(f"united {united[1]} overlapping closed pieces into {united[2]} (more than {MAX_PIECES})")
+        out = united[0]
     trimesh.repair.fix_normals(out)
     if notes:
         out.metadata[_NOTES_KEY] = notes
@@ -218,6 +229,28 @@ def repair_mesh(mesh: trimesh.Trimesh, *, label: str = "mesh") -> trimesh.Trimes
 def mesh_notes(mesh: trimesh.Trimesh) -> list[str]:
     """What :func:`repair_mesh` changed in ``mesh`` beyond cleaning it (e.g. decimation); empty if nothing."""
     return list(mesh.metadata.get(_NOTES_KEY, ()))
+
+
+def _united(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, int, int] | None:
+    """``mesh``'s pieces united by manifold3d when it has more than :data:`MAX_PIECES` and every one that can enclose
+    anything is closed (a union of open surfaces is undefined; loose triangles are dropped, as the decomposition
+    drops them); the union and the pieces' count before and after; None otherwise or when the union fails."""
+    labels = _body_labels(mesh)
+    found, sizes = np.unique(labels, return_counts=True)
+    kept = found[sizes >= _MIN_PIECE_FACES]
+    if len(kept) <= MAX_PIECES:
+        return None
+    pieces = [trimesh.Trimesh(mesh.vertices, mesh.faces[labels == k]) for k in kept]
+    if not all(p.is_watertight for p in pieces):
+        return None
+    try:
+        union = trimesh.boolean.union(pieces, engine="manifold")
+    except (ValueError, RuntimeError, ImportError):
+        return None
+    if union is None or len(union.faces) == 0:
+        return None
+    _clean(union)
+    return union, len(pieces), len(np.unique(_body_labels(union)))
 
 
 def _body_labels(mesh: trimesh.Trimesh) -> np.ndarray:
