@@ -142,6 +142,8 @@ class AffordanceResult(BaseModel):
         default_factory=list, description="N x 3 final agent positions of that rollout, task frame"
     )
     scoring_source: str = ""
+    profile_notes: list[str] = Field(default_factory=list, description="what the import of a profile folder "
+                                                                       "adapted to run it; empty otherwise")
     timings: dict[str, float] = Field(default_factory=dict, description="seconds per stage")
     definition: str | None = Field(default=None, description="for a use outside the registry: how the provider "
                                                              "defined it (stage 0)")

@@ -48,6 +48,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--profile-dir", type=Path, metavar="DIR",
                    help="a profile folder in the paper authors' format, or a folder of them named by affordance: an "
                         "affordance with a folder is imagined from it, the rest from the provider")
+    p.add_argument("--no-profile-adapt", dest="profile_adapt", action="store_false", default=None,
+                   help="refuse a profile folder whose agents start inside each other instead of spreading them "
+                        "apart as the authors' simulator would (default: adapt, and say so in the result)")
     p.add_argument("--profile-origin", choices=("ground", "center"),
                    help="where the folders' via-points start: the object's footprint centre on the ground, or its "
                         "box centre")

@@ -200,6 +200,8 @@ class ImaginationProfile(ProfileModel):
     plans: MotionPlans
     trajectories: Trajectories
     scoring: ScoringCode
+    notes: list[str] = Field(default_factory=list, description="what an import adapted to run the profile (a "
+                                                               "folder's agents spread apart); empty otherwise")
 
 
 Preposition = Literal["in", "on"]

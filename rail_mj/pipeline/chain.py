@@ -163,7 +163,8 @@ class Pipeline:
             stages = llm.get_provider("offline") if task.affordance in self._defined else self.provider
             self._profiles[key] = (llm.task_profile(task, stages) if folder is None else
                                    profiles.import_profile(folder, task, self.provider,
-                                                           origin=self.config.profile_origin))
+                                                           origin=self.config.profile_origin,
+                                                           adapt=self.config.profile_adapt))
         return self._profiles[key]
 
     def scorer(self, source: str) -> ScoringFunction:
@@ -235,6 +236,7 @@ class Pipeline:
             or profile.analysis.sizes is not None else profile.analysis.fits,
             stable_poses=[PoseInfo.from_pose(i, poses[i]) for i in range(len(poses))],
             plans=[p.name for p in profile.plans.plans],
+            profile_notes=list(profile.notes),
             agent_fragment=profile.agent.mjcf,
             scoring_source=profile.scoring.source,
             provider=self.provider_name,

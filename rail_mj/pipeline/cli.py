@@ -65,6 +65,7 @@ def run_settings(args: argparse.Namespace) -> dict[str, Any]:
     """The :class:`~rail_mj.pipeline.config.RunConfig` fields of the options given (provider, backend, profile
     folders and origin, the LLM options); one left out keeps RunConfig's default, declared there once."""
     given = {"provider": args.provider, "backend": args.backend, "profile_origin": args.profile_origin,
+             "profile_adapt": args.profile_adapt,
              "profile_dir": args.profile_dir}
     return {**{k: v for k, v in given.items() if v is not None}, **llm_settings(args)}
 
@@ -228,6 +229,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="a profile folder in the paper authors' format (analysis.txt, agent.urdf, arrangement.json, "
                         "plan.json / agents_traj.json, evaluation.py), or a folder of them named by affordance: "
                         "an affordance with a folder is imagined from it, the rest from the provider")
+    p.add_argument("--no-profile-adapt", dest="profile_adapt", action="store_false", default=None,
+                   help="refuse a profile folder whose agents start inside each other instead of spreading them "
+                        "apart as the authors' simulator would (default: adapt, and say so in the result)")
     p.add_argument("--profile-origin", choices=("ground", "center"),
                    help="where the folders' via-points start: the centre of the object's footprint on the ground "
                         "(default) or the centre of its box")

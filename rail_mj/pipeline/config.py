@@ -100,6 +100,10 @@ class RunOptions(BaseModel):
                     "(rail_mj.profiles): an affordance with a folder is imagined from it, the stages it lacks and "
                     "the other affordances from the provider (absolute: a worker may run elsewhere; default "
                     f"${PROFILE_DIR_ENV})")
+    profile_adapt: bool = Field(
+        default=True, description="adapt what a profile folder's format leaves open the way the authors' simulator "
+                                  "would run it (agents that start inside each other spread apart), each adaptation "
+                                  "named in the result's profile_notes; False: refuse such a folder")
     profile_origin: Origin = Field(
         default="ground", description="where the folders' via-points start: ground (the centre of the object's "
                                       "footprint on the ground, z up) or center (the centre of its box)")

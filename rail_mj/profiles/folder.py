@@ -141,21 +141,37 @@ def _agent(folder: Path, task: TaskDescription, side: dict) -> AgentModel | None
     return agent
 
 
-def _layout(folder: Path, offsets: np.ndarray | None, radius: float, side: dict) -> AgentLayout | None:
+def _layout(folder: Path, offsets: np.ndarray | None, radius: float, side: dict, adapt: bool,
+            notes: list[str]) -> AgentLayout | None:
     if offsets is None:
         return None
     old = side.get("profile")
     if old is not None and _unchanged(folder, F.ARRANGEMENT, F.arrangement_text(layout_offsets(old.layout))):
         return old.layout
     where = folder / (F.ARRANGEMENT if (folder / F.ARRANGEMENT).is_file() else F.AGENTS_TRAJ)
-    for i, j in itertools.combinations(range(len(offsets)), 2):
-        gap = float(np.linalg.norm(offsets[i] - offsets[j]))
-        if gap < 2 * radius:
-            raise ProfileFolderError(f"{where}: agents {i + 1} and {j + 1} are {gap:.4f} m apart, closer than the "
-                                     f"agent's diameter {2 * radius:.4f} m: they would start inside each other")
+    pairs = [(float(np.linalg.norm(offsets[i] - offsets[j])), i, j)
+             for i, j in itertools.combinations(range(len(offsets)), 2)]
+    gap, i, j = min(pairs) if pairs else (np.inf, 0, 0)
+    if gap < 2 * radius:
+        overlap = (f"{where}: agents {i + 1} and {j + 1} are {gap:.4f} m apart, closer than the agent's diameter "
+                   f"{2 * radius:.4f} m: they would start inside each other")
+        if not adapt or gap < _SAME_PLACE_M:
+            raise ProfileFolderError(overlap + ("" if adapt else " (adaptation is off: space them, or import with "
+                                                "adaptation on, which spreads the arrangement)"))
+        # the authors' simulator pushes bodies that start inside each other apart on its first step: spread the
+        # arrangement about its centre just enough that the closest two touch, keeping its shape
+        factor = 2 * radius / gap
+        centre = offsets.mean(axis=0)
+        offsets = np.asarray(centre + (offsets - centre) * factor)
+        notes.append(f"{overlap}; the arrangement is spread {factor:.2f}x about its centre so that none does, as the "
+                     f"authors' simulator pushes them apart on its first step")
     spacing = 2 * radius  # the grid is unused beside explicit offsets; its spacing says what they keep to
     return AgentLayout(nx=1, ny=1, nz=1, sx=spacing, sy=spacing, sz=spacing, collide_agents=True,
                        offsets=offsets.tolist())
+
+
+#: Two agents closer than this stand in one place: no spreading of the arrangement about its centre parts them.
+_SAME_PLACE_M = 1e-6
 
 
 def _offsets(folder: Path, trajs: dict[str, np.ndarray] | None) -> np.ndarray | None:
@@ -209,12 +225,14 @@ def _plans(folder: Path, trajs: dict[str, np.ndarray] | None, offsets: np.ndarra
 
 
 def import_profile(folder: str | Path, task: TaskDescription, provider: Provider, *,
-                   origin: Origin = "ground") -> ImaginationProfile:
+                   origin: Origin = "ground", adapt: bool = True) -> ImaginationProfile:
     """The profile of a paper-format ``folder`` for ``task``; stages it lacks come from ``provider``.
 
     Every file is checked (ProfileFolderError naming it): the URDF through MuJoCo's compiler and the agent
     allow-list and the agent's size and mass checks, the JSON shapes, finite numbers, agents that start apart,
-    and ``evaluation.py`` under the scoring sandbox's allow-list, run once on a synthetic batch.
+    and ``evaluation.py`` under the scoring sandbox's allow-list, run once on a synthetic batch. With ``adapt``,
+    what the format leaves open is adapted the way the authors' simulator would run it (agents that start inside
+    each other are spread apart), each adaptation named in the profile's ``notes``; without, it is refused.
     """
     folder = Path(folder)
     if not folder.is_dir():
@@ -234,7 +252,9 @@ def import_profile(folder: str | Path, task: TaskDescription, provider: Provider
     agent = agent or stages.generate_agent_model(AgentModelRequest(task=task, analysis=analysis), provider)
     trajs = F.read_agents_traj(folder / F.AGENTS_TRAJ) if (folder / F.AGENTS_TRAJ).is_file() else None
     offsets = _offsets(folder, trajs)
-    layout = _layout(folder, offsets, agent_geometry(agent).radius, side)
+    notes: list[str] = []
+    # spread or not, the group's centre path is the same: the spread keeps the arrangement's centre
+    layout = _layout(folder, offsets, agent_geometry(agent).radius, side, adapt, notes)
     mark("agent_configuration", layout is not None)
     layout = layout or stages.generate_layout(LayoutRequest(task=task, analysis=analysis, agent=agent), provider)
     both = _plans(folder, trajs, offsets if offsets is not None else layout_offsets(layout), lift, side)
@@ -261,7 +281,8 @@ def import_profile(folder: str | Path, task: TaskDescription, provider: Provider
         provider=exact.provider if exact else f"folder+{provider.name}",
         model=exact.model if exact else provider.model,
         prompt_versions=exact.prompt_versions if exact else used,
-        analysis=analysis, agent=agent, layout=layout, plans=plans, trajectories=trajectories, scoring=scoring)
+        analysis=analysis, agent=agent, layout=layout, plans=plans, trajectories=trajectories, scoring=scoring,
+        notes=notes)
 
 
 def _scoring(folder: Path, lift: float, n_agents: int, n_plans: int, task: TaskDescription) -> ScoringCode | None:

@@ -61,6 +61,8 @@ class Explanation(BaseModel):
     best_plan: str | None
     poses: list[PoseExplanation]
     reasons: list[str] = Field(description="the analyser's reasons that belong to no single pose (the verdict's)")
+    profile_notes: list[str] = Field(default_factory=list, description="what the import of a profile folder "
+                                                                       "adapted to run it")
     error: str | None = None
 
 
@@ -128,7 +130,7 @@ def explain(r: AffordanceResult) -> Explanation:
                        dims_fit=r.dims_fit, probability=r.probability, prior=r.prior, functional_pose=best,
                        pose_probability=verdicts[best].probability if best in verdicts else None,
                        best_plan=r.best_plan.name if r.best_plan is not None else None,
-                       poses=poses, reasons=general, error=r.error)
+                       poses=poses, reasons=general, error=r.error, profile_notes=list(r.profile_notes))
 
 
 def format_explanation(e: Explanation) -> str:
@@ -139,6 +141,8 @@ def format_explanation(e: Explanation) -> str:
                                                                          else ", nothing was imagined"))
     if e.prior:
         lines.append(f"  prior: {e.prior}")
+    for note in e.profile_notes:
+        lines.append(f"  profile folder adapted: {note}")
     for p in e.poses:
         mark = "  <- functional pose" if p.functional else ""
         size = " x ".join(f"{v:.3f}" for v in p.box_size_m)

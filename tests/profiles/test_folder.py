@@ -161,12 +161,23 @@ def test_a_plan_with_nan_in_a_number_is_refused(tmp_path: Path, offline) -> None
         _import(folder, "cup", offline)
 
 
-def test_agents_that_start_inside_each_other_are_refused(tmp_path: Path, offline) -> None:
+def test_agents_that_start_inside_each_other_are_spread_apart_and_the_import_says_so(tmp_path: Path, offline) -> None:
+    """The authors' simulator pushes bodies that start inside each other apart on its first step (their table
+    folder lays 13.7 cm agents 6 cm apart): the arrangement is spread about its centre until the closest two touch,
+    and the profile's notes name it; with adaptation off the folder is refused, naming the two agents."""
     folder = shutil.copytree(FIXTURES / "basket", tmp_path / "basket")
-    (folder / "arrangement.json").write_text('{"agent_1": [0, 0, 0], "agent_2": [0.01, 0, 0]}')
+    (folder / "arrangement.json").write_text('{"agent_1": [0, 0, 0], "agent_2": [0.01, 0, 0], '
+                                             '"agent_3": [0, 0.03, 0]}')
+    profile = _import(folder, "basket", offline)
+    offsets = np.asarray(profile.layout.offsets)
+    gaps = [float(np.linalg.norm(a - b)) for k, a in enumerate(offsets) for b in offsets[k + 1:]]
+    assert min(gaps) == pytest.approx(0.04)  # the agent's diameter: the closest two touch
+    assert np.allclose(offsets.mean(axis=0), [0.01 / 3, 0.01, 0.0])  # about the arrangement's centre
+    (note,) = profile.notes
+    assert "agents 1 and 2 are 0.0100 m apart" in note and "spread 4.00x about its centre" in note
     with pytest.raises(ProfileFolderError, match=r"arrangement\.json: agents 1 and 2 are 0\.0100 m apart, closer "
-                                                 r"than the agent's diameter 0\.0400 m"):
-        _import(folder, "basket", offline)
+                                                 r"than the agent's diameter 0\.0400 m.*adaptation is off"):
+        _import(folder, "basket", offline, adapt=False)
 
 
 def test_urdf_that_is_no_xml_or_has_no_collision_shape() -> None:
@@ -243,6 +254,27 @@ def test_a_run_imagines_the_folder_and_keeps_the_other_results(tmp_path: Path, c
     planters = [r for r in results if r.requested == "planter"]
     assert all(r.error is None and r.affordance == "planter" and len(r.agent_offsets) == 3 for r in planters)
     assert all(r.analyzer_reasons for r in planters)  # stage 7 judged it (the offline rules for a novel use)
+
+
+def test_a_run_names_what_it_adapted_in_the_result_and_its_explanation(tmp_path: Path, cup_mesh: Path) -> None:
+    from rail_mj.render.explain import explain, format_explanation
+
+    folder = shutil.copytree(FIXTURES / "cup", tmp_path / "cup")
+    offsets = json.loads((folder / "arrangement.json").read_text())
+    first = next(iter(offsets))
+    offsets[first] = offsets[next(k for k in offsets if k != first)]  # two droplets in one place: no spread helps
+    (folder / "arrangement.json").write_text(json.dumps(offsets))
+    config = RunConfig(provider="offline", backend="native", pose="as_placed", profile_dir=folder)
+    (same,) = classify([cup_mesh], ["cup"], config=config, progress=False, workers=1)
+    assert same.error is not None and "start inside each other" in same.error
+    offsets[first] = [v + 0.001 for v in offsets[first]]  # 1.7 mm apart: spread to touching
+    (folder / "arrangement.json").write_text(json.dumps(offsets))
+    (cup,) = classify([cup_mesh], ["cup"], config=config, progress=False, workers=1)
+    assert cup.error is None and len(cup.profile_notes) == 1 and "spread" in cup.profile_notes[0]
+    assert "profile folder adapted: " in format_explanation(explain(cup))
+    (off,) = classify([cup_mesh], ["cup"], config=config.model_copy(update={"profile_adapt": False}), progress=False,
+                      workers=1)
+    assert off.error is not None and "adaptation is off" in off.error
 
 
 def test_every_command_line_takes_profile_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys) -> None:
