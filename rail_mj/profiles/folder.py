@@ -204,7 +204,7 @@ def _centre_paths(folder: Path, trajs: dict[str, np.ndarray], offsets: np.ndarra
 
 
 def _plans(folder: Path, trajs: dict[str, np.ndarray] | None, offsets: np.ndarray | None, lift: float,
-           side: dict) -> tuple[MotionPlans, Trajectories] | None:
+           side: dict, adapt: bool, notes: list[str]) -> tuple[MotionPlans, Trajectories] | None:
     if (folder / F.PLAN).is_file():
         centre = F.read_plans(folder / F.PLAN)
         source = F.PLAN
@@ -218,8 +218,16 @@ def _plans(folder: Path, trajs: dict[str, np.ndarray] | None, offsets: np.ndarra
         if _unchanged(folder, source, F.plans_text(plan) if source == F.PLAN else F.agents_traj_text(agents)):
             return old.plans, old.trajectories
     plans = [MotionPlan(name=k, description=f"{k}: the via-points of {source}") for k in centre]
+    # the format places via-points about the box's centre, which is the use's place only where nothing sticks out
+    # (a mug's handle moves the box's centre off its cavity): centred at the opening, a pose's basin, where a pour
+    # aims (a pose without a basin keeps the box's centre)
+    anchor: Literal["box", "opening"] = "opening" if adapt else "box"
+    if adapt:
+        notes.append(f"{source}'s via-points are centred at each pose's opening (the middle of its deepest basin, "
+                     f"where a pour aims; a pose without one keeps its box's centre), not at its box's centre")
     trajectories = [PlanTrajectory(plan=k, via_poses=[ViaPose(rel=[0.0, 0.0, -lift], offset_m=p.tolist(),
-                                                              quat=[1.0, 0.0, 0.0, 0.0]) for p in pts])
+                                                              quat=[1.0, 0.0, 0.0, 0.0], anchor=anchor)
+                                                      for p in pts])
                     for k, pts in centre.items()]
     return MotionPlans(plans=plans), Trajectories(trajectories=trajectories)
 
@@ -232,7 +240,8 @@ def import_profile(folder: str | Path, task: TaskDescription, provider: Provider
     allow-list and the agent's size and mass checks, the JSON shapes, finite numbers, agents that start apart,
     and ``evaluation.py`` under the scoring sandbox's allow-list, run once on a synthetic batch. With ``adapt``,
     what the format leaves open is adapted the way the authors' simulator would run it (agents that start inside
-    each other are spread apart), each adaptation named in the profile's ``notes``; without, it is refused.
+    each other are spread apart, via-points centred at each pose's opening), each adaptation named in the profile's
+    ``notes``; without, a folder with overlapping agents is refused and via-points keep the box's centre.
     """
     folder = Path(folder)
     if not folder.is_dir():
@@ -257,7 +266,8 @@ def import_profile(folder: str | Path, task: TaskDescription, provider: Provider
     layout = _layout(folder, offsets, agent_geometry(agent).radius, side, adapt, notes)
     mark("agent_configuration", layout is not None)
     layout = layout or stages.generate_layout(LayoutRequest(task=task, analysis=analysis, agent=agent), provider)
-    both = _plans(folder, trajs, offsets if offsets is not None else layout_offsets(layout), lift, side)
+    both = _plans(folder, trajs, offsets if offsets is not None else layout_offsets(layout), lift, side, adapt,
+                  notes)
     mark("motion_planner", both is not None)
     mark("trajectory", both is not None)
     if both is None:
@@ -282,7 +292,7 @@ def import_profile(folder: str | Path, task: TaskDescription, provider: Provider
         model=exact.model if exact else provider.model,
         prompt_versions=exact.prompt_versions if exact else used,
         analysis=analysis, agent=agent, layout=layout, plans=plans, trajectories=trajectories, scoring=scoring,
-        notes=notes)
+        notes=exact.notes if exact else notes)
 
 
 def _scoring(folder: Path, lift: float, n_agents: int, n_plans: int, task: TaskDescription) -> ScoringCode | None:

@@ -173,8 +173,9 @@ def test_agents_that_start_inside_each_other_are_spread_apart_and_the_import_say
     gaps = [float(np.linalg.norm(a - b)) for k, a in enumerate(offsets) for b in offsets[k + 1:]]
     assert min(gaps) == pytest.approx(0.04)  # the agent's diameter: the closest two touch
     assert np.allclose(offsets.mean(axis=0), [0.01 / 3, 0.01, 0.0])  # about the arrangement's centre
-    (note,) = profile.notes
-    assert "agents 1 and 2 are 0.0100 m apart" in note and "spread 4.00x about its centre" in note
+    spread, centred = profile.notes
+    assert "agents 1 and 2 are 0.0100 m apart" in spread and "spread 4.00x about its centre" in spread
+    assert "via-points are centred at each pose's opening" in centred
     with pytest.raises(ProfileFolderError, match=r"arrangement\.json: agents 1 and 2 are 0\.0100 m apart, closer "
                                                  r"than the agent's diameter 0\.0400 m.*adaptation is off"):
         _import(folder, "basket", offline, adapt=False)
@@ -256,6 +257,22 @@ def test_a_run_imagines_the_folder_and_keeps_the_other_results(tmp_path: Path, c
     assert all(r.analyzer_reasons for r in planters)  # stage 7 judged it (the offline rules for a novel use)
 
 
+def test_a_folders_via_points_are_centred_at_the_opening_where_a_handle_moves_the_box(offline) -> None:
+    """A mug's handle moves its box's centre off its cavity (the published cup profile's droplets then land beside
+    a real mug): adapted, the folder's via-points follow each pose's opening; not adapted, the box's centre."""
+    from rail_mj.core.types import Basin
+
+    h = [0.06, 0.05, 0.04]
+    basin = Basin(rim=0.07, opening=np.array([-0.015, 0.0]), length=0.08)  # the cavity 1.5 cm behind the centre
+    adapted = _import(FIXTURES / "cup", "cup", offline)
+    plain = _import(FIXTURES / "cup", "cup", offline, adapt=False)
+    moved = trajectory_array(adapted.trajectories.trajectories, h, basin)
+    kept = trajectory_array(plain.trajectories.trajectories, h, basin)
+    for a, b in zip(moved, kept, strict=True):
+        assert np.allclose(a[:, 0] - b[:, 0], -0.015) and np.allclose(a[:, 1:3], b[:, 1:3])
+    assert any("centred at each pose's opening" in n for n in adapted.notes) and plain.notes == []
+
+
 def test_a_run_names_what_it_adapted_in_the_result_and_its_explanation(tmp_path: Path, cup_mesh: Path) -> None:
     from rail_mj.render.explain import explain, format_explanation
 
@@ -270,7 +287,7 @@ def test_a_run_names_what_it_adapted_in_the_result_and_its_explanation(tmp_path:
     offsets[first] = [v + 0.001 for v in offsets[first]]  # 1.7 mm apart: spread to touching
     (folder / "arrangement.json").write_text(json.dumps(offsets))
     (cup,) = classify([cup_mesh], ["cup"], config=config, progress=False, workers=1)
-    assert cup.error is None and len(cup.profile_notes) == 1 and "spread" in cup.profile_notes[0]
+    assert cup.error is None and len(cup.profile_notes) == 2 and "spread" in cup.profile_notes[0]
     assert "profile folder adapted: " in format_explanation(explain(cup))
     (off,) = classify([cup_mesh], ["cup"], config=config.model_copy(update={"profile_adapt": False}), progress=False,
                       workers=1)
