@@ -9,6 +9,7 @@ printed in the report). Exit status by the rule of :mod:`rail_mj.core.cli`.
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -20,7 +21,7 @@ from rail_mj.core.cli import EXIT_FAILED, EXIT_OK, report_error
 from rail_mj.core.errors import ConfigError, RailError
 from rail_mj.dataset.ground_truth import FAMILIES
 from rail_mj.eval.merge import merge_runs
-from rail_mj.eval.run import DatasetConfig, EvalConfig, parse_shard, run_eval
+from rail_mj.eval.run import PLAN_FILE, DatasetConfig, EvalConfig, parse_shard, run_eval
 from rail_mj.eval.summary import _tables, _timing_table
 from rail_mj.llm.providers import PROVIDERS
 from rail_mj.pipeline.cli import add_llm_options, run_settings
@@ -54,6 +55,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--profile-origin", choices=("ground", "center"),
                    help="where the folders' via-points start: the object's footprint centre on the ground, or its "
                         "box centre")
+    p.add_argument("--save-profile", type=Path, metavar="DIR",
+                   help="after the run, write each affordance's profile (its first case's) as DIR/<affordance>/ in "
+                        "the paper authors' format, for --profile-dir DIR to read back")
     p.add_argument("--out", type=Path, required=True, help="output folder (one run at a time)")
     p.add_argument("--resume", action="store_true", help="continue an interrupted run in --out")
     p.add_argument("--provider", choices=PROVIDERS, help="default auto")
@@ -113,6 +117,30 @@ def _config(args: argparse.Namespace) -> EvalConfig:
         raise ConfigError(f"bad option value: {problems}") from None
 
 
+def _save_profiles(folder: Path, out: Path, config: EvalConfig) -> bool:
+    """``--save-profile``: each affordance's profile for its first case in ``out/results.jsonl`` (the object loaded
+    again, its hulls from the cache)."""
+    from rail_mj.core.results import AffordanceResult
+    from rail_mj.dataset.labels import read_labels
+    from rail_mj.mesh import load_object
+    from rail_mj.pipeline.saved_profiles import save_profiles
+
+    root = Path(json.loads((out / PLAN_FILE).read_text())["dataset_root"])
+    records = {r.mesh: r for r in read_labels(root)}
+    firsts: dict[str, dict] = {}
+    for line in (out / "results.jsonl").read_text().splitlines():
+        if line.strip():
+            ln = json.loads(line)
+            if ln.get("error") is None and ln.get("result"):
+                firsts.setdefault(ln["affordance"], ln)
+    cases = []
+    for ln in firsts.values():
+        r = records[ln["mesh"]]
+        obj = load_object(root / r.mesh, units=r.units, up=r.up, decomposition=config.run.decomposition)
+        cases.append((AffordanceResult.model_validate(ln["result"]), obj.obb_dims))
+    return save_profiles(folder, cases, config.run)
+
+
 def _print_outcome(summary: dict, out: Path) -> int:
     print(_tables(summary))
     print("\n" + _timing_table(summary))
@@ -149,11 +177,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _merge_main(argv[1:])
     args = _parser().parse_args(argv)
     try:
+        config = _config(args)
         summary = run_eval(
-            _config(args), args.out, resume=args.resume, progress=not args.no_progress, workers=args.workers,
+            config, args.out, resume=args.resume, progress=not args.no_progress, workers=args.workers,
             executor="local" if args.ray is None else "ray", ray_address=args.ray or None,
             shard=None if args.shard is None else parse_shard(args.shard),
         )
+        if args.save_profile is not None and not _save_profiles(args.save_profile, args.out, config):
+            _print_outcome(summary, args.out)
+            return EXIT_FAILED
     except KeyboardInterrupt as exc:
         code = report_error(exc)
         print(f"finished lines are in {args.out / 'results.jsonl'}; rerun with --resume", file=sys.stderr)

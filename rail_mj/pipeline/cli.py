@@ -184,32 +184,14 @@ def _saved_affordances(folder: Path, results) -> None:
 
 
 def _save_profiles(args: argparse.Namespace, results, config) -> bool:
-    """Write the profile of each result that has one as DIR/<affordance>/, its via-points for the pose shown
-    (the functional one, else the best-scoring one); False when one could not be written (its error printed)."""
+    """``--save-profile``: each result's profile (:func:`rail_mj.pipeline.saved_profiles.save_profiles`)."""
     from rail_mj.mesh import load_object
-    from rail_mj.pipeline.chain import Pipeline
-    from rail_mj.profiles import save_profile
+    from rail_mj.pipeline.saved_profiles import save_profiles
 
-    done = [r for r in results if not r.error]
-    if not done:
-        print(f"no profile written to {args.save_profile}: every case failed", file=sys.stderr)
-        return True
+    if all(r.error for r in results):
+        return save_profiles(args.save_profile, [], config)
     obj = load_object(args.mesh, units=args.units, up=args.up)
-    pipe = Pipeline(config.model_copy(update={"provider": done[0].provider}))
-    ok = True
-    for r in done:
-        pose = r.functional_pose or (r.stable_poses[r.evidence_pose] if r.evidence_pose is not None else None)
-        try:
-            folder = save_profile(pipe.profile(r.requested, obj.obb_dims),
-                                  args.save_profile / r.affordance.replace(" ", "_"),
-                                  half_extents=pose.half_extents if pose is not None else None,
-                                  origin=config.profile_origin)
-        except RailError as exc:  # e.g. an agent shape URDF lacks: that profile is not written, the rest are
-            print(f"error: {r.object}: {r.requested!r}: no profile written: {exc}", file=sys.stderr)
-            ok = False
-            continue
-        print(f"wrote {folder}", file=sys.stderr)
-    return ok
+    return save_profiles(args.save_profile, [(r, obj.obb_dims) for r in results], config)
 
 
 def _parser() -> argparse.ArgumentParser:

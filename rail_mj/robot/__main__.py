@@ -148,6 +148,9 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--force-limit", type=_positive(float), default=RobotConfig().force_limit,
                         help="N")
     parser.add_argument("--json", type=Path, help="write the summary here")
+    parser.add_argument("--save-profile", type=Path, metavar="DIR",
+                        help="with --request: write the profile the chosen object was imagined with as "
+                             "DIR/<affordance>/ in the paper authors' format, for --profile-dir DIR to read back")
     parser.add_argument("--video", "--render", dest="video", type=Path,
                         help="folder for an mp4 of each affordance's first trial (AFFORDANCE_OBJECT.mp4)")
     return parser
@@ -198,7 +201,8 @@ def main(argv: list[str] | None = None) -> int:
             from rail_mj.robot.run import run_request
 
             out = run_request(args.request, specs, scan=not args.no_scan, video=args.video,
-                              config=RobotConfig(force_limit=args.force_limit), run=run)
+                              config=RobotConfig(force_limit=args.force_limit), run=run,
+                              save_profile=args.save_profile)
             if args.json is not None:
                 atomic_write_text(args.json, json.dumps(out, indent=2))
             print(_request_report(out))

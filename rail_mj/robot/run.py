@@ -24,6 +24,7 @@ from rail_mj.llm.schemas import Request
 from rail_mj.mesh import object_from_mesh
 from rail_mj.pipeline.chain import Pipeline, classify, define_uses, provider_for
 from rail_mj.pipeline.config import RunConfig
+from rail_mj.pipeline.saved_profiles import save_profiles
 from rail_mj.robot.control import RobotConfig
 from rail_mj.robot.demo import case_from_result
 from rail_mj.robot.executor import execute
@@ -141,10 +142,12 @@ def _rank(candidate: dict[str, Any]) -> tuple[float, float]:
 
 
 def run_table(req: Request, placed: Sequence[Placed], *, scan: bool = True, config: RobotConfig | None = None,
-              video: Path | None = None, label: str = "request", run: RunConfig | None = None) -> dict[str, Any]:
+              video: Path | None = None, label: str = "request", run: RunConfig | None = None,
+              save_profile: Path | None = None) -> dict[str, Any]:
     """Scan and imagine every placed object for the request, execute on the best, judge: one JSON-ready dict.
     ``run``: the imagination's settings (provider, model, ...; default the offline provider), imagined as placed
-    at the request's scale."""
+    at the request's scale. ``save_profile``: write the profile the chosen object was imagined with there
+    (:func:`rail_mj.pipeline.saved_profiles.save_profiles`)."""
     imagination = (run or RunConfig(provider="offline")).model_copy(
         update={"pose": "as_placed", "agent": req.agent, "owner": req.owner})
     cfg = config or RobotConfig()
@@ -166,6 +169,7 @@ def run_table(req: Request, placed: Sequence[Placed], *, scan: bool = True, conf
                                  "dims": [round(float(d), 4) for d in p.obj.obb_dims]}
         t0 = time.perf_counter()
         true = imagine(p.obj)
+        imagined_dims = p.obj.obb_dims
         times["imagine_true"] = times.get("imagine_true", 0.0) + time.perf_counter() - t0
         true_v: dict[str, Any] = verdict_row(true)
         scan_v: dict[str, Any] | None = None
@@ -183,12 +187,12 @@ def run_table(req: Request, placed: Sequence[Placed], *, scan: bool = True, conf
                 scan_result = imagine(scanned)
                 times["imagine_scan"] = times.get("imagine_scan", 0.0) + time.perf_counter() - t0
                 scan_v = {**verdict_row(scan_result), **info}
-                plan_from = scan_result
+                plan_from, imagined_dims = scan_result, scanned.obb_dims
         verdict = scan_v if plan_from is not true and scan_v is not None else true_v
         entry.update(true=true_v, scan=scan_v, used="scan" if plan_from is not true else "true mesh",
                      verdict=verdict, agree=None if scan_v is None else scan_v["functional"] == true_v["functional"],
                      functional=bool(verdict["functional"]), probability=verdict["probability"])
-        candidates.append({**entry, "_result": plan_from, "_base": scan_base, "_placed": p})
+        candidates.append({**entry, "_result": plan_from, "_base": scan_base, "_placed": p, "_dims": imagined_dims})
     out["objects"] = [{k: v for k, v in c.items() if not k.startswith("_")} for c in candidates]
     able = [c for c in candidates if c["functional"] and case_from_result(c["_result"]) is not None]
     out.update(chosen=None, executed=False, declined=False, reason=None, success=False, plan_success=None,
@@ -201,6 +205,8 @@ def run_table(req: Request, placed: Sequence[Placed], *, scan: bool = True, conf
         out["seconds"] = times
         return out
     best = max(able, key=_rank)
+    if save_profile is not None:
+        save_profiles(save_profile, [(best["_result"], best["_dims"])], imagination)
     p: Placed = best["_placed"]
     case = case_from_result(best["_result"])
     assert case is not None  # every able candidate has a case
@@ -226,8 +232,8 @@ def run_table(req: Request, placed: Sequence[Placed], *, scan: bool = True, conf
 
 
 def run_request(text: str, objects: Sequence[ObjectSpec | RailObject | str | Path], *, scan: bool = True,
-                config: RobotConfig | None = None, video: Path | None = None, run: RunConfig | None = None
-                ) -> dict[str, Any]:
+                config: RobotConfig | None = None, video: Path | None = None, run: RunConfig | None = None,
+                save_profile: Path | None = None) -> dict[str, Any]:
     """Put ``objects`` on the table (mesh files as :class:`ObjectSpec`, paths, or built objects), read the
     request ``text``, and execute it on the object that affords it best, or decline saying why.
 
@@ -236,7 +242,7 @@ def run_request(text: str, objects: Sequence[ObjectSpec | RailObject | str | Pat
     The result: ``chosen`` (name or None), ``executed``, ``declined`` and ``reason``, ``success`` (the judge's),
     ``plan_success`` / ``plan_score`` (the plan's own scoring code), and per object its verdict and probability.
     ``run`` sets the provider (and its model, timeout, repairs) that reads the request and imagines (default: the
-    offline provider).
+    offline provider). ``save_profile``: write the chosen object's profile there (``--save-profile``).
     """
     cfg = config or RobotConfig()
     if scan:
@@ -259,4 +265,4 @@ def run_request(text: str, objects: Sequence[ObjectSpec | RailObject | str | Pat
     if len(set(names)) != len(names):
         raise ConfigError(f"two objects share a name in {names}; give each a name of its own")
     placed = layout(objs, cfg, xys)
-    return run_table(req, placed, scan=scan, config=cfg, video=video, run=run)
+    return run_table(req, placed, scan=scan, config=cfg, video=video, run=run, save_profile=save_profile)

@@ -26,6 +26,7 @@ from rail_mj.profiles import (
     save_profile,
     urdf_to_fragment,
 )
+from rail_mj.profiles.source import folder_task
 from rail_mj.scoring import compile_scoring, probe_outcomes
 
 FIXTURES = TEST_FIXTURES / "paper_profiles"
@@ -329,6 +330,20 @@ def test_classify_cli_saves_and_reads_back_profile_folders(tmp_path: Path, cup_m
     assert again["scores"] == first["scores"] and again["best_plan"] == first["best_plan"]
     assert rail_main([*common, "--profile-dir", str(tmp_path / "missing")]) == 2
     assert "is not a folder" in json.loads(capsys.readouterr()[0])["error"]
+
+
+def test_eval_saves_each_affordances_profile(tmp_path: Path) -> None:
+    from rail_mj.dataset.procedural import generate
+    from rail_mj.eval import cli as eval_cli
+
+    generate(tmp_path / "ds", classes=["cup"], per_class=1, seed=3, affordances=["cup"])
+    rc = eval_cli.main(["--dataset", str(tmp_path / "ds"), "--out", str(tmp_path / "out"), "--provider", "offline",
+                        "--backend", "native", "--no-render", "--no-progress", "--workers", "1",
+                        "--save-profile", str(tmp_path / "saved")])
+    assert rc == 0
+    profile = import_profile(tmp_path / "saved" / "cup", folder_task("cup", DIMS["cup"], get_provider("offline")),
+                             get_provider("offline"))
+    assert profile.affordance == "cup" and profile.layout.n_agents > 1
 
 
 def test_urdf_written_and_read_back_keeps_the_body() -> None:

@@ -158,8 +158,9 @@ def test_a_request_the_object_does_not_afford_is_declined_with_no_motion(tmp_pat
 def test_three_objects_the_robot_chooses_the_bowl_and_the_judge_says_it_worked(tmp_path):
     objs = [make_object("cutting_board", 2), make_object("bowl", 1), make_object("vase", 2)]
     summary = tmp_path / "out.json"
-    out = run_request("put the apple in the bowl", objs, scan=False)
+    out = run_request("put the apple in the bowl", objs, scan=False, save_profile=tmp_path / "profiles")
     assert out["chosen"] == "bowl_1" and out["executed"] and not out["declined"]
+    assert (tmp_path / "profiles" / "bowl" / "agent.urdf").is_file()  # --save-profile: the chosen object's
     assert out["success"] and out["judge"]["checks"]["below_rim"] == [True]
     assert len(out["objects"]) == 3 and sum(o["functional"] for o in out["objects"]) >= 1
     summary.write_text(json.dumps(out))  # the summary is JSON as it stands
