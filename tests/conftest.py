@@ -10,9 +10,12 @@ import jax  # noqa: E402
 jax.config.update("jax_cpu_enable_async_dispatch", False)
 
 
+from pathlib import Path  # noqa: E402
+
 import pytest  # noqa: E402
 
 from rail_mj.core.errors import RobotError  # noqa: E402
+from rail_mj.core.paths import CACHE_ENV  # noqa: E402
 from rail_mj.robot.model import panda_dir  # noqa: E402
 
 
@@ -23,3 +26,20 @@ def panda_folder():
         return panda_dir()
     except RobotError as exc:  # no cache and no registry access
         pytest.skip(f"Panda model unavailable: {exc}")
+
+
+@pytest.fixture
+def shared_cache(tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch) -> None:
+    """One cache for the whole session (hulls and stable poses computed once), for modules that use it
+    (``pytestmark = pytest.mark.usefixtures("shared_cache")``)."""
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path_factory.getbasetemp() / "cache"))
+
+
+@pytest.fixture(scope="module")
+def module_cache(tmp_path_factory: pytest.TempPathFactory):
+    """One cache for a module's runs, so their hulls and stable poses are computed once and no other module's
+    are seen (runs that crash or kill workers, whose cache state the module checks)."""
+    path: Path = tmp_path_factory.mktemp("cache")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv(CACHE_ENV, str(path))
+        yield path

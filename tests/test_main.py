@@ -21,10 +21,7 @@ from rail_mj.pipeline.tasks import ObjectTask
 from rail_mj.stable_poses import StablePoseConfig
 from rail_mj.stable_poses.config import drop_physics
 
-
-@pytest.fixture(autouse=True)
-def _cache(tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setenv("RAIL_MJ_CACHE", str(tmp_path_factory.getbasetemp() / "cache"))
+pytestmark = pytest.mark.usefixtures("shared_cache")
 
 
 def test_classify_is_the_default_command(tmp_path: Path, capsys) -> None:

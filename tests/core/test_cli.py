@@ -19,10 +19,7 @@ from rail_mj.pipeline.chain import classify
 from rail_mj.pipeline.config import RunConfig
 from rail_mj.robot import __main__ as robot_cli
 
-
-@pytest.fixture(autouse=True)
-def _cache(tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setenv("RAIL_MJ_CACHE", str(tmp_path_factory.getbasetemp() / "cache"))
+pytestmark = pytest.mark.usefixtures("shared_cache")
 
 
 @pytest.fixture

@@ -20,7 +20,6 @@ from pathlib import Path
 import pytest
 from eval_procs import GUARD_S, output, start_eval, wait_until
 
-from rail_mj.core.paths import CACHE_ENV
 from rail_mj.core.runfiles import HOLDER_FILE, STAGING_PREFIX, staging_dir
 from rail_mj.eval import run as rail_eval
 
@@ -31,16 +30,7 @@ ARGS = ["--classes", ",".join(CLASSES), "--per-class", str(PER_CLASS), "--afford
 
 
 @pytest.fixture(scope="module")
-def cache(tmp_path_factory) -> Path:
-    """One cache for this module's runs, so hulls and stable poses are computed once."""
-    path = tmp_path_factory.mktemp("cache")
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv(CACHE_ENV, str(path))
-        yield path
-
-
-@pytest.fixture(scope="module")
-def finished_run(cache, tmp_path_factory) -> Path:
+def finished_run(module_cache, tmp_path_factory) -> Path:
     """A whole run of the config, made in this process (the same as the command line's)."""
     out = tmp_path_factory.mktemp("finished")
     cfg = rail_eval.EvalConfig(dataset={"classes": CLASSES, "per_class": PER_CLASS}, affordances=[AFFORDANCE],
@@ -84,7 +74,7 @@ def _assert_complete(out: Path) -> None:
     assert len(case_keys) == N_CASES and set(case_keys.values()) == {1}
 
 
-def test_kill_while_the_dataset_is_written(cache, tmp_path):
+def test_kill_while_the_dataset_is_written(module_cache, tmp_path):
     labels = lambda out: out / "dataset" / "labels.jsonl"  # noqa: E731
     for attempt in range(3):  # the generator is fast: retry when the kill came after the last mesh
         out = tmp_path / f"run{attempt}"

@@ -44,14 +44,6 @@ ARGS = ["--classes", ",".join(CLASSES), "--per-class", str(PER_CLASS), "--afford
 RUN_ONLY = {"timing", "wall_s_this_run", "execution", "merged_from", "missing_shards"}
 
 
-@pytest.fixture(scope="module")
-def cache(tmp_path_factory) -> Path:
-    path = tmp_path_factory.mktemp("cache")
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv(CACHE_ENV, str(path))
-        yield path
-
-
 def _cfg(**kw) -> rail_eval.EvalConfig:
     return rail_eval.EvalConfig(dataset={"classes": CLASSES, "per_class": PER_CLASS}, affordances=[AFFORDANCE],
                                 run={"provider": "offline", "backend": "native", "stable_poses": {"n_drops": 8}},
@@ -59,7 +51,7 @@ def _cfg(**kw) -> rail_eval.EvalConfig:
 
 
 @pytest.fixture(scope="module")
-def serial_run(cache, tmp_path_factory) -> Path:
+def serial_run(module_cache, tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("serial")
     assert rail_eval.run_eval(_cfg(), out, progress=False, workers=1)["complete"]
     return out
@@ -131,7 +123,7 @@ def _box(path: Path, size: tuple[float, float, float]) -> Path:
     return path
 
 
-def test_a_result_does_not_depend_on_the_object_before_it(cache, tmp_path):
+def test_a_result_does_not_depend_on_the_object_before_it(module_cache, tmp_path):
     # two boxes within one profile size bin: the first one's profile was reused for the second, whose
     # dimension check then quoted (and judged) the first one's size (both far too big for a cup: nothing is
     # imagined, and the check's reason names the size)
@@ -144,7 +136,7 @@ def test_a_result_does_not_depend_on_the_object_before_it(cache, tmp_path):
 
 
 @pytest.fixture(scope="module")
-def cup_scene(cache, tmp_path_factory):
+def cup_scene(module_cache, tmp_path_factory):
     """A box under the offline cup profile's droplets: contacts and agents at rest on and around it."""
     path = _box(tmp_path_factory.mktemp("box") / "box.stl", (0.09, 0.08, 0.1))
     obj = load_object(path)
@@ -175,11 +167,11 @@ def test_mujoco_threads_do_not_change_stable_poses(cup_scene, monkeypatch):
         assert np.array_equal(p.quat, q.quat) and p.probability == q.probability
 
 
-def test_a_torn_stable_pose_cache_entry_is_recomputed(cache, tmp_path):
+def test_a_torn_stable_pose_cache_entry_is_recomputed(module_cache, tmp_path):
     # a kill mid-write (or a reader on shared storage while another node writes) left half a JSON file
     obj = load_object(_box(tmp_path / "torn.stl", (0.2, 0.1, 0.05)))
     poses = find_stable_poses(obj, n_drops=8)
-    entries = sorted((cache / "stable_poses").glob("*.json"), key=lambda p: p.stat().st_mtime)
+    entries = sorted((module_cache / "stable_poses").glob("*.json"), key=lambda p: p.stat().st_mtime)
     text = entries[-1].read_text()
     entries[-1].write_text(text[: len(text) // 2])
     again = find_stable_poses(obj, n_drops=8)
@@ -190,7 +182,7 @@ def test_a_torn_stable_pose_cache_entry_is_recomputed(cache, tmp_path):
 # ---- crashes, Ctrl-C and SIGKILL ------------------------------------------------------------------------
 
 
-def test_a_crashed_worker_is_an_error_line_and_the_run_goes_on(cache, tmp_path, monkeypatch):
+def test_a_crashed_worker_is_an_error_line_and_the_run_goes_on(module_cache, tmp_path, monkeypatch):
     (tmp_path / "crashing_mesh.py").write_text(CRASHER)
     monkeypatch.syspath_prepend(str(tmp_path))
     monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(tmp_path), os.environ.get("PYTHONPATH", "")]))
@@ -209,7 +201,7 @@ def test_a_crashed_worker_is_an_error_line_and_the_run_goes_on(cache, tmp_path, 
     assert seen == [(i, 8) for i in range(1, 9)]  # one progress count per case, crashed ones included
 
 
-def test_workers_do_not_load_the_anthropic_sdk_or_jax(cache, tmp_path):
+def test_workers_do_not_load_the_anthropic_sdk_or_jax(module_cache, tmp_path):
     path = _box(tmp_path / "b.stl", (0.2, 0.1, 0.05))
     code = (
         "import sys; from rail_mj.pipeline.chain import object_task, run_object; "
@@ -307,7 +299,7 @@ def _stopped_mid_run(tmp_path: Path, monkeypatch, sig: signal.Signals) -> tuple[
 
 @pytest.mark.skipif(not Path("/proc/self/task").exists(), reason="finds the workers through /proc (Linux)")
 @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGINT], ids=["SIGKILL", "SIGINT"])
-def test_resume_after_the_parallel_parent_is_stopped(serial_run, cache, tmp_path, monkeypatch, sig):
+def test_resume_after_the_parallel_parent_is_stopped(serial_run, module_cache, tmp_path, monkeypatch, sig):
     out, proc, workers = _stopped_mid_run(tmp_path, monkeypatch, sig)
     assert workers, "no worker process was seen"
     deadline = time.monotonic() + 30

@@ -15,10 +15,7 @@ from rail_mj.pipeline.config import RunConfig
 from rail_mj.pipeline.rank import rank, ranked
 from rail_mj.stable_poses import StablePoseConfig
 
-
-@pytest.fixture(autouse=True)
-def _cache(tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setenv("RAIL_MJ_CACHE", str(tmp_path_factory.getbasetemp() / "cache"))
+pytestmark = pytest.mark.usefixtures("shared_cache")
 
 
 @pytest.fixture(scope="module")

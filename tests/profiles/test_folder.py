@@ -35,8 +35,7 @@ DIMS = {"cup": [0.098, 0.098, 0.081], "chair": [0.895, 0.427, 0.384], "basket": 
 
 
 @pytest.fixture(autouse=True)
-def _cache(tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setenv("RAIL_MJ_CACHE", str(tmp_path_factory.getbasetemp() / "cache"))
+def _no_profile_dir(shared_cache: None, monkeypatch: pytest.MonkeyPatch) -> None:
     # set (empty: no folder), so that teardown restores it after the robot command sets it for its process
     monkeypatch.setenv(PROFILE_DIR_ENV, "")
 

@@ -12,10 +12,7 @@ from rail_mj.__main__ import main as rail_main
 from rail_mj.core.results import AffordanceResult, BasinInfo, PoseInfo
 from rail_mj.render.explain import explain, format_explanation, up_axis
 
-
-@pytest.fixture(autouse=True)
-def _cache(tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setenv("RAIL_MJ_CACHE", str(tmp_path_factory.getbasetemp() / "cache"))
+pytestmark = pytest.mark.usefixtures("shared_cache")
 
 
 @pytest.fixture

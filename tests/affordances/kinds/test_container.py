@@ -21,10 +21,7 @@ from rail_mj.pipeline.chain import Pipeline
 from rail_mj.pipeline.config import RunConfig
 from rail_mj.stable_poses import StablePoseConfig, pose_from_up
 
-
-@pytest.fixture(autouse=True)
-def _cache(tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setenv("RAIL_MJ_CACHE", str(tmp_path_factory.getbasetemp() / "cache"))
+pytestmark = pytest.mark.usefixtures("shared_cache")
 
 
 def _candidate(plan: str, mean_height: float, *, inside: float = 1.0, z0: float = 1.2) -> CandidateInteraction:
