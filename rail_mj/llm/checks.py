@@ -135,7 +135,7 @@ def check_agent(agent: AgentModel, task: TaskDescription, analysis: AffordanceAn
     """Fragment rules plus a size and mass plausible for the object (for every object of the use: its largest
     typical size)."""
     geometry = agent_geometry(agent)
-    largest = max(task.obb_dims) if task.obb_dims is not None else max(map(max, task_half_extents(task, analysis))) * 2
+    largest = 2 * max(float(h.max()) for h in task_half_extents(task, analysis))  # the object's, or the sizes' hi
     limit = max(MAX_AGENT_SCALE * largest, MAX_AGENT_RADIUS_M)
     if not 0.001 <= geometry.radius <= limit:
         raise InvalidAnswerError(

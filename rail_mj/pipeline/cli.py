@@ -174,7 +174,9 @@ def _outputs(args: argparse.Namespace, results) -> None:
 
 def _saved_affordances(folder: Path, results) -> None:
     """Say where classify wrote the uses the model defined (RunConfig.save_affordance), or that there were none."""
-    names = sorted({"_".join(r.requested.lower().split()) for r in results if r.definition})
+    from rail_mj.pipeline.definitions import file_stem
+
+    names = sorted({file_stem(r.requested) for r in results if r.definition})
     paths = [p for n in names for p in (folder / f"{n}.toml", folder / n) if p.exists()]
     for path in paths:
         print(f"wrote {path}", file=sys.stderr)

@@ -41,8 +41,8 @@ from rail_mj.llm.schemas import AffordanceDefinition, DefinitionRequest, Imagina
 from rail_mj.pipeline.config import Definition, RunConfig
 from rail_mj.profiles import save_profile
 
-__all__ = ["define", "register", "save", "source_of", "file_text", "prover", "profile_prover", "write_profile",
-           "plans_seen", "CaseRunner", "ProfileRunner"]
+__all__ = ["define", "register", "save", "file_stem", "source_of", "file_text", "prover", "profile_prover",
+           "write_profile", "plans_seen", "CaseRunner", "ProfileRunner"]
 
 #: imagines one object for one use as it stands (the prover's physics): ``(object, use name) -> result``
 CaseRunner = Callable[[RailObject, str], AffordanceResult]
@@ -66,13 +66,18 @@ def file_text(d: Definition) -> str | None:
     return "\n".join(" ".join(line.split("\n")) for line in head) + "\n" + d.row_toml
 
 
+def file_stem(name: str) -> str:
+    """A use's name as :func:`save` names its file or folder: ``fruit_bowl``."""
+    return "_".join(name.lower().split())
+
+
 def save(definitions: Sequence[Definition], folder: Path) -> list[Path]:
     """Write each definition in ``folder``: a row as ``<use>.toml`` (:func:`file_text`), a profile as the profile
     folder ``<use>/`` (:func:`rail_mj.profiles.save_profile`, its via-points for the positive prototype) with
     ``definition.txt`` (who wrote it, why no kind, its proof); the paths written."""
     written = []
     for d in definitions:
-        stem = "_".join(d.name.lower().split())
+        stem = file_stem(d.name)
         text = file_text(d)
         if text is not None:
             folder.mkdir(parents=True, exist_ok=True)
@@ -217,7 +222,7 @@ def define(affordances: Sequence[str], provider: llm.Provider, config: RunConfig
         proofs: dict[str, str] = {}
         prove = prover(run_case, proofs) if run_case is not None else None
         answer = llm.define_affordance(DefinitionRequest(affordance=name), provider, prove)
-        profile, check = None, proofs.get(answer.row_toml or "") if answer.row_toml else None
+        profile, check = None, proofs.get(answer.row_toml) if answer.row_toml else None
         if answer.row_toml is None:
             profile, check = write_profile(name, provider, scale, run_profile)
         d = Definition(name=name, row_toml=answer.row_toml, reason=answer.reason, size_basis=answer.size_basis,
