@@ -30,7 +30,7 @@ import numpy as np
 from rail_mj import llm
 from rail_mj.affordances.files import FileRow
 from rail_mj.affordances.judge import rules_row
-from rail_mj.affordances.prototypes import build, describe
+from rail_mj.affordances.prototypes import Prototype, build, describe
 from rail_mj.affordances.registry import load_text, trial
 from rail_mj.core.results import AffordanceResult
 from rail_mj.core.runfiles import atomic_write_text
@@ -107,18 +107,14 @@ def prover(run_case: CaseRunner, proofs: dict[str, str]) -> Callable[[Affordance
     words of a passed proof go to ``proofs`` under the row's text."""
 
     def prove(answer: AffordanceDefinition, entry: FileRow) -> None:
-        name, lines, failed = entry.row.name, [], []
+        name = entry.row.name
+
+        def run(obj: RailObject) -> tuple[AffordanceResult, str]:
+            r = run_case(obj, name)
+            return r, _seen(r)
+
         with trial([entry], f"the proof of {name!r}"):
-            for i, p in enumerate(answer.prototypes):
-                r = run_case(build(p, f"{p.role}_prototype_{i}"), name)
-                want = p.role == "positive"
-                ok = r.error is None and r.functional == want
-                line = (f"{p.role} prototype {describe(p)}: {'functional' if r.functional else 'not functional'}, "
-                        f"probability {r.probability:.2f}")
-                lines.append(line)
-                if not ok:
-                    failed.append(f"{line}, but the {p.role} must{'' if want else ' not'} be functional. "
-                                  f"{_seen(r)}")
+            lines, failed = _try_prototypes(answer.prototypes, run)
         if failed:
             raise InvalidAnswerError("the row failed its proof on its prototypes (imagined as they stand with the "
                                      "kind's physics and rules): " + " | ".join(failed) + " Repair the row (its "
@@ -134,15 +130,7 @@ def profile_prover(run_profile: ProfileRunner, proofs: dict[str, str]) -> Callab
     is not functional or the negative is; the words of a passed proof go to ``proofs`` under the scoring source."""
 
     def prove(profile: ImaginationProfile) -> None:
-        lines, failed = [], []
-        for i, p in enumerate(profile.analysis.prototypes):
-            r, seen = run_profile(build(p, f"{p.role}_prototype_{i}"), profile)
-            want = p.role == "positive"
-            line = (f"{p.role} prototype {describe(p)}: {'functional' if r.functional else 'not functional'}, "
-                    f"probability {r.probability:.2f}")
-            lines.append(line)
-            if r.error is not None or r.functional != want:
-                failed.append(f"{line}, but the {p.role} must{'' if want else ' not'} be functional. {seen}")
+        lines, failed = _try_prototypes(profile.analysis.prototypes, lambda obj: run_profile(obj, profile))
         if failed:
             raise InvalidAnswerError("the profile failed its proof on its prototypes (each imagined as it stands "
                                      "with the whole profile, in the nominal and the perturbed worlds): "
@@ -152,6 +140,22 @@ def profile_prover(run_profile: ProfileRunner, proofs: dict[str, str]) -> Callab
         proofs[profile.scoring.source] = "proven: " + "; ".join(lines)
 
     return prove
+
+
+def _try_prototypes(prototypes: Sequence[Prototype], run: Callable[[RailObject], tuple[AffordanceResult, str]]
+                    ) -> tuple[list[str], list[str]]:
+    """Each prototype built and imagined as it stands by ``run`` (its result and what the simulation saw): the
+    words on each, and on each that failed (a positive not functional, a negative functional, or an error)."""
+    lines, failed = [], []
+    for i, p in enumerate(prototypes):
+        r, seen = run(build(p, f"{p.role}_prototype_{i}"))
+        want = p.role == "positive"
+        line = (f"{p.role} prototype {describe(p)}: {'functional' if r.functional else 'not functional'}, "
+                f"probability {r.probability:.2f}")
+        lines.append(line)
+        if r.error is not None or r.functional != want:
+            failed.append(f"{line}, but the {p.role} must{'' if want else ' not'} be functional. {seen}")
+    return lines, failed
 
 
 def write_profile(name: str, provider: llm.Provider, scale: float,
