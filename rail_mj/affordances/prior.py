@@ -91,9 +91,18 @@ class Factor:
     hi: float
     width: float
     plausibility: float
+    #: a factor that is no size (how the object came): its words, and no range
+    words: str = ""
+
+    @classmethod
+    def said(cls, words: str, plausibility: float) -> Factor:
+        """A factor that is no size's: ``words`` and a plausibility."""
+        return cls(words, plausibility, 0.0, 1.0, 0.0, plausibility, words)
 
     def doc(self) -> str:
         """``height 0.175 (typical 0.06-0.16, width 25%): 0.72``."""
+        if self.words:
+            return f"{self.words}: {self.plausibility:.2f}"
         return (f"{self.name} {self.value:.3g} (typical {self.lo:g}-{self.hi:g}, width {self.width:.0%}): "
                 f"{self.plausibility:.2f}")
 

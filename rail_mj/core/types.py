@@ -52,6 +52,9 @@ class RailObject:
     mass: float  # kg, from the density
     density: float  # kg / m^3
     source: str = ""  # the file it came from, if any
+    #: its mesh frame's +z is the up it came in (a file's up, the table a scan stood on), evidence of the pose it
+    #: was made to stand in (rail_mj.stable_poses.came_in); False: it came in an arbitrary orientation
+    oriented: bool = True
 
     @property
     def extents(self) -> np.ndarray:

@@ -46,6 +46,9 @@ class LabelRecord(BaseModel):
     nominal_up: Vec3 | None = None
     units: float = Field(default=1.0, gt=0)
     up: Literal["z", "y"] = "z"  # the file's up axis, as rail_mj.mesh.load_mesh takes it
+    #: the file stands the object as it came to rest (a real mesh as made, rail_mj.pipeline.config.ObjectInput);
+    #: False: written in an arbitrary orientation (the procedural set's random rotations)
+    oriented: bool = True
     # what was done to the file (rail_mj.dataset.ground_truth.CORRUPTIONS); None: nothing
     corruptions: list[str] | None = None
     notes: str = ""

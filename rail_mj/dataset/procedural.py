@@ -9,7 +9,8 @@ chairs, stools, sofas, bowls of real proportions, long-handled pans, scoops,
 goblets, open-front boxes, beds, desks, consoles, near misses such as ladles,
 ashtrays, risers and cartons), and mixes in scan-like corruption (below).
 ``family="all"`` is both. Every object is written in a seeded random
-orientation, roughly centred at the origin, in metres with +z as the file's up
+orientation (or, with ``orientation="as_built"``, standing as built and turned
+about its up), roughly centred at the origin, in metres with +z as the file's up
 axis unless its label says otherwise (``units``, ``up``); ``functional_up`` in
 its label is the file-frame unit vector that must point up for the object to
 work (omitted when it affords none of the requested names), and ``nominal_up``
@@ -34,15 +35,18 @@ CLI (:mod:`rail_mj.dataset.cli` hands every command but ``real`` to :func:`main`
 
     python -m rail_mj.dataset --out DIR [--family core|world|all] [--classes cup,bowl] [--per-class N]
                               [--seed S] [--affordances cup,chair] [--corrupt noise,y_up|none]
+                              [--orientation random|as_built]
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import zlib
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 import trimesh
@@ -232,6 +236,7 @@ def generate(
     affordances: str | Sequence[str] | None = None,
     family: str = "core",
     corrupt: str | Sequence[str] | None = None,
+    orientation: Literal["random", "as_built"] = "random",
     progress: Callable[[int, int, LabelRecord], None] | None = None,
 ) -> list[LabelRecord]:
     """Write ``per_class`` objects of each class to ``out_dir/meshes`` and their labels to ``out_dir/labels.jsonl``.
@@ -242,7 +247,9 @@ def generate(
     :data:`~rail_mj.dataset.ground_truth.WORLD_CORRUPTION_RATE` of its objects, the core family none),
     ``"none"``, or names of :data:`~rail_mj.dataset.ground_truth.CORRUPTIONS` applied to every object; a
     corruption draws from a stream of its own, so the object underneath is the clean one. ``affordances``
-    defaults to the paper's eight;
+    defaults to the paper's eight. ``orientation`` ``"random"`` writes each object in a random orientation (labels
+    ``oriented=False``); ``"as_built"`` stands it as built, turned about its up by the same draw's yaw (``oriented``),
+    the way a real mesh file comes;
     ``progress(done, total, record)`` is called after each object. The files are built in a hidden
     staging folder inside ``out_dir`` and moved into place when all are written, ``labels.jsonl``
     last: a run killed part way leaves no ``labels.jsonl`` (the old one is removed first), never one
@@ -267,10 +274,14 @@ def generate(
                 rng = np.random.default_rng([seed, zlib.crc32(name.encode()), i])
                 built = GENERATORS[name](rng)
                 rot = _random_rotation(rng)
+                if orientation == "as_built":  # the same draw (the stream goes on alike), its yaw alone
+                    yaw = math.atan2(rot[1, 0], rot[0, 0])
+                    rot = np.asarray(trimesh.transformations.rotation_matrix(yaw, [0, 0, 1]), dtype=np.float64)
                 mesh = _posed(built.mesh, rot)
                 _check(name, built.mesh, mesh)
                 applied = forced if forced is not None else _mixed_corruptions(name, i, seed)
-                notes = [f"{built.notes}; written in a random orientation"]
+                notes = [f"{built.notes}; written " + ("in a random orientation" if orientation == "random"
+                                                       else "as built, turned about its up")]
                 up = np.asarray(rot[:3, 2], dtype=np.float64)
                 units, up_axis = 1.0, "z"
                 geometric = [c for c in applied if c in GEOMETRIC_CORRUPTIONS]
@@ -314,6 +325,7 @@ def generate(
                     nominal_up=up_t,
                     units=units,
                     up=up_axis,
+                    oriented=orientation == "as_built",
                     corruptions=list(applied) or None,
                     notes="; ".join(notes),
                 )
@@ -347,6 +359,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--affordances",
                         help=f"comma-separated names (default the paper's eight); valid: {','.join(AFFORDANCES)}")
+    parser.add_argument("--orientation", default="random", choices=("random", "as_built"),
+                        help="random (default): each object in a random orientation; as_built: standing as built, "
+                             "as a real mesh file comes (labels oriented=true)")
     parser.add_argument("--matrix", action="store_true", help="print the ground-truth matrix as Markdown and exit")
     args = parser.parse_args(argv)
     if args.matrix:
@@ -367,7 +382,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         with object_bar() as tick:
             records = generate(args.out, classes=_split(args.classes), per_class=args.per_class, seed=args.seed,
                                affordances=_split(args.affordances), family=args.family, corrupt=args.corrupt,
-                               progress=tick)
+                               orientation=args.orientation, progress=tick)
     except (DatasetError, KeyboardInterrupt) as e:
         return report_error(e)
     except OSError as e:

@@ -42,6 +42,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="procedural class family: core (default, the published set), world (shapes of real meshes, "
                    "scan-like corruption mixed in) or all")
     p.add_argument("--classes", help="comma-separated classes (procedural), default all of the family")
+    p.add_argument("--orientation", choices=("random", "as_built"),
+                   help="procedural objects in random orientations (default), or standing as built as a real mesh "
+                        "file comes (evidence of the pose each was made to stand in)")
     p.add_argument("--affordances", help="comma-separated requested affordances, default all labelled")
     p.add_argument("--affordances-file", action="append", type=Path, default=[], metavar="F",
                    help="an affordance file (TOML) whose rows are registered before the names are checked, here "
@@ -104,7 +107,8 @@ def _config(args: argparse.Namespace) -> EvalConfig:
             "run": run,
             # an option left out keeps the config's default, declared there once
             "dataset": {k: v for k, v in {"source": args.dataset, "per_class": args.per_class, "seed": args.seed,
-                                          "family": args.family, "classes": split(args.classes)}.items()
+                                          "family": args.family, "classes": split(args.classes),
+                                          "orientation": args.orientation}.items()
                         if v is not None},
             "affordances": split(args.affordances),
             "render": not args.no_render,

@@ -83,6 +83,8 @@ class DatasetConfig(BaseModel):
     family: Literal["core", "world", "all"] = Field(
         default="core", description="procedural class family (rail_mj.dataset.ground_truth.FAMILIES)")
     classes: list[str] | None = Field(default=None, description="procedural classes; None: all of the family")
+    orientation: Literal["random", "as_built"] = Field(
+        default="random", description="procedural objects in random orientations, or standing as built")
 
 
 class EvalConfig(BaseModel):
@@ -153,7 +155,7 @@ def _dataset_spec(cfg: EvalConfig, classes: Sequence[str], affordances: Sequence
     code = hashlib.sha256(b"".join(path.read_bytes() for path in _generator_sources())).hexdigest()
     data = cfg.dataset
     return {"family": data.family, "classes": list(classes), "per_class": data.per_class, "seed": data.seed,
-            "affordances": list(affordances), "generator_sha256": code}
+            "orientation": data.orientation, "affordances": list(affordances), "generator_sha256": code}
 
 
 def _stale_reason(root: Path, spec: dict) -> str | None:
@@ -190,7 +192,7 @@ def _dataset(cfg: EvalConfig, out: Path, affordances: list[str] | None) -> tuple
                 print(f"rebuilding {root}: {why}", file=sys.stderr)
                 (root / DATASET_SPEC).unlink(missing_ok=True)
             generate(root, classes=classes, per_class=data.per_class, seed=data.seed, affordances=names,
-                     family=data.family)
+                     family=data.family, orientation=data.orientation)
             atomic_write_text(root / DATASET_SPEC, json.dumps(spec, indent=2))
         return root, read_labels(root)
     root = Path(data.source)
@@ -293,7 +295,8 @@ def _run_locked(
     task_cfg = run_cfg.model_copy(update={"provider": pipe.provider_name, "backend": pipe.backend})
     tasks = [
         # absolute: a Ray worker resolves a relative path against its own folder, not this process's
-        object_task(i, ObjectInput(path=root.resolve() / r.mesh, units=r.units, up=r.up, name=r.mesh),
+        object_task(i, ObjectInput(path=root.resolve() / r.mesh, units=r.units, up=r.up, name=r.mesh,
+                                        oriented=r.oriented),
                     [use[a] for a in affs], task_cfg)
         for i, (r, affs) in enumerate(pending)
     ]

@@ -7,6 +7,7 @@ compiled scoring functions).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 import math
@@ -40,6 +41,7 @@ from rail_mj.pipeline.tasks import ObjectTask
 from rail_mj.pipeline.verdicts import candidate_slots, judge, most_probable, pose_prior, undecided
 from rail_mj.scoring import ScoringFunction, compile_scoring
 from rail_mj.stable_poses import find_stable_poses, pose_from_up
+from rail_mj.stable_poses.came_in import design_factors
 from rail_mj.stable_poses.shape import ObjectShapes
 
 __all__ = ["Pipeline", "classify", "define_uses", "definition_counter", "provider_for", "as_placed_pose",
@@ -134,8 +136,9 @@ class Pipeline:
             return item
         if not isinstance(item, ObjectInput):
             item = ObjectInput(path=Path(item))
-        return load_object(item.path, units=item.units, up=item.up, name=item.name,
-                           decomposition=self.config.decomposition)
+        obj = load_object(item.path, units=item.units, up=item.up, name=item.name,
+                          decomposition=self.config.decomposition)
+        return obj if item.oriented else dataclasses.replace(obj, oriented=False)
 
     def stable_poses(self, obj: RailObject) -> StablePoses:
         if self.config.pose == "as_placed":
@@ -207,11 +210,12 @@ class Pipeline:
         row = rules_row(profile.affordance, profile.scale)
         result = self._result(obj, poses, affordance, profile, row)
         result.timings = timings
-        gate = self._prior_gate(obj, poses, profile, row, result)
+        design = design_factors(obj, cast(Sequence[StablePose], poses), lambda: self._shapes(obj, poses).came_in)
+        gate = self._prior_gate(obj, poses, profile, row, result, design)
         if gate is None:
             return result, None
         kept, priors, skipped = gate
-        evidence, stage7 = self._imagine(obj, poses, profile, row, kept, priors, result)
+        evidence, stage7 = self._imagine(obj, poses, profile, row, kept, priors, result, design)
         if stage7 is None:
             result.analyzer_reasons = [*skipped, "no plan scored above 0 in any imagined stable pose"]
         else:
@@ -244,7 +248,8 @@ class Pipeline:
         )
 
     def _prior_gate(self, obj: RailObject, poses: StablePoses, profile: ImaginationProfile, row: Affordance | None,
-                    result: AffordanceResult) -> tuple[list[int], dict[int, Prior], list[str]] | None:
+                    result: AffordanceResult, design: Sequence[tuple[str, float] | None]
+                    ) -> tuple[list[int], dict[int, Prior], list[str]] | None:
         """The poses worth imagining, their priors and the reasons for those skipped; None, with the result's
         probability set to the prior, when no physics could make the object functional.
 
@@ -263,7 +268,7 @@ class Pipeline:
             result.prior = dims.doc()
             return None
         kept = [i for i, p in enumerate(poses) if p.probability >= self.config.min_pose_probability] or [0]
-        priors = {i: pose_prior(row, obj.obb_dims, poses[i], analysis.sizes) for i in kept}
+        priors = {i: pose_prior(row, obj.obb_dims, poses[i], analysis.sizes, design[i]) for i in kept}
         skipped = [f"pose {i}: not imagined: its prior {priors[i].value:.3f} is below {NEGLIGIBLE:g} "
                    f"({priors[i].doc()}), so no physics could make it functional"
                    for i in kept if priors[i].value < NEGLIGIBLE]
@@ -285,8 +290,8 @@ class Pipeline:
         return sizes.prior(obj.obb_dims) if sizes is not None else Prior()
 
     def _imagine(self, obj: RailObject, poses: StablePoses, profile: ImaginationProfile, row: Affordance | None,
-                 kept: list[int], priors: dict[int, Prior], result: AffordanceResult
-                 ) -> tuple[ImaginedWorlds, FunctionalPoseVerdict | None]:
+                 kept: list[int], priors: dict[int, Prior], result: AffordanceResult,
+                 design: Sequence[tuple[str, float] | None]) -> tuple[ImaginedWorlds, FunctionalPoseVerdict | None]:
         """Up to three batched calls — the nominal world, the perturbed worlds, the second decomposition — into one
         :class:`ImaginedWorlds`, the provider's stage 7 on the nominal world, and the poses' verdicts
         (``result.pose_verdicts``, judged after the perturbed worlds and again with the second decomposition)."""
@@ -341,7 +346,7 @@ class Pipeline:
                                               shapes.came_in if shapes is not None else None)
         stage7 = None if request is None else llm.analyze_functional_poses(request, self.provider)
         sizes = profile.analysis.sizes
-        result.pose_verdicts = judge(evidence, obj.obb_dims, stage7, llm_veto=veto, sizes=sizes)
+        result.pose_verdicts = judge(evidence, obj.obb_dims, stage7, llm_veto=veto, sizes=sizes, design=design)
         timings["functional_pose_analyzer"] = time.perf_counter() - t
         # the second decomposition: one more world for the poses whose verdict it could still change
         open_slots = undecided(result.pose_verdicts, slots) if self._decomposition_matters(row) else []
@@ -352,7 +357,7 @@ class Pipeline:
                                agents, [evidence.trajectories[k] for k in open_slots], backend=self.backend,
                                config=self.config.imagination)
             evidence.add_second_decomposition(rollouts, scorer(rollouts), open_slots)
-            result.pose_verdicts = judge(evidence, obj.obb_dims, stage7, llm_veto=veto, sizes=sizes)
+            result.pose_verdicts = judge(evidence, obj.obb_dims, stage7, llm_veto=veto, sizes=sizes, design=design)
             timings["second_decomposition"] = time.perf_counter() - t
         return evidence, stage7
 

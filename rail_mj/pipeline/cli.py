@@ -224,6 +224,9 @@ def _parser() -> argparse.ArgumentParser:
                         "scoring.py and rail_mj.json), for --profile-dir DIR to read back")
     p.add_argument("--units", type=_metres_per_unit, default=1.0, help="metres per mesh unit (0.001 for millimetres)")
     p.add_argument("--up", choices=("z", "y"), default="z", help="the mesh's up axis")
+    p.add_argument("--any-orientation", action="store_true",
+                   help="the mesh comes in an arbitrary orientation (a scan whose up is unknown): the pose it came "
+                        "in is no evidence of the pose it was made to stand in (default: it is; docs/verdicts.md)")
     p.add_argument("--provider",
                    help="auto | offline | anthropic | openai (OPENAI_BASE_URL, OPENAI_API_KEY, RAIL_MJ_MODEL)")
     p.add_argument("--backend", help="auto | native | mjx (default auto)")
@@ -263,7 +266,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             check_scene_dir(args.save_scene)  # before any work
         config = RunConfig(affordances_files=args.affordances_file, **run_settings(args))
         options: dict[str, Any] = dict(progress=False, config=config)
-        item = ObjectInput(path=args.mesh, units=args.units, up=args.up)
+        item = ObjectInput(path=args.mesh, units=args.units, up=args.up, oriented=not args.any_orientation)
         if args.rank:
             results = rank([item], args.affordance, **options)[0].results
             if not args.json and not args.explain:

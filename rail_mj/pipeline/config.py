@@ -138,3 +138,6 @@ class ObjectInput(BaseModel):
     units: float = Field(default=1.0, gt=0, description="metres per mesh unit")
     up: Literal["z", "y"] = "z"
     name: str | None = None
+    oriented: bool = Field(default=True, description="the file stands the object as it came to rest (as made, "
+                           "or as it fell); False: an arbitrary orientation (a generated set's random rotations), "
+                           "no evidence of the pose it was made to stand in")

@@ -52,7 +52,7 @@ import numpy as np
 from rail_mj.affordances import Affordance
 from rail_mj.affordances.judge import judge_pose, rules_row, world_row
 from rail_mj.affordances.kinds import kind_of
-from rail_mj.affordances.prior import FUNCTIONAL, Prior
+from rail_mj.affordances.prior import FUNCTIONAL, Factor, Prior
 from rail_mj.affordances.sizes import UseSizes
 from rail_mj.core.profile import FunctionalPoseVerdict
 from rail_mj.core.results import PoseProbability
@@ -91,14 +91,16 @@ def undecided(verdicts: Sequence[PoseProbability], slots: Sequence[int]) -> list
 
 
 def pose_prior(aff: Affordance | None, obb_dims: Sequence[float] | np.ndarray, pose: StablePose,
-               sizes: UseSizes | None = None) -> Prior:
+               sizes: UseSizes | None = None, design: tuple[str, float] | None = None) -> Prior:
     """One pose's prior: the size prior of the object's OBB times the pose's envelope prior (its basin's rim for
     a vessel's aspect); for an affordance outside the registry, the ``sizes`` of its profile for every object
-    (no factor without them)."""
+    (no factor without them); times ``design``, the probability that the object was made to stand in the pose
+    (:func:`rail_mj.stable_poses.came_in.design_factors`: words and a number), when there is evidence of it."""
+    made = Prior((Factor.said(*design),)) if design is not None else Prior()
     if aff is None:
-        return sizes.prior(obb_dims) if sizes is not None else Prior()
+        return (sizes.prior(obb_dims) if sizes is not None else Prior()) * made
     return aff.size_prior([float(d) for d in obb_dims]) * aff.pose_prior(
-        [float(v) for v in pose.half_extents], None if pose.basin is None else pose.basin.rim)
+        [float(v) for v in pose.half_extents], None if pose.basin is None else pose.basin.rim) * made
 
 
 def _judged(evidence: ImaginedWorlds, world: World) -> Accepted:
@@ -127,12 +129,14 @@ def _blown(world: World, names: Sequence[str]) -> dict[int, list[str]]:
 
 def judge(evidence: ImaginedWorlds, obb_dims: Sequence[float] | np.ndarray,
           stage7: FunctionalPoseVerdict | None = None, llm_veto: bool = False,
-          sizes: UseSizes | None = None) -> list[PoseProbability]:
+          sizes: UseSizes | None = None,
+          design: Sequence[tuple[str, float] | None] | None = None) -> list[PoseProbability]:
     """One :class:`PoseProbability` per imagined pose (``evidence.kept``, in that order), from every world of the
     ``evidence``, each judged once by the rules (:func:`rail_mj.affordances.judge.judge_pose`).
 
     ``obb_dims`` are the object's (its size prior; ``sizes``: a profile's for every object of a use outside the
-    registry, :func:`pose_prior`). ``stage7`` is the provider's verdict on the nominal world: its
+    registry, :func:`pose_prior`); ``design`` per stable pose, the probability that the object was made to stand in
+    it where there is evidence (:func:`pose_prior`). ``stage7`` is the provider's verdict on the nominal world: its
     plan for a pose breaks a tie between plans; with ``llm_veto`` (a model's answer, not the rules' own), a pose it
     rejected has physics 0: common sense vetoes what the rules would let through. Here the model's answer and the
     rules meet.
@@ -166,7 +170,7 @@ def judge(evidence: ImaginedWorlds, obb_dims: Sequence[float] | np.ndarray,
         chosen, row = stage7_plans.get(i), scores0[k * len(names) : (k + 1) * len(names)]
         best = (max(wins[k], key=lambda name: (wins[k][name], name == chosen, float(row[names.index(name)])))
                 if successes else None)
-        p = pose_prior(aff, obb_dims, evidence.poses[i], sizes)
+        p = pose_prior(aff, obb_dims, evidence.poses[i], sizes, design[i] if design is not None else None)
         if aff is not None and best is not None and rests[k].get(best):
             p = p * aff.rest_prior(float(np.median(rests[k][best])))
         prior = p.value

@@ -82,7 +82,7 @@ def _placed(obj: RailObject, rotation: np.ndarray) -> tuple[trimesh.Trimesh, lis
 def pose_shape(obj: RailObject, pose: StablePose) -> PoseShape:
     """The shape facts of ``obj`` in ``pose``."""
     up = pose.up_in_mesh_frame
-    came = math.degrees(math.acos(float(np.clip(up[2], -1.0, 1.0)))) <= AS_IT_CAME_DEG
+    came = obj.oriented and math.degrees(math.acos(float(np.clip(up[2], -1.0, 1.0)))) <= AS_IT_CAME_DEG
     rotation = np.zeros(9)
     mujoco.mju_quat2Mat(rotation, np.asarray(pose.quat, dtype=np.float64))
     return _shape(*_placed(obj, rotation.reshape(3, 3)), came)

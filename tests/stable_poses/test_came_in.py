@@ -1,0 +1,82 @@
+"""The pose an object came in as evidence of the pose it was made to stand in: a shelf box that came standing is
+no basket on its back; a cup that came upside down is still a cup; an object in an arbitrary orientation gives no
+evidence."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+import trimesh
+
+from rail_mj.core.types import RailObject
+from rail_mj.mesh import object_from_mesh
+from rail_mj.pipeline.chain import Pipeline, classify
+from rail_mj.pipeline.config import RunConfig
+from rail_mj.robot.demo import make_object
+from rail_mj.stable_poses.came_in import PLACED, came_in_pose, design_factors, made_to_stand
+from rail_mj.stable_poses.shape import came_in_shape
+
+
+def _open_front_box() -> RailObject:
+    """A cubby 40 cm wide, 30 cm deep, 32 cm tall of 1.5 cm boards, open at its front (+x), standing as built."""
+    w, d, h, t = 0.40, 0.30, 0.32, 0.015
+    boards = [([d, w, t], [0, 0, t / 2]), ([d, w, t], [0, 0, h - t / 2]), ([d, t, h], [0, -w / 2 + t / 2, h / 2]),
+              ([d, t, h], [0, w / 2 - t / 2, h / 2]), ([t, w, h], [-d / 2 + t / 2, 0, h / 2])]
+    parts = []
+    for extents, centre in boards:
+        b = trimesh.creation.box(extents=extents)
+        b.apply_translation(centre)
+        parts.append(b)
+    return object_from_mesh(trimesh.boolean.union(parts, engine="manifold"), name="cubby")
+
+
+def _turned_over(obj: RailObject) -> RailObject:
+    """``obj`` as it came turned over (half a turn about x)."""
+    mesh = obj.mesh.copy()
+    mesh.apply_transform(trimesh.transformations.rotation_matrix(np.pi, [1, 0, 0]))
+    return object_from_mesh(mesh, name=f"{obj.name}_turned_over")
+
+
+def test_another_pose_was_made_to_stand_in_at_most_a_third_of_the_time() -> None:
+    assert PLACED == 0.5
+    assert made_to_stand(0.0) == 0.0
+    values = [made_to_stand(p) for p in np.linspace(0.0, 1.0, 11)]
+    # the likelier a fall ends in the pose it came in, the weaker the evidence
+    assert all(a < b for a, b in zip(values, values[1:], strict=False))
+    assert made_to_stand(1.0) == pytest.approx(1 / 3)
+
+
+def test_the_pose_it_came_in_carries_no_factor_and_every_other_one() -> None:
+    cubby = _open_front_box()
+    poses = Pipeline(RunConfig(provider="offline")).stable_poses(cubby)
+    came = came_in_pose(cubby, poses)
+    assert came is not None and poses[came].up_in_mesh_frame[2] > 0.9
+    factors = design_factors(cubby, poses, lambda: came_in_shape(cubby))
+    assert factors[came] is None
+    others = [f for i, f in enumerate(factors) if i != came]
+    assert others and all(f is not None and f[1] == made_to_stand(poses[came].probability) for f in others)
+    arbitrary = dataclasses.replace(cubby, oriented=False)
+    assert came_in_pose(arbitrary, poses) is None
+    assert design_factors(arbitrary, poses, lambda: came_in_shape(arbitrary)) == [None] * len(poses)
+
+
+def test_an_object_that_came_turned_over_gives_no_evidence() -> None:
+    cup = _turned_over(make_object("cup", 0))
+    poses = Pipeline(RunConfig(provider="offline")).stable_poses(cup)
+    assert came_in_pose(cup, poses) is not None  # it came at rest, mouth down
+    assert design_factors(cup, poses, lambda: came_in_shape(cup)) == [None] * len(poses)
+
+
+def test_a_shelf_box_that_came_standing_is_no_basket_on_its_back() -> None:
+    cubby = _open_front_box()
+    config = RunConfig(provider="offline")
+    standing, = classify([cubby], ["basket"], config=config, progress=False, workers=1)
+    anyhow, = classify([dataclasses.replace(cubby, oriented=False)], ["basket"], config=config, progress=False,
+                       workers=1)
+    # in an arbitrary orientation the physics alone judges: on its back it holds what is dropped in
+    assert anyhow.functional and anyhow.probability >= 0.8
+    assert not standing.functional and standing.probability < 1 / 3
+    best = max(standing.pose_verdicts, key=lambda v: v.probability)
+    assert "made to stand this way" in best.prior_factors
