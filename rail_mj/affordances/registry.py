@@ -108,11 +108,13 @@ def _rows() -> tuple[Affordance, ...]:
                    # held in one hand (its rim the width; a handle lengthens the box, never widens it)
                    envelope=Envelope(height=_CUP_HEIGHT, width=(0.0, _GRIP), aspect=(_BOWL_DEPTH, inf))),
         Affordance("bowl", "container", "A bowl holds food or liquid in a wide, open, upward-facing cavity reachable "
-                   "from above (rim 12.5-35 cm across, up to 50 cm long with a handle, at least 4.5 cm deep, height at "
+                   "from above (rim 12.5-40 cm across, up to 50 cm long with a handle, at least 4.5 cm deep, height at "
                    "most 0.55 of the rim).", paper=True, params=ContainerParams(droplets=_LIQUID, holds_water=True),
                    # a rim wider than a hand's grip up to a serving bowl's 40 cm (a saucepan's handle lengthens
-                   # its box, never widens it); deeper than a dish, to 20 cm deep; wide and shallow
-                   envelope=Envelope(height=(_DISH[1], 0.2), width=(_GRIP, 0.4), aspect=(0.0, _BOWL_DEPTH))),
+                   # its box, never widens it: to 50 cm, a 28 cm pan's 22 cm handle); deeper than a dish, to 20 cm
+                   # deep; wide and shallow
+                   envelope=Envelope(height=(_DISH[1], 0.2), width=(_GRIP, 0.4), length=(0.0, 0.5),
+                                     aspect=(0.0, _BOWL_DEPTH))),
         Affordance("vase", "container", "A vase holds water and flower stems in a deep cavity with an opening at the "
                    "top, often narrower than its body (15-80 cm tall, clearly taller than wide, its body rarely over "
                    "23 cm across).", paper=True,
@@ -138,9 +140,10 @@ def _rows() -> tuple[Affordance, ...]:
                    "than wide).", paper=True,
                    # items, not liquid: 2.4 cm across at least, larger than a basket's weave or slots
                    params=ContainerParams(droplets=Droplets(min_radius=0.012)),
-                   # carried in the arms: wider than a hand's grip, deeper than a dish (a bread basket) to 35 cm
-                   # (a laundry basket) deep, not taller than wide
-                   envelope=Envelope(height=(_DISH[1], 0.35), width=(_GRIP, _ARMS), aspect=(0.0, 1.0))),
+                   # carried in the arms: wider than a hand's grip, its footprint no longer than their span, deeper
+                   # than a dish (a bread basket) to 35 cm (a laundry basket) deep, not taller than wide
+                   envelope=Envelope(height=(_DISH[1], 0.35), width=(_GRIP, _ARMS), length=(0.0, _ARMS),
+                                     aspect=(0.0, 1.0))),
         Affordance("bathtub", "container", "A bathtub holds enough water for a person to bathe in a long open basin "
                    "on the floor (over 1 m long inside, 0.35-0.9 m tall).", aliases=("bath tub", "tub"), paper=True,
                    # the basin a bather sits in with legs stretched: their buttock-heel length, 0.6 of stature
@@ -151,10 +154,11 @@ def _rows() -> tuple[Affordance, ...]:
                    # a person lies in it: a rim at knee to hip height, wider than the hips (0.5 m), no longer than
                    # a lying one (2.5 m)
                    envelope=Envelope(height=(0.35, _HIP), width=(0.5, inf), length=(0.0, 2.5))),
-        Affordance("plate", "dish", "A plate holds food on a low, level, nearly flat surface (15-32 cm across, 1-4 cm "
-                   "tall).", aliases=("dish",), paper=True,
-                   envelope=Envelope(height=_DISH, length=_PLATE)),
-        Affordance("table", "surface", "A table holds items on a level top surface 0.55-1.1 m high and at least "
+        Affordance("plate", "dish", "A plate holds food on a low, level, nearly flat surface (15-32 cm across either "
+                   "way, 1-4.5 cm tall).", aliases=("dish",), paper=True,
+                   # round or oval: at least a side plate's 15 cm across its narrower way too
+                   envelope=Envelope(height=_DISH, width=(_PLATE[0], inf), length=_PLATE)),
+        Affordance("table", "surface", "A table holds items on a level top surface 0.55-1.12 m high and at least "
                    "0.5 m across, with free space above it and room for a person's feet under its edge.",
                    paper=True, params=SurfaceParams(legroom=True),
                    # its top at a seated person's elbow to a standing one's (a bar table's 1.12 m), wide enough
@@ -183,10 +187,11 @@ def _rows() -> tuple[Affordance, ...]:
                    # a lying person (1.6 m, a child's bed) to a king size (2.6 m); a mattress on the floor (0.2 m)
                    # to a headboard (1.2 m); the sleeper a little above the floor to a high bed (0.15-0.9 m)
                    (1.6, 2.6), (0.2, 1.2), envelope=Envelope(rest=(0.15, 0.9))),
-        Affordance("tray", "dish", "A tray carries items on a flat level base with a low rim (15-60 cm across, at "
-                   "most 4.5 cm tall).",
-                   # carried in two hands: 15 cm (a tray for one cup) to the span of the arms
-                   envelope=Envelope(height=_DISH, length=(0.15, _ARMS))),
+        Affordance("tray", "dish", "A tray carries items on a flat level base with a low rim (15-60 cm across either "
+                   "way, at most 4.5 cm tall).",
+                   # carried in two hands: 15 cm (a tray for one cup) to the span of the arms; a cup's tray is
+                   # 15 cm across its narrower way too
+                   envelope=Envelope(height=_DISH, width=(0.15, inf), length=(0.15, _ARMS))),
         Affordance("shelf", "storage", "A shelf stores items on level boards reached horizontally from the front.",
                    # a paperback's depth (0.15 m) to a storage rack's (0.8 m)
                    _FURNITURE, (0.15, 0.8), aliases=("bookshelf",)),
@@ -208,11 +213,11 @@ def _rows() -> tuple[Affordance, ...]:
                    # a spice jar's 7 cm to a storage jar's 30 cm, a hand's grip wide, as tall as wide
                    envelope=Envelope(height=(0.07, 0.3), width=(0.0, _GRIP), aspect=(1.0, inf))),
         Affordance("saucer", "dish", "A saucer holds a cup or a little food on a small, low dish with a shallow "
-                   "well inside a rim (10-15 cm across, 1-4.5 cm tall).",
-                   # under a cup's foot (10 cm) to a side plate's size, a dish's rim high
-                   envelope=Envelope(height=_DISH, length=(0.1, _PLATE[0]))),
+                   "well inside a rim (10-15 cm across either way, 1-4.5 cm tall).",
+                   # under a cup's foot (10 cm, round: either way) to a side plate's size, a dish's rim high
+                   envelope=Envelope(height=_DISH, width=(0.1, inf), length=(0.1, _PLATE[0]))),
         Affordance("nightstand", "surface", "A nightstand holds a lamp, a book or a glass beside a bed on a level top "
-                   "0.4-0.75 m high, 0.25-0.55 m deep and at most 0.8 m long, lower and smaller than a table.",
+                   "0.4-0.76 m high, 0.25-0.55 m deep and at most 0.8 m long, lower and smaller than a table.",
                    aliases=("night stand", "bedside table", "night table", "bedside cabinet"),
                    # its top at a lying person's reach beside a bed's mattress (0.4-0.76 m), a lamp's foot deep
                    # (0.25 m) to an arm's reach (0.55 m), no longer than a bed's side allows (0.8 m)

@@ -49,8 +49,8 @@ from rail_mj.llm.schemas import (
 __all__ = ["StageSpec", "PROMPT_VERSION", "STAGES", "system_prompt", "user_prompt", "repair_prompt"]
 
 PROMPT_VERSION: dict[str, str] = {
-    # 2: the prototypes the row is proven on
-    "affordance_definition": "2",
+    # 2: the prototypes the row is proven on; 3: the bowl example's row states its length (a handle's)
+    "affordance_definition": "3",
     # 2: the task carries the request's agent scale (its examples show it); 3: the prior's format, the alternative
     # and the resting face defined; 4: a task of no obb_dims (one profile per use) gives sizes and prototypes
     "affordance_analyzer": "4",
@@ -310,7 +310,8 @@ _EXAMPLE_DEFINITIONS = (
                 why="a 20 cm bowl 8 cm deep"),
       Prototype(role="negative", shape="closed_cylinder", length=0.2, width=0.0, height=0.08,
                 why="the same outline closed: nothing stays in it")],
-     ["rim 12.5-35 cm across, 4.5-20 cm deep: cereal bowls to mixing bowls in catalogues",
+     ["rim 12.5-40 cm across, 4.5-20 cm deep: cereal bowls to serving bowls in catalogues; up to 50 cm long with "
+      "a saucepan's handle",
       "height at most 0.55 of the rim: a bowl is wider than tall, unlike a cup"],
      "A bowl holds food poured into it: the container kind drops droplets above the opening and keeps them."),
 )

@@ -164,3 +164,22 @@ def test_the_agent_placed_on_a_figures_dish_or_table_is_sized_to_it(kind, name):
     width = {"plate": 0.15, "table": 0.5}[name] * doll
     shape = KINDS[kind].agent(REGISTRY[name], (width, width, 0.02 * doll))
     assert 2 * shape.radius < width
+
+
+
+@pytest.mark.parametrize("name, box, size", [
+    ("plate", (0.30, 0.05, 0.02), "width"),  # a strip 5 cm wide is no plate: it is not 15 cm across both ways
+    ("saucer", (0.14, 0.04, 0.02), "width"),
+    ("tray", (0.50, 0.08, 0.03), "width"),
+    ("bowl", (0.70, 0.25, 0.10), "length"),  # a handle makes a bowl 50 cm long at most
+    ("basket", (0.90, 0.40, 0.25), "length"),  # a footprint longer than the span of the arms
+])
+def test_every_size_a_dish_or_vessel_is_defined_by_is_in_its_prior(name, box, size):
+    row = get(name)
+
+    def plausibility(dims: tuple[float, ...]) -> float:
+        return {f.name: f.plausibility for f in row.pose_prior([v / 2 for v in dims]).factors}[size]
+
+    assert plausibility(box) < 0.5
+    fitting = (box[0], 0.25, box[2]) if size == "width" else (0.3, box[1], box[2])
+    assert plausibility(fitting) == 1.0
