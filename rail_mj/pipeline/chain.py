@@ -338,13 +338,10 @@ class Pipeline:
 
         verdicts()
         timings["functional_pose_analyzer"] = time.perf_counter() - t
-        t, cpu = time.perf_counter(), time.process_time()
         slots = [k for k in candidate_slots(nominal.scores, len(kept), n_plans, [priors[i].value for i in kept])
                  if kept[k] not in vetoed]
-        self._perturbed_worlds(obj, poses, agents, evidence, row, slots, [priors[i].value for i in kept],
-                               scorer, verdicts, result)
-        timings["perturbed_worlds"] = time.perf_counter() - t
-        timings["perturbed_worlds_cpu"] = time.process_time() - cpu
+        upper = [priors[i].value for i in kept]
+        self._perturbed_worlds(obj, poses, agents, evidence, row, slots, upper, scorer, verdicts, result)
         # the second decomposition: one more world for the poses whose verdict it could still change
         open_slots = undecided(result.pose_verdicts, slots) if self._decomposition_matters(row) else []
         if open_slots:
@@ -356,6 +353,8 @@ class Pipeline:
             evidence.add_second_decomposition(rollouts, scorer(rollouts), open_slots)
             verdicts()
             timings["second_decomposition"] = time.perf_counter() - t
+            # where it left a second pose that can pass, the poses that can go on to the last perturbed world
+            self._perturbed_worlds(obj, poses, agents, evidence, row, slots, upper, scorer, verdicts, result)
         return evidence, stage7
 
     def _perturbed_worlds(self, obj: RailObject, poses: StablePoses, agents: AgentSetup, evidence: ImaginedWorlds,
@@ -364,10 +363,12 @@ class Pipeline:
         """The perturbed worlds, a few at a time: each candidate plan (:meth:`ImaginedWorlds.candidate_plans`)
         again in each pose of the ``slots`` whose verdict the worlds left could still change
         (:func:`~rail_mj.pipeline.verdicts.next_worlds`; ``upper``: each imagined pose's prior without a rest
-        prior), each group of poses and worlds in one batched call, ``verdicts()`` judged again after each round."""
+        prior), each group of poses and worlds in one batched call, ``verdicts()`` judged again after each round;
+        their seconds added to the result's timings (called again after the second decomposition)."""
         perturbed = evidence.perturbations.perturbed
         if perturbed is None:
             return
+        t, cpu = time.perf_counter(), time.process_time()
         names = evidence.plan_names
         read = {names.index(p) for p in (kind_of(row).evidence_plans(row, names) if row is not None else ())}
         # the most worlds a pose is imagined in: the nominal one, each perturbed one and the second decomposition
@@ -382,6 +383,10 @@ class Pipeline:
                                    perturbations=PerturbationSet(evidence.perturbations.worlds[first : first + n]))
                 evidence.add_perturbed(rollouts, scorer(rollouts), pairs, group, first=first)
             verdicts()
+        timings = result.timings
+        timings["perturbed_worlds"] = timings.get("perturbed_worlds", 0.0) + time.perf_counter() - t
+        # CPU seconds of every thread of this process: what the batches cost, however loaded the machine was
+        timings["perturbed_worlds_cpu"] = timings.get("perturbed_worlds_cpu", 0.0) + time.process_time() - cpu
 
     def _pick(self, result: AffordanceResult, profile: ImaginationProfile, evidence: ImaginedWorlds,
               stage7: FunctionalPoseVerdict | None) -> None:

@@ -108,10 +108,11 @@ def next_worlds(verdicts: Sequence[PoseProbability], slots: Sequence[int], upper
     ``upper x (s + most - n) / most`` does (``upper[k]``: its prior without a rest prior, which is at most 1) and
     is sure to when ``prior x s / most`` does, whatever the worlds left show (only where the prior is final,
     ``prior_final``: a rest prior moves with each world's rest height). The poses that can but are not sure to
-    pass go on, together, for as many worlds as no outcome of fewer could decide one of them. Once none is left,
-    and two poses or more can pass, those go on to the last perturbed world: which of them is most probable reads
-    their counts of every world. Every other pose stops: its verdict is the same whatever the worlds left would
-    show, and its physics is ``s / n`` over the worlds it was imagined in (``PoseProbability.imagined``)."""
+    pass go on, together, for as many worlds as no outcome of fewer could decide one of them. Once none is left (the
+    second decomposition, when it is still to come for one, imagined first), and two poses or more can pass, those
+    go on to the last perturbed world: which of them is most probable reads their counts of every world. Every other
+    pose stops: its verdict is the same whatever the worlds left would show, and its physics is ``s / n`` over the
+    worlds it was imagined in (``PoseProbability.imagined``)."""
     # each bound is computed as judge computes a probability, prior * (successes / worlds): a count of successes
     # over worlds that is at least (at most) the bound's as a fraction is so as a float, exactly
     def bounds(k: int) -> tuple[float, float, int, int, int]:
@@ -133,12 +134,13 @@ def next_worlds(verdicts: Sequence[PoseProbability], slots: Sequence[int], upper
                      or hi * ((s + rest - j) / most) < FUNCTIONAL), left)
 
     could = [k for k in slots if can_pass(k)]
+    undecided_ = [k for k in could if not sure(k)]
     # the undecided poses have gone on together since the nominal world: one first world
-    going = [k for k in could if not sure(k) and bounds(k)[4] > 0]
+    going = [k for k in undecided_ if bounds(k)[4] > 0]
     if going:
         return [(going, verdicts[going[0]].imagined, min(worlds_to_decide(k) for k in going))]
-    if len(could) < 2:
-        return []
+    if len(could) < 2 or any(bounds(k)[3] > 0 for k in undecided_):
+        return []  # one pose can pass; or the second decomposition, still to come, may rule one out first
     at: dict[int, list[int]] = {}
     for k in could:
         if bounds(k)[4] > 0:

@@ -109,6 +109,12 @@ def test_a_pose_sure_to_pass_waits_for_the_others_and_goes_on_only_if_another_co
     # once it is sure too, both go on to the last world from where each stopped: their counts say which is likelier
     both = [sure, _verdict(1, 1.0, 3, 4), failed]
     assert next_worlds(both, [0, 1, 2], [1.0] * 3, 5, 4, True) == [([0], 3, 2), ([1], 4, 1)]
+    # a pose through every perturbed world that the second decomposition may still make pass: it comes first, and
+    # may leave the sure pose alone
+    failed = _verdict(2, 1.0, 0, 4)  # 0 + 2 of 6
+    assert next_worlds([sure, _verdict(1, 1.0, 2, 5), failed], [0, 1, 2], [1.0] * 3, 6, 4, True) == []
+    assert next_worlds([sure, _verdict(1, 1.0, 2, 6), failed], [0, 1, 2], [1.0] * 3, 6, 4, True) == []
+    assert next_worlds([sure, _verdict(1, 1.0, 3, 6), failed], [0, 1, 2], [1.0] * 3, 6, 4, True) == [([0], 3, 2)]
 
 
 def test_a_rest_prior_that_moves_with_each_world_never_makes_a_pose_sure():
