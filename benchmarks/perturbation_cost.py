@@ -8,7 +8,9 @@ Each object is loaded (hulls, stable poses) once; every affordance is then run i
 imagination, the perturbed worlds, the second decomposition (its CoACD run included, once per object: later
 affordances find its hulls cached) and the verdicts. Next to them: how many verdicts (``functional``) differ from
 the first column's, and in how many cases the second decomposition was imagined. The machine's load shows in the
-seconds: compare the columns of one run.
+seconds: compare the columns of one run. The CPU seconds (every thread of this process, the load of other processes
+apart) of the nominal imagination and of the perturbed worlds, from each result's timings, split what the
+perturbed worlds cost against what the nominal world costs.
 """
 
 from __future__ import annotations
@@ -45,6 +47,7 @@ def main() -> None:
     first_mode = next(iter(pipes))
     first = pipes[first_mode]
     seconds = dict.fromkeys(pipes, 0.0)
+    cpu = {name: {"imagination_cpu": 0.0, "perturbed_worlds_cpu": 0.0} for name in pipes}
     changed = dict.fromkeys(pipes, 0)
     decomposed = 0
     cases = 0
@@ -58,11 +61,14 @@ def main() -> None:
                 r = pipe.run(obj, poses, a)
                 seconds[name] += time.perf_counter() - t
                 verdicts[name] = r.functional
+                for stage in cpu[name]:
+                    cpu[name][stage] += r.timings.get(stage, 0.0)
                 decomposed += "second_decomposition" in r.timings
             for name, v in verdicts.items():
                 changed[name] += v != verdicts[first_mode]
             cases += 1
     out = {"objects": len(labels), "cases": cases, "seconds": {k: round(v, 2) for k, v in seconds.items()},
+           "cpu_seconds": {k: {s: round(v, 2) for s, v in c.items()} for k, c in cpu.items()},
            "verdicts_changed": changed, "second_decomposition_imagined": decomposed}
     if args.json:
         print(json.dumps(out))
@@ -73,6 +79,10 @@ def main() -> None:
         print(f"{name}: {v:.1f} s ({v / seconds[first_mode]:.2f}x {first_mode}); verdicts that differ from "
               f"{first_mode}'s: {changed[name]}")
     print(f"the second decomposition was imagined in {decomposed} of {cases} cases (where it could turn the verdict)")
+    for name, c in cpu.items():
+        nominal, perturbed = c["imagination_cpu"], c["perturbed_worlds_cpu"]
+        ratio = f" ({perturbed / nominal:.2f}x)" if nominal else ""
+        print(f"{name}: CPU s nominal imagination {nominal:.1f}, perturbed worlds {perturbed:.1f}{ratio}")
 
 
 if __name__ == "__main__":

@@ -31,6 +31,9 @@ class Backend(abc.ABC):
 
     def __init__(self, config: ImaginationConfig | None = None):
         self._config = config or ImaginationConfig()
+        #: the last scene composed, with the object and agents it was for: a case's batched calls (the nominal
+        #: world, each round of perturbed worlds) step one object with one agent setup, compiled once
+        self._last: tuple[RailObject, AgentSetup, Scene] | None = None
 
     @property
     def config(self) -> ImaginationConfig:
@@ -46,7 +49,13 @@ class Backend(abc.ABC):
         """Simulate every rollout of ``batch``."""
 
     def _compose(self, obj: RailObject, agents: AgentSetup, physics: ScenePhysics, hull_boxes: int = 0) -> Scene:
+        """``obj`` and ``agents`` composed with this backend's ``physics`` (which its config fixes), or the same
+        scene again when they are the last ones composed (the same objects, not equal copies)."""
+        if self._last is not None and self._last[0] is obj and self._last[1] is agents:
+            return self._last[2]
         try:
-            return compose_scene(obj, agents, physics, hull_boxes=hull_boxes)
+            scene = compose_scene(obj, agents, physics, hull_boxes=hull_boxes)
         except SceneError as exc:
             raise ImaginationError(f"the imagination scene for {obj.name!r} cannot be built: {exc}") from exc
+        self._last = (obj, agents, scene)
+        return scene

@@ -64,7 +64,7 @@ class ImaginedWorlds:
     trajectories: list[list[np.ndarray]]
     perturbations: PerturbationSet = PerturbationSet()
     worlds: list[World] = field(default_factory=list)
-    #: the pose slots the perturbed worlds and the second decomposition imagined
+    #: the pose slots the perturbed worlds (any of them) and the second decomposition imagined
     perturbed_slots: list[int] = field(default_factory=list)
     second_slots: list[int] = field(default_factory=list)
 
@@ -105,18 +105,18 @@ class ImaginedWorlds:
         return candidate_plans(self.nominal.scores, slots, self.n_plans, evidence)
 
     def add_perturbed(self, outcomes: Outcomes, scores: np.ndarray, pairs: Sequence[tuple[int, int]],
-                      slots: Sequence[int]) -> None:
-        """The perturbed worlds' rollouts of the ``pairs`` (world-major, as one batched call with
-        ``self.perturbations.perturbed`` gives them); every other plan of the ``slots`` failed in the nominal world
-        and counts as failed, as it did there, in each perturbed one (:func:`fill_perturbed`)."""
-        rest = self.perturbations.worlds[1:]
+                      slots: Sequence[int], first: int = 1) -> None:
+        """Perturbed worlds ``first``, ``first + 1``, ... of ``self.perturbations``: their rollouts of the ``pairs``
+        (world-major, as one batched call with those worlds gives them); every other plan of the ``slots`` failed in
+        the nominal world and counts as failed, as it did there, in each perturbed one (:func:`fill_perturbed`)."""
+        n_worlds = outcomes.batch // len(pairs)
         nominal = self.nominal
         full = fill_perturbed((nominal.outcomes, nominal.scores), (outcomes, scores), pairs, slots, self.n_plans,
-                              len(rest))
-        for w, (out_w, scores_w) in enumerate(world_outcomes(*full, len(rest)), start=1):
+                              n_worlds)
+        for w, (out_w, scores_w) in enumerate(world_outcomes(*full, n_worlds), start=first):
             world = self.perturbations.worlds[w]
             self.worlds.append(World(f"world {w} ({world.doc()})", list(slots), out_w, scores_w, world))
-        self.perturbed_slots = list(slots)
+        self.perturbed_slots = sorted({*self.perturbed_slots, *slots})
 
     def add_second_decomposition(self, outcomes: Outcomes, scores: np.ndarray, slots: Sequence[int]) -> None:
         """One more world: the nominal one on the object's second decomposition, every plan of the ``slots``."""

@@ -22,13 +22,14 @@ import numpy as np
 
 from rail_mj import llm, profiles
 from rail_mj.affordances import Affordance, load_files, request_scale
+from rail_mj.affordances.envelope import ANY
 from rail_mj.affordances.judge import rules_row
 from rail_mj.affordances.kinds import kind_of
 from rail_mj.affordances.prior import FUNCTIONAL, NEGLIGIBLE, Prior
 from rail_mj.core.errors import ConfigError, RailError, UnknownAffordanceError
 from rail_mj.core.results import AffordanceResult, PlanInfo, PoseInfo
-from rail_mj.core.types import RailObject, StablePose, StablePoses
-from rail_mj.imagination import draw_perturbations, imagine, pose_plan, resolve_backend
+from rail_mj.core.types import AgentSetup, RailObject, StablePose, StablePoses
+from rail_mj.imagination import PerturbationSet, draw_perturbations, imagine, pose_plan, resolve_backend
 from rail_mj.imagination.inputs import agent_setup, trajectory_array
 from rail_mj.imagination.perturb import resting_on
 from rail_mj.imagination.worlds import ImaginedWorlds
@@ -38,7 +39,7 @@ from rail_mj.pipeline import definitions
 from rail_mj.pipeline.config import Definition, ObjectInput, RunConfig
 from rail_mj.pipeline.parallel import run_tasks
 from rail_mj.pipeline.tasks import ObjectTask
-from rail_mj.pipeline.verdicts import candidate_slots, judge, most_probable, pose_prior, undecided
+from rail_mj.pipeline.verdicts import candidate_slots, judge, most_probable, next_worlds, pose_prior, undecided
 from rail_mj.scoring import ScoringFunction, compile_scoring
 from rail_mj.stable_poses import find_stable_poses, pose_from_up
 from rail_mj.stable_poses.came_in import design_factors
@@ -304,10 +305,12 @@ class Pipeline:
             trajectories=[trajectory_array(profile.trajectories.trajectories, poses[i].half_extents, poses[i].basin)
                           for i in kept],
             perturbations=draw_perturbations(self.config.imagination))
-        t = time.perf_counter()
+        t, cpu = time.perf_counter(), time.process_time()
         outcomes = imagine(obj, [poses[i] for i in kept], agents, evidence.trajectories, backend=self.backend,
                            config=self.config.imagination)
         timings["imagination"] = time.perf_counter() - t
+        # CPU seconds of every thread of this process: what the batch cost, however loaded the machine was
+        timings["imagination_cpu"] = time.process_time() - cpu
         t = time.perf_counter()
         scorer = self.scorer(profile.scoring.source)
         nominal = evidence.add_nominal(outcomes, scorer(outcomes))  # a blown-up rollout scores -1
@@ -323,20 +326,7 @@ class Pipeline:
         if nominal.scores[best_b] > 0:
             result.pose_without_analyzer = result.stable_poses[kept[pose_plan(best_b, n_plans)[0]]]
 
-        # the perturbed worlds: each candidate plan again in each pose whose prior lets it be functional, all in
-        # one batched call
-        t = time.perf_counter()
-        perturbed = evidence.perturbations.perturbed
-        slots = candidate_slots(nominal.scores, len(kept), n_plans, [priors[i].value for i in kept])
-        if slots and perturbed is not None:
-            names = evidence.plan_names
-            read = kind_of(row).evidence_plans(row, names) if row is not None else set()
-            pairs = evidence.candidate_plans(slots, {names.index(p) for p in read})
-            rollouts = imagine(obj, [poses[kept[k]] for k, _ in pairs], agents,
-                               [[evidence.trajectories[k][j]] for k, j in pairs], backend=self.backend,
-                               config=self.config.imagination, perturbations=perturbed)
-            evidence.add_perturbed(rollouts, scorer(rollouts), pairs, slots)
-        timings["perturbed_worlds"] = time.perf_counter() - t
+        # stage 7 reads the nominal world alone; its veto (a model's) is physics 0 whatever the perturbed worlds show
         t = time.perf_counter()
         veto = self.provider_name != "offline"  # a model's common sense; the offline answer is the rules' own
         # a model also gets the shape facts it cannot read from the numbers; the rules read the physics alone
@@ -345,9 +335,18 @@ class Pipeline:
                                               shapes.pose if shapes is not None else None,
                                               shapes.came_in if shapes is not None else None)
         stage7 = None if request is None else llm.analyze_functional_poses(request, self.provider)
+        vetoed = {v.pose_index for v in stage7.poses if not v.accept} if veto and stage7 is not None else set()
         sizes = profile.analysis.sizes
-        result.pose_verdicts = judge(evidence, obj.obb_dims, stage7, llm_veto=veto, sizes=sizes, design=design)
+
+        def verdicts() -> None:
+            result.pose_verdicts = judge(evidence, obj.obb_dims, stage7, llm_veto=veto, sizes=sizes, design=design)
+
+        verdicts()
         timings["functional_pose_analyzer"] = time.perf_counter() - t
+        slots = [k for k in candidate_slots(nominal.scores, len(kept), n_plans, [priors[i].value for i in kept])
+                 if kept[k] not in vetoed]
+        upper = [priors[i].value for i in kept]
+        self._perturbed_worlds(obj, poses, agents, evidence, row, slots, upper, scorer, verdicts, result)
         # the second decomposition: one more world for the poses whose verdict it could still change
         open_slots = undecided(result.pose_verdicts, slots) if self._decomposition_matters(row) else []
         if open_slots:
@@ -357,9 +356,42 @@ class Pipeline:
                                agents, [evidence.trajectories[k] for k in open_slots], backend=self.backend,
                                config=self.config.imagination)
             evidence.add_second_decomposition(rollouts, scorer(rollouts), open_slots)
-            result.pose_verdicts = judge(evidence, obj.obb_dims, stage7, llm_veto=veto, sizes=sizes, design=design)
+            verdicts()
             timings["second_decomposition"] = time.perf_counter() - t
+            # where it left a second pose that can pass, the poses that can go on to the last perturbed world
+            self._perturbed_worlds(obj, poses, agents, evidence, row, slots, upper, scorer, verdicts, result)
         return evidence, stage7
+
+    def _perturbed_worlds(self, obj: RailObject, poses: StablePoses, agents: AgentSetup, evidence: ImaginedWorlds,
+                          row: Affordance | None, slots: list[int], upper: list[float], scorer: ScoringFunction,
+                          verdicts: Callable[[], None], result: AffordanceResult) -> None:
+        """The perturbed worlds, a few at a time: each candidate plan (:meth:`ImaginedWorlds.candidate_plans`)
+        again in each pose of the ``slots`` whose verdict the worlds left could still change
+        (:func:`~rail_mj.pipeline.verdicts.next_worlds`; ``upper``: each imagined pose's prior without a rest
+        prior), each group of poses and worlds in one batched call, ``verdicts()`` judged again after each round;
+        their seconds added to the result's timings (called again after the second decomposition)."""
+        perturbed = evidence.perturbations.perturbed
+        if perturbed is None:
+            return
+        t, cpu = time.perf_counter(), time.process_time()
+        names = evidence.plan_names
+        read = {names.index(p) for p in (kind_of(row).evidence_plans(row, names) if row is not None else ())}
+        # the most worlds a pose is imagined in: the nominal one, each perturbed one and the second decomposition
+        most = evidence.perturbations.n_worlds + self._decomposition_matters(row)
+        prior_final = row is None or row.envelope.rest == ANY  # a rest prior moves with each world's rest height
+        while groups := next_worlds(result.pose_verdicts, slots, upper, most, perturbed.n_worlds, prior_final):
+            for group, first, n in groups:
+                pairs = evidence.candidate_plans(group, read)
+                rollouts = imagine(obj, [poses[evidence.kept[k]] for k, _ in pairs], agents,
+                                   [[evidence.trajectories[k][j]] for k, j in pairs], backend=self.backend,
+                                   config=self.config.imagination,
+                                   perturbations=PerturbationSet(evidence.perturbations.worlds[first : first + n]))
+                evidence.add_perturbed(rollouts, scorer(rollouts), pairs, group, first=first)
+            verdicts()
+        timings = result.timings
+        timings["perturbed_worlds"] = timings.get("perturbed_worlds", 0.0) + time.perf_counter() - t
+        # CPU seconds of every thread of this process: what the batches cost, however loaded the machine was
+        timings["perturbed_worlds_cpu"] = timings.get("perturbed_worlds_cpu", 0.0) + time.process_time() - cpu
 
     def _pick(self, result: AffordanceResult, profile: ImaginationProfile, evidence: ImaginedWorlds,
               stage7: FunctionalPoseVerdict | None) -> None:

@@ -16,12 +16,18 @@ table top's two placements); a world whose agent is resized is judged, where the
 in the most worlds (ties: stage 7's plan for the pose, then the better nominal score). Each world is judged once
 (:func:`judge` keeps its judgement on the world). A rollout that blew up (``Outcomes.unstable``: a non-finite state or a
 MuJoCo instability warning) is a failure and is named. The nominal world imagines every pose and plan; the K perturbed
-worlds, one more batched call, imagine again the candidates (the plans that scored above 0,
+worlds imagine again the candidates (the plans that scored above 0,
 :func:`rail_mj.imagination.worlds.candidate_plans`), and the plans the kind's pose rules read whatever they scored
 (``Kind.evidence_plans``: every pour, for a leak; a bench's places side by side), of the poses with a candidate whose
-prior is at least :data:`rail_mj.affordances.prior.FUNCTIONAL`: a pose without a candidate has no success to confirm
-(its physics is 0), and one with a smaller prior stays below it whatever its physics, so its verdict cannot change (its
-physics is the nominal world's, 0 or 1). A perturbation asks whether what succeeded still succeeds in a slightly
+prior is at least :data:`rail_mj.affordances.prior.FUNCTIONAL` (and that a model's stage 7 did not veto): a pose
+without a candidate has no success to confirm (its physics is 0), and one with a smaller prior stays below it whatever
+its physics, so its verdict cannot change (its physics is the nominal world's, 0 or 1). They are drawn a few at a time
+(:func:`next_worlds`), each round one batched call: a pose goes on while the worlds left could still turn its verdict
+either way, and while another pose could pass too (their counts of every world say which is the more probable); it
+stops once they cannot, and its physics is then its successes over the worlds it was imagined in. Stopping never
+changes a verdict (functional or not, and which pose) from the one every world would have given, the second
+decomposition counted as a world still to come; it changes the probability's value, an estimate over fewer worlds
+(``imagined`` says how many). A perturbation asks whether what succeeded still succeeds in a slightly
 different world: any other plan failed in the nominal world and counts as failed, as it did there, in each perturbed one
 (:func:`rail_mj.imagination.worlds.fill_perturbed`). Where the use rests in the object's concavities (a kind's
 ``decomposition_matters``), one more world imagines again, on the object's second decomposition
@@ -59,7 +65,7 @@ from rail_mj.core.results import PoseProbability
 from rail_mj.core.types import StablePose
 from rail_mj.imagination.worlds import ImaginedWorlds, World
 
-__all__ = ["candidate_slots", "undecided", "pose_prior", "judge", "most_probable"]
+__all__ = ["candidate_slots", "undecided", "next_worlds", "pose_prior", "judge", "most_probable"]
 
 #: a world's judgement: per pose with a candidate, the plans the rules accept, each with its agent's rest height
 #: (at the world's scale) where the kind measures one
@@ -88,6 +94,58 @@ def undecided(verdicts: Sequence[PoseProbability], slots: Sequence[int]) -> list
         if v.prior * v.successes / n < FUNCTIONAL <= v.prior * (v.successes + 1) / n:
             out.append(k)
     return out
+
+
+def next_worlds(verdicts: Sequence[PoseProbability], slots: Sequence[int], upper: Sequence[float], most: int,
+                perturbed: int, prior_final: bool) -> list[tuple[list[int], int, int]]:
+    """The next perturbed worlds worth imagining for the pose ``slots`` (into the imagined poses, whose ``verdicts``
+    these are, in order; the poses with a candidate): groups of (slots, first world, how many worlds in a row),
+    none when no world left could change a verdict.
+
+    A pose imagined so far in ``n`` worlds (the nominal one and perturbed worlds 1 .. n - 1, of ``perturbed``) with
+    ``s`` successes can be imagined in at most ``most - n`` more (``most``: the nominal world, every perturbed one
+    and the second decomposition where it may run). Its verdict can still pass FUNCTIONAL when
+    ``upper x (s + most - n) / most`` does (``upper[k]``: its prior without a rest prior, which is at most 1) and
+    is sure to when ``prior x s / most`` does, whatever the worlds left show (only where the prior is final,
+    ``prior_final``: a rest prior moves with each world's rest height). The poses that can but are not sure to
+    pass go on, together, for as many worlds as no outcome of fewer could decide one of them. Once none is left (the
+    second decomposition, when it is still to come for one, imagined first), and two poses or more can pass, those
+    go on to the last perturbed world: which of them is most probable reads their counts of every world. Every other
+    pose stops: its verdict is the same whatever the worlds left would show, and its physics is ``s / n`` over the
+    worlds it was imagined in (``PoseProbability.imagined``)."""
+    # each bound is computed as judge computes a probability, prior * (successes / worlds): a count of successes
+    # over worlds that is at least (at most) the bound's as a fraction is so as a float, exactly
+    def bounds(k: int) -> tuple[float, float, int, int, int]:
+        v = verdicts[k]
+        return (v.prior if prior_final else 0.0), upper[k], v.successes, most - v.imagined, perturbed + 1 - v.imagined
+
+    def can_pass(k: int) -> bool:
+        _, hi, s, rest, _ = bounds(k)
+        return hi * ((s + rest) / most) >= FUNCTIONAL
+
+    def sure(k: int) -> bool:
+        lo, _, s, _, _ = bounds(k)
+        return lo * (s / most) >= FUNCTIONAL
+
+    def worlds_to_decide(k: int) -> int:
+        """The fewest next worlds after which the pose could be decided (all of them succeeding, or failing)."""
+        lo, hi, s, rest, left = bounds(k)
+        return next((j for j in range(1, left) if lo * ((s + j) / most) >= FUNCTIONAL
+                     or hi * ((s + rest - j) / most) < FUNCTIONAL), left)
+
+    could = [k for k in slots if can_pass(k)]
+    undecided_ = [k for k in could if not sure(k)]
+    # the undecided poses have gone on together since the nominal world: one first world
+    going = [k for k in undecided_ if bounds(k)[4] > 0]
+    if going:
+        return [(going, verdicts[going[0]].imagined, min(worlds_to_decide(k) for k in going))]
+    if len(could) < 2 or any(bounds(k)[3] > 0 for k in undecided_):
+        return []  # one pose can pass; or the second decomposition, still to come, may rule one out first
+    at: dict[int, list[int]] = {}
+    for k in could:
+        if bounds(k)[4] > 0:
+            at.setdefault(verdicts[k].imagined, []).append(k)
+    return [(ks, first, perturbed + 1 - first) for first, ks in sorted(at.items())]
 
 
 def pose_prior(aff: Affordance | None, obb_dims: Sequence[float] | np.ndarray, pose: StablePose,

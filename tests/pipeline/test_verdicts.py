@@ -9,7 +9,7 @@ from pipeline_arrays import pose_of as _pose
 from pipeline_arrays import world_major as _world_major
 
 from rail_mj.core.results import PoseProbability
-from rail_mj.pipeline.verdicts import candidate_slots, judge, most_probable, undecided
+from rail_mj.pipeline.verdicts import candidate_slots, judge, most_probable, next_worlds, undecided
 
 
 def _verdict(index: int, prior: float, successes: int, imagined: int) -> PoseProbability:
@@ -84,3 +84,41 @@ def test_the_perturbed_worlds_take_the_poses_with_a_candidate_and_a_prior_that_c
     scores = np.array([0.5, -1.0, -1.0, -1.0, 0.2, 0.1])
     assert candidate_slots(scores, 3, 2) == [0, 2]
     assert candidate_slots(scores, 3, 2, priors=[1.0, 1.0, 0.3]) == [0]
+
+
+@pytest.mark.parametrize("prior, successes, imagined, most, expected", [
+    # 3 of 5 is functional whatever worlds 3 and 4 show: the next two worlds may decide it, one cannot
+    (1.0, 1, 1, 5, [([0], 1, 2)]),
+    (1.0, 3, 3, 5, []),  # decided: 3 of 5 at the least
+    (1.0, 0, 3, 5, []),  # 0 + 2 of 5 is not functional: decided the other way
+    # a pose that failed in the nominal world, with the second decomposition still to come: 3 of 6 passes, so only
+    # three failures in a row decide it
+    (1.0, 0, 1, 6, [([0], 1, 3)]),
+    (0.4, 1, 1, 5, []),  # a prior of 0.4 stays below 0.5 whatever the physics
+    (0.7, 3, 4, 5, [([0], 4, 1)]),  # 0.7 x 4/5 = 0.56 or 0.7 x 3/5 = 0.42: the last world decides
+])
+def test_the_next_perturbed_worlds_are_the_fewest_that_could_decide_a_pose(prior, successes, imagined, most,
+                                                                           expected):
+    assert next_worlds([_verdict(0, prior, successes, imagined)], [0], [prior], most, 4, True) == expected
+
+
+def test_a_pose_sure_to_pass_waits_for_the_others_and_goes_on_only_if_another_could_pass_too():
+    sure, undecided_, failed = _verdict(0, 1.0, 3, 3), _verdict(1, 1.0, 1, 1), _verdict(2, 1.0, 0, 3)
+    # the undecided pose goes on alone; the sure one waits where it stopped
+    assert next_worlds([sure, undecided_, failed], [0, 1, 2], [1.0] * 3, 5, 4, True) == [([1], 1, 2)]
+    # once it is sure too, both go on to the last world from where each stopped: their counts say which is likelier
+    both = [sure, _verdict(1, 1.0, 3, 4), failed]
+    assert next_worlds(both, [0, 1, 2], [1.0] * 3, 5, 4, True) == [([0], 3, 2), ([1], 4, 1)]
+    # a pose through every perturbed world that the second decomposition may still make pass: it comes first, and
+    # may leave the sure pose alone
+    failed = _verdict(2, 1.0, 0, 4)  # 0 + 2 of 6
+    assert next_worlds([sure, _verdict(1, 1.0, 2, 5), failed], [0, 1, 2], [1.0] * 3, 6, 4, True) == []
+    assert next_worlds([sure, _verdict(1, 1.0, 2, 6), failed], [0, 1, 2], [1.0] * 3, 6, 4, True) == []
+    assert next_worlds([sure, _verdict(1, 1.0, 3, 6), failed], [0, 1, 2], [1.0] * 3, 6, 4, True) == [([0], 3, 2)]
+
+
+def test_a_rest_prior_that_moves_with_each_world_never_makes_a_pose_sure():
+    # seated in every world so far at a rest height the prior likes: the worlds left may move it, so they are drawn
+    assert next_worlds([_verdict(0, 1.0, 3, 3)], [0], [1.0], 5, 4, prior_final=False) == [([0], 3, 2)]
+    # but a pose that cannot pass even with a rest prior of 1 stops
+    assert next_worlds([_verdict(0, 1.0, 0, 3)], [0], [1.0], 5, 4, prior_final=False) == []
