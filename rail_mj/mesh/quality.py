@@ -1,8 +1,9 @@
 """Hull quality: how well convex hulls stand for their mesh, and the guard that chooses between decompositions.
 
 Every object's hulls pass the quality guard (:func:`hull_quality`: volume ratio, cavities kept open,
-surface covered); hulls from :func:`~rail_mj.mesh.decomposition.decomposition_for`'s faster settings
-that fail it are made again with the defaults.
+surface covered); a nearly convex mesh is its one convex hull, with no CoACD run; hulls from
+:func:`~rail_mj.mesh.decomposition.decomposition_for`'s faster settings that fail it are made again with
+the defaults.
 """
 
 from __future__ import annotations
