@@ -1,9 +1,8 @@
 """Hull quality: how well convex hulls stand for their mesh, and the guard that chooses between decompositions.
 
 Every object's hulls pass the quality guard (:func:`hull_quality`: volume ratio, cavities kept open,
-surface covered); a nearly convex mesh is its one convex hull, with no CoACD run; hulls from
-:func:`~rail_mj.mesh.decomposition.decomposition_for`'s faster settings that fail it are made again with
-the defaults.
+surface covered); hulls from :func:`~rail_mj.mesh.decomposition.decomposition_for`'s faster settings
+that fail it are made again with the defaults.
 """
 
 from __future__ import annotations
@@ -15,27 +14,15 @@ import trimesh
 from scipy.spatial import ConvexHull
 
 from rail_mj.core.errors import DecompositionTimeout
-from rail_mj.mesh.decomposition import (
-    MJX_MAX_HULL_VERTICES,
-    DecompositionConfig,
-    decompose,
-    decomposition_for,
-    reduce_hull,
-)
+from rail_mj.mesh.decomposition import DecompositionConfig, decompose, decomposition_for
 
-__all__ = ["MAX_EXCESS", "MAX_MISSING", "NEARLY_CONVEX_EXCESS", "HullQuality", "hull_quality"]
+__all__ = ["MAX_EXCESS", "MAX_MISSING", "HullQuality", "hull_quality"]
 
 #: The quality guard (:func:`object_from_mesh`): most of :attr:`HullQuality.excess` and
 #: :attr:`HullQuality.missing` that hulls may have. The procedural dataset's default hulls reach
 #: 0.04 and 0.23 (a sphere's 64-vertex hull); one hull of a cup gives 0.73 excess.
 MAX_EXCESS = 0.25
 MAX_MISSING = 0.3
-#: The guard takes the mesh's convex hull alone, with no CoACD run, when that one hull has at most this
-#: :attr:`HullQuality.excess`. On the real-mesh set (``benchmarks/coacd_time.py``) CoACD's own hulls fill more
-#: than this on 9 of 38 meshes (a can 0.24, a bowl drainer 0.20, a milk carton 0.15, a bottle 0.14), so they are
-#: no tighter there, while every mesh of that set with a cavity a use needs (cups, bowls, plates, baskets, a
-#: bathtub) gives one hull 0.49 or more, and its tables and shelves 0.67 or more.
-NEARLY_CONVEX_EXCESS = 0.1
 
 
 # Probe rays per side of the grid :func:`hull_quality` casts from each of the six axis directions.
@@ -205,19 +192,10 @@ def _guarded_hulls(
 ) -> tuple[tuple[np.ndarray, ...], list[str]]:
     """Hulls of ``mesh`` and notes on their quality.
 
-    With no ``decomposition`` given, a nearly convex mesh (its one hull's excess at most
-    :data:`NEARLY_CONVEX_EXCESS`, and within the guard) is that one hull, with no CoACD run: on a can, a
-    carton, a bottle, CoACD spent up to 30 s of CPU for hulls that fill more of the free space.
     Hulls made with :func:`decomposition_for`'s faster settings that fail the guard (more than
     :data:`MAX_EXCESS` excess or :data:`MAX_MISSING` missing, :class:`HullQuality`) are made again
     with the defaults, and the better set is kept; hulls that still fail are noted.
     """
-    if decomposition is None and not mesh.is_convex:  # a convex mesh is its own hull in decompose, unremarked
-        one = (reduce_hull(np.asarray(mesh.vertices), MJX_MAX_HULL_VERTICES),)
-        quality = hull_quality(mesh, one)
-        if quality.excess <= NEARLY_CONVEX_EXCESS and _guard_score(quality) <= 1.0:
-            return one, [f"one convex hull stands for the mesh, no decomposition: it fills {quality.excess:.0%} of "
-                         f"the free space seen along an axis (at most {NEARLY_CONVEX_EXCESS:.0%})"]
     config = decomposition or decomposition_for(mesh)
     hulls = decompose(mesh, config)
     quality = hull_quality(mesh, hulls)

@@ -704,28 +704,6 @@ def test_guard_passes_good_hulls_without_a_note(cup_object) -> None:
     assert mesh_notes(cup_object.mesh) == []
 
 
-def dimpled_box() -> trimesh.Trimesh:
-    """A closed 10 cm cube whose top centre is pressed 0.5 mm in: not convex, but nearly."""
-    cube = trimesh.creation.box(extents=(0.1, 0.1, 0.1)).subdivide()
-    top = np.flatnonzero(np.all(np.isclose(cube.vertices, [0.0, 0.0, 0.05]), axis=1))
-    cube.vertices[top, 2] -= 0.0005
-    return cube
-
-
-def test_a_nearly_convex_mesh_is_its_one_hull_without_coacd(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
-    mesh = dimpled_box()
-    assert mesh.is_volume and not mesh.is_convex
-    thresholds = _fake_coacd(monkeypatch, tmp_path, (np.asarray(mesh.vertices),))
-    obj = object_from_mesh(mesh, name="box")
-    assert thresholds == [] and len(obj.hulls) == 1
-    (note,) = mesh_notes(obj.mesh)
-    assert note.startswith("one convex hull stands for the mesh") and "at most 10%" in note
-    # settings given by the caller are CoACD's to follow, and a cup's one hull fills its cavity: CoACD runs
-    object_from_mesh(mesh, name="box", decomposition=TINY)
-    object_from_mesh(small_cup(), name="cup")
-    assert thresholds == [TINY.threshold, DecompositionConfig().threshold]
-
-
 def test_astronomic_coordinates_are_refused_before_cleaning(tmp_path: Path) -> None:
     # 1e30 m overflowed trimesh's vertex-merge grid (a RuntimeWarning) before the size rule spoke.
     path = tmp_path / "far.obj"
