@@ -9,7 +9,7 @@ from the labels), or, with neither, on four generated household shapes with know
     python benchmarks/coacd_time.py
 
 Every run uses a fresh temporary cache, so CoACD really runs. Per mesh it prints the load wall
-time (as ``load_object``), the CoACD part of it, faces in the file, after repair (decimation) and
+time (as ``load_object``), the CoACD part of it (wall and CPU), faces in the file, after repair (decimation) and
 as CoACD saw them, the hull count, and the quality of the hulls (``rail_mj.mesh.hull_quality``):
 the union volume over the mesh volume (closed meshes), the probe-ray excess (hulls standing in
 front of the mesh: a filled cavity) and missing (mesh no hull covers); for the generated shapes
@@ -35,6 +35,12 @@ from pathlib import Path
 import numpy as np
 import trimesh
 from cpu_time import cpu_seconds  # benchmarks/cpu_time.py, beside this script
+
+
+def children_cpu_seconds() -> float:
+    """User + system CPU seconds of the finished children (the CoACD runs) of this process."""
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
 
 
 def cup(profile_points: int = 20, sections: int = 64) -> trimesh.Trimesh:
@@ -123,15 +129,16 @@ def measure(item: Item) -> dict:
     """Load one object cold (the cache is empty) and measure its hulls."""
     from rail_mj.mesh import decomposition, hull_quality, load_object, mesh_notes, object_from_mesh
 
-    seen: dict[str, float] = {"coacd_s": 0.0, "coacd_faces": 0}
+    seen: dict[str, float] = {"coacd_s": 0.0, "coacd_cpu_s": 0.0, "coacd_faces": 0}
     run_coacd = decomposition._run_coacd
 
     def timed_coacd(mesh, config):
-        t = time.perf_counter()
+        t, cpu = time.perf_counter(), children_cpu_seconds()
         try:
             return run_coacd(mesh, config)
         finally:
             seen["coacd_s"] += time.perf_counter() - t
+            seen["coacd_cpu_s"] += children_cpu_seconds() - cpu  # CoACD runs in a child process
             seen["coacd_faces"] = len(mesh.faces)
 
     decomposition._run_coacd = timed_coacd
@@ -163,6 +170,7 @@ def measure(item: Item) -> dict:
         "load_s": load_s,
         "cpu_s": cpu_s,
         "coacd_s": seen["coacd_s"],
+        "coacd_cpu_s": seen["coacd_cpu_s"],
         "quality_s": quality_s,
         "hulls": quality.n_hulls,
         "volume_ratio": quality.volume_ratio,
@@ -228,8 +236,8 @@ def main(argv: list[str] | None = None) -> int:
     )
     header = (
         f"{'mesh':22s} {'faces_in':>8s} {'faces':>6s} {'coacd_f':>7s} {'closed':>6s} {'size_m':>6s} "
-        f"{'load_s':>7s} {'cpu_s':>7s} {'coacd_s':>7s} {'qual_s':>6s} {'hulls':>5s} {'vol':>5s} {'excess':>6s} "
-        f"{'missing':>7s} {'cavity':>6s}"
+        f"{'load_s':>7s} {'cpu_s':>7s} {'coacd_s':>7s} {'co_cpu':>6s} {'qual_s':>6s} {'hulls':>5s} {'vol':>5s} "
+        f"{'excess':>6s} {'missing':>7s} {'cavity':>6s}"
     )
     print(header, flush=True)
     rows = []
@@ -243,7 +251,7 @@ def main(argv: list[str] | None = None) -> int:
             print(
                 f"{r['name'][:22]:22s} {r['faces_in']:8d} {r['faces']:6d} {r['coacd_faces']:7d} "
                 f"{'yes' if r['closed'] else 'no':>6s} {r['extent']:6.3f} {r['load_s']:7.1f} {r['cpu_s']:7.1f} "
-                f"{r['coacd_s']:7.1f} "
+                f"{r['coacd_s']:7.1f} {r['coacd_cpu_s']:6.1f} "
                 f"{r['quality_s']:6.2f} {r['hulls']:5d} {_fmt(r['volume_ratio'], '5.2f')} {r['excess']:6.3f} "
                 f"{r['missing']:7.3f} {_fmt(r['covered'], '6.3f')}",
                 flush=True,
@@ -260,6 +268,12 @@ def main(argv: list[str] | None = None) -> int:
         f"load per mesh: median {statistics.median(loads):.1f} s, mean {statistics.mean(loads):.1f} s, "
         f"worst {worst['load_s']:.1f} s ({worst['name']}); CPU median {statistics.median(cpus):.1f} s, "
         f"worst {max(cpus):.1f} s; {len(rows)} loaded, {len(failed)} failed, {wall:.0f} s wall"
+    )
+    coacd, coacd_cpu = [r["coacd_s"] for r in rows], [r["coacd_cpu_s"] for r in rows]
+    print(
+        f"CoACD per mesh: wall median {statistics.median(coacd):.1f} s, worst {max(coacd):.1f} s; CPU median "
+        f"{statistics.median(coacd_cpu):.1f} s, worst {max(coacd_cpu):.1f} s, total {sum(coacd_cpu):.0f} s; load CPU "
+        f"total {sum(cpus):.0f} s; {sum(c == 0 for c in coacd_cpu)} meshes without a CoACD run"
     )
     ratios = [r["volume_ratio"] for r in rows if r["volume_ratio"] is not None]
     if ratios:

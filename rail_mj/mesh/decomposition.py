@@ -149,7 +149,8 @@ def _cache_key(digest: str, config: DecompositionConfig, n_bodies: int) -> str:
     payload = {"mesh": digest, "config": fields}
     if n_bodies > 1:
         payload["bodies"] = n_bodies
-        payload["shares"] = 2  # version of _hull_caps: bodies without volume take no hull
+        payload["shares"] = 3  # version of _decompose_bodies: bodies without volume take no hull (2), thresholds
+        # in the whole object's scale (3)
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
 
 
@@ -283,14 +284,19 @@ def _decompose_bodies(bodies: list[trimesh.Trimesh], config: DecompositionConfig
     """
     convex = [config.convex_shortcut and body.is_convex for body in bodies]
     weights = [_point_hull_volume(np.asarray(body.vertices)) for body in bodies]
+    whole = float(np.ptp(np.vstack([body.bounds for body in bodies]), axis=0).max())
     raw: list[np.ndarray] = []
     for body, is_convex, cap in zip(bodies, convex, _hull_caps(weights, convex, config.max_convex_hull), strict=True):
         if cap == 0:
             continue
         if cap == 1 or is_convex:
             raw.append(np.asarray(body.vertices, dtype=np.float64))
-        else:
-            raw.extend(_run_coacd(body, config.model_copy(update={"max_convex_hull": cap})))
+            continue
+        # CoACD measures concavity in a box scaled to the mesh it is given: a body a third of the object's size
+        # held to the object's threshold in its own box was cut three times finer than the object as one mesh
+        # would be. Its threshold in the object's scale keeps every body to the same tolerance in metres.
+        threshold = min(1.0, config.threshold * whole / float(body.extents.max()))
+        raw.extend(_run_coacd(body, config.model_copy(update={"max_convex_hull": cap, "threshold": threshold})))
     return raw
 
 

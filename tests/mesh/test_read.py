@@ -559,6 +559,28 @@ def test_concave_bodies_share_the_hull_cap(monkeypatch: pytest.MonkeyPatch, tmp_
     assert len(hulls) == 2
 
 
+def test_each_body_is_held_to_the_whole_objects_concavity_tolerance(monkeypatch: pytest.MonkeyPatch,
+                                                                     tmp_path: Path) -> None:
+    # CoACD scales what it is given to a unit box: a body half the object's size, given the object's threshold,
+    # was cut to half the tolerance in metres that the object as one mesh gets
+    monkeypatch.setenv("RAIL_MJ_CACHE", str(tmp_path))
+    thresholds: list[float] = []
+
+    def fake(mesh, config):
+        thresholds.append(config.threshold)
+        return [np.asarray(mesh.vertices)]
+
+    monkeypatch.setattr(mesh_decomposition, "_run_coacd", fake)
+    big, small = small_cup(), small_cup()  # 8 cm tall, 6 cm wide
+    big.apply_scale(2.0)  # 16 cm tall, 12 cm wide
+    small.apply_translation([0.4, 0.0, 0.0])  # the two span 0.06 + 0.4 + 0.03 = 0.49 m
+    decompose(trimesh.util.concatenate([big, small]), DecompositionConfig(threshold=0.05))
+    np.testing.assert_allclose(thresholds, [0.05 * 0.49 / 0.16, 0.05 * 0.49 / 0.08])
+    thresholds.clear()
+    decompose(trimesh.util.concatenate([big, small.apply_translation([10.0, 0.0, 0.0])]))
+    assert thresholds == [1.0, 1.0]  # CoACD's largest threshold
+
+
 def test_stray_triangles_take_no_hull_and_the_cap_is_shared_whole(monkeypatch: pytest.MonkeyPatch,
                                                                     tmp_path: Path) -> None:
     # an open seam leaves loose triangles, bodies of their own with no volume: each used to take a hull of the cap,
