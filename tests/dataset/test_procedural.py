@@ -627,3 +627,16 @@ def test_a_bar_chairs_armrests_let_the_hips_between_them():
         xs = front[front[:, 1] < 0, 0]
         inner = np.min(xs[xs > 0]) - np.max(xs[xs < 0])
         assert inner >= 0.46, (i, inner)
+
+
+def test_as_built_stands_each_object_as_built_turned_about_its_up_and_says_so(tmp_path):
+    random = generate(tmp_path / "random", classes="cup,table", per_class=1, seed=3)
+    built = generate(tmp_path / "built", classes="cup,table", per_class=1, seed=3, orientation="as_built")
+    for r, b in zip(random, built, strict=True):
+        assert r.oriented is False and b.oriented is True
+        assert np.allclose(b.nominal_up, (0.0, 0.0, 1.0), atol=1e-9)  # standing as built: its up is the file's
+        # the same object, only turned: the same volume
+        mesh_r = trimesh.load(tmp_path / "random" / r.mesh, force="mesh")
+        mesh_b = trimesh.load(tmp_path / "built" / b.mesh, force="mesh")
+        assert mesh_b.volume == pytest.approx(mesh_r.volume, rel=1e-4)  # written to a grid either way
+    assert read_labels(tmp_path / "built")[0].oriented is True
