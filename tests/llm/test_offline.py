@@ -45,7 +45,10 @@ def _dims(name: str, where: float) -> list[float]:
     spec = REGISTRY[name]
     env = spec.envelope
     if env.ranges():
-        width = _across(env.width if env.width != ANY else env.length, where)
+        across = env.width if env.width != ANY else env.length
+        if env.length != ANY:  # a box is never wider than it is long: a width open above stops at the length's
+            across = (across[0], min(across[1], env.length[1]))
+        width = _across(across, where)
         length = _across(env.length, where) if env.length != ANY else width
         return sorted((_across(env.height, where), width, max(width, length)), reverse=True)
     big, small = _across(spec.largest, where), _across(spec.smallest, where)
