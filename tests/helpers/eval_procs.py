@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import signal
 import subprocess
 import sys
 import time
@@ -33,8 +34,11 @@ def start_eval(out: Path, args: Sequence[str]) -> subprocess.Popen:
     """``python -m rail_mj.eval ARGS --out OUT`` in the background, its output in a log beside ``out``."""
     log = out.parent / f"{out.name}.{time.monotonic_ns()}.log"
     with open(log, "w") as fh:
+        # Ctrl-C's default action in the run, however these tests were started: a shell's background job ignores
+        # SIGINT, and a process inherits an ignored signal (nohup pytest ... & made the Ctrl-C test's run ignore it)
         proc = subprocess.Popen([sys.executable, "-m", "rail_mj.eval", *args, "--out", str(out)], cwd=REPO,
-                                stdout=fh, stderr=subprocess.STDOUT)
+                                stdout=fh, stderr=subprocess.STDOUT,
+                                preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     proc.log = log  # type: ignore[attr-defined]
     return proc
 
