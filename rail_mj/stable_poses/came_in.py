@@ -20,14 +20,13 @@ unknown) or in no stable pose (tilted, in the air): every pose's factor is 1.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from rail_mj.core.profile import PoseShape
 from rail_mj.core.types import RailObject, StablePose
-from rail_mj.stable_poses.shape import AS_IT_CAME_DEG
+from rail_mj.stable_poses.shape import AS_IT_CAME_DEG, tilt_from_came
 
 __all__ = ["PLACED", "came_in_pose", "made_to_stand", "turned_over", "design_factors"]
 
@@ -42,7 +41,7 @@ def came_in_pose(obj: RailObject, poses: Sequence[StablePose]) -> int | None:
     none of its stable poses."""
     if not obj.oriented or not poses:
         return None
-    tilt = [math.degrees(math.acos(float(np.clip(p.up_in_mesh_frame[2], -1.0, 1.0)))) for p in poses]
+    tilt = [tilt_from_came(p) for p in poses]
     best = int(np.argmin(tilt))
     return best if tilt[best] <= AS_IT_CAME_DEG else None
 

@@ -21,7 +21,8 @@ from scipy.spatial import ConvexHull
 from rail_mj.core.profile import PoseShape
 from rail_mj.core.types import RailObject, StablePose
 
-__all__ = ["FACES", "ENCLOSED", "GRID", "AS_IT_CAME_DEG", "pose_shape", "came_in_shape", "ObjectShapes"]
+__all__ = ["FACES", "ENCLOSED", "GRID", "AS_IT_CAME_DEG", "tilt_from_came", "pose_shape", "came_in_shape",
+           "ObjectShapes"]
 
 #: The faces of a pose's box, by the task frame's directions (front = +x, left = +y).
 FACES: dict[str, tuple[float, float, float]] = {
@@ -79,10 +80,14 @@ def _placed(obj: RailObject, rotation: np.ndarray) -> tuple[trimesh.Trimesh, lis
     return mesh, [np.asarray(h) @ rotation.T for h in obj.hulls]
 
 
+def tilt_from_came(pose: StablePose) -> float:
+    """Degrees between ``pose``'s up and the up the object came in (its mesh frame's +z)."""
+    return math.degrees(math.acos(float(np.clip(pose.up_in_mesh_frame[2], -1.0, 1.0))))
+
+
 def pose_shape(obj: RailObject, pose: StablePose) -> PoseShape:
     """The shape facts of ``obj`` in ``pose``."""
-    up = pose.up_in_mesh_frame
-    came = obj.oriented and math.degrees(math.acos(float(np.clip(up[2], -1.0, 1.0)))) <= AS_IT_CAME_DEG
+    came = obj.oriented and tilt_from_came(pose) <= AS_IT_CAME_DEG
     rotation = np.zeros(9)
     mujoco.mju_quat2Mat(rotation, np.asarray(pose.quat, dtype=np.float64))
     return _shape(*_placed(obj, rotation.reshape(3, 3)), came)
