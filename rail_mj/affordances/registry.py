@@ -77,6 +77,10 @@ _DISH = (0.01, 0.045)
 #: A plate's diameter (m): a side plate's 15 cm to a charger's 32 cm. A saucer is smaller than a side plate; a
 #: cupboard is at least a plate deep.
 _PLATE = (0.15, 0.32)
+#: A saucer's diameter (m): under a cup's foot (10 cm) to a side plate's size.
+_SAUCER = (0.1, _PLATE[0])
+#: A tray's side (m): carried in two hands, 15 cm (a tray for one cup) to the span of the arms.
+_TRAY = (0.15, _ARMS)
 #: A table's lowest top (m): a seated person's elbow over a low table (0.55 m); a coffee table is lower.
 _TABLE_LOW = 0.55
 #: A standing person's hip height (m; Pheasant, Bodyspace: about 0.9 m): the highest rim one drops waste into or
@@ -189,9 +193,8 @@ def _rows() -> tuple[Affordance, ...]:
                    (1.6, 2.6), (0.2, 1.2), envelope=Envelope(rest=(0.15, 0.9))),
         Affordance("tray", "dish", "A tray carries items on a flat level base with a low rim (15-60 cm across either "
                    "way, at most 4.5 cm tall).",
-                   # carried in two hands: 15 cm (a tray for one cup) to the span of the arms; a cup's tray is
-                   # 15 cm across its narrower way too
-                   envelope=Envelope(height=_DISH, width=(0.15, inf), length=(0.15, _ARMS))),
+                   # a cup's tray is 15 cm across its narrower way too
+                   envelope=Envelope(height=_DISH, width=(_TRAY[0], inf), length=_TRAY)),
         Affordance("shelf", "storage", "A shelf stores items on level boards reached horizontally from the front.",
                    # a paperback's depth (0.15 m) to a storage rack's (0.8 m)
                    _FURNITURE, (0.15, 0.8), aliases=("bookshelf",)),
@@ -214,8 +217,8 @@ def _rows() -> tuple[Affordance, ...]:
                    envelope=Envelope(height=(0.07, 0.3), width=(0.0, _GRIP), aspect=(1.0, inf))),
         Affordance("saucer", "dish", "A saucer holds a cup or a little food on a small, low dish with a shallow "
                    "well inside a rim (10-15 cm across either way, 1-4.5 cm tall).",
-                   # under a cup's foot (10 cm, round: either way) to a side plate's size, a dish's rim high
-                   envelope=Envelope(height=_DISH, width=(0.1, inf), length=(0.1, _PLATE[0]))),
+                   # round: a cup's foot across either way; a dish's rim high
+                   envelope=Envelope(height=_DISH, width=(_SAUCER[0], inf), length=_SAUCER)),
         Affordance("nightstand", "surface", "A nightstand holds a lamp, a book or a glass beside a bed on a level top "
                    "0.4-0.76 m high, 0.25-0.55 m deep and at most 0.8 m long, lower and smaller than a table.",
                    aliases=("night stand", "bedside table", "night table", "bedside cabinet"),
