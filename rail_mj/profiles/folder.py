@@ -7,7 +7,8 @@ of the object's footprint on the ground, z up (the default: how the published fo
 format was specified, a 10 cm cup's droplets ending 13 cm up), or ``center``, the centre of the object's box.
 Either way a via-point becomes a via-pose ``rel * h + offset_m`` with ``offset_m`` the point and
 ``rel = (0, 0, -1)`` or ``(0, 0, 0)``, so it stays at the same height above the ground (or the box centre) in
-every stable pose.
+every stable pose. Adapted (the default), a via-point is read as written for a typical object of the class and
+scaled to each pose's box (:func:`typical_half_extents`, ``_via``).
 
 :func:`save_profile` writes a profile in the same format, plus ``scoring.py`` (rail_mj's own vectorised scoring
 code, used when there is no ``evaluation.py``) and ``rail_mj.json``, which holds what the paper's files cannot
@@ -20,6 +21,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Literal
@@ -27,6 +29,7 @@ from typing import Literal
 import numpy as np
 
 import rail_mj.profiles.files as F
+from rail_mj.affordances import names
 from rail_mj.affordances.prototypes import extents
 from rail_mj.core.errors import ProfileFolderError, UnknownAffordanceError
 from rail_mj.core.profile import AgentLayout, MotionPlan, PlanTrajectory, ScoringCode, ViaPose
@@ -53,7 +56,7 @@ from rail_mj.mjcf import check_fragment
 from rail_mj.profiles.evaluation import evaluation_scoring, probe_scoring
 from rail_mj.urdf.agent import fragment_to_urdf, urdf_to_fragment
 
-__all__ = ["Origin", "ORIGIN_LIFT", "AGREE_M", "import_profile", "save_profile"]
+__all__ = ["Origin", "ORIGIN_LIFT", "AGREE_M", "import_profile", "save_profile", "typical_half_extents"]
 
 #: Where the via-points' coordinates start: ``ground`` (under the box centre) or ``center`` (of the box).
 Origin = Literal["ground", "center"]
@@ -204,7 +207,7 @@ def _centre_paths(folder: Path, trajs: dict[str, np.ndarray], offsets: np.ndarra
 
 
 def _plans(folder: Path, trajs: dict[str, np.ndarray] | None, offsets: np.ndarray | None, lift: float,
-           side: dict, adapt: bool, notes: list[str]) -> tuple[MotionPlans, Trajectories] | None:
+           side: dict, adapt: bool, notes: list[str], affordance: str) -> tuple[MotionPlans, Trajectories] | None:
     if (folder / F.PLAN).is_file():
         centre = F.read_plans(folder / F.PLAN)
         source = F.PLAN
@@ -222,14 +225,55 @@ def _plans(folder: Path, trajs: dict[str, np.ndarray] | None, offsets: np.ndarra
     # (a mug's handle moves the box's centre off its cavity): centred at the opening, a pose's basin, where a pour
     # aims (a pose without a basin keeps the box's centre)
     anchor: Literal["box", "opening"] = "opening" if adapt else "box"
+    typical = typical_half_extents(affordance) if adapt else None
     if adapt:
         notes.append(f"{source}'s via-points are centred at each pose's opening (the middle of its deepest basin, "
                      f"where a pour aims; a pose without one keeps its box's centre), not at its box's centre")
-    trajectories = [PlanTrajectory(plan=k, via_poses=[ViaPose(rel=[0.0, 0.0, -lift], offset_m=p.tolist(),
-                                                              quat=[1.0, 0.0, 0.0, 0.0], anchor=anchor)
-                                                      for p in pts])
+    if typical is not None and any(t is not None for t in typical):
+        sizes = ", ".join(f"{name} {2 * t:.3g} m" for name, t in zip(("length", "width", "height"), typical,
+                                                                     strict=True) if t is not None)
+        notes.append(f"{source}'s via-points are read as written for a typical {affordance} ({sizes}: the middle of "
+                     f"each typical range, on a log scale) and scaled to each pose's box: a point within the typical "
+                     f"box keeps its place in proportion, a point outside it keeps its clearance from the box")
+    else:
+        typical = (None, None, None)
+    trajectories = [PlanTrajectory(plan=k, via_poses=[_via(p, typical, lift, anchor) for p in pts])
                     for k, pts in centre.items()]
     return MotionPlans(plans=plans), Trajectories(trajectories=trajectories)
+
+
+def typical_half_extents(affordance: str) -> tuple[float | None, float | None, float | None] | None:
+    """Half the length, width and height of a typical object of a registered ``affordance`` (x, y, z of the task
+    frame, the longer horizontal side along x): the middle, on a log scale, of each typical range of its row's
+    envelope that is bounded on both sides; None where a range is open. A side of the footprint whose range is open
+    takes the other's (a plate is about as wide as long). None for an affordance the registry does not know."""
+    try:
+        ranges = names.get(affordance).envelope.ranges()
+    except UnknownAffordanceError:
+        return None
+
+    def middle(name: str) -> float | None:
+        lo, hi = ranges.get(name, (0.0, math.inf))
+        return math.sqrt(lo * hi) / 2 if 0 < lo and math.isfinite(hi) else None
+
+    length, width, height = middle("length"), middle("width"), middle("height")
+    return length or width, width or length, height
+
+
+def _via(point: np.ndarray, typical: Sequence[float | None], lift: float, anchor: Literal["box", "opening"]) -> ViaPose:
+    """A folder's via-point (m from ``lift``'s origin) as a via-pose. Along an axis with a typical half extent t,
+    a point within the typical box keeps its place in proportion to the pose's box (``rel = c / t``, the use's
+    place in the object: the floor of a tub, a fraction of a cup's depth), and a point outside keeps its
+    clearance from the box's face (the height an agent falls from, the room an approach leaves)."""
+    centred = np.asarray(point, dtype=float) - np.array([0.0, 0.0, lift * (typical[2] or 0.0)])
+    rel, offset = [0.0, 0.0, -lift], [float(v) for v in point]
+    for axis, t in enumerate(typical):
+        if t is None:
+            continue
+        c = float(centred[axis])
+        rel[axis] = c / t if abs(c) <= t else math.copysign(1.0, c)
+        offset[axis] = 0.0 if abs(c) <= t else c - math.copysign(t, c)
+    return ViaPose(rel=rel, offset_m=offset, quat=[1.0, 0.0, 0.0, 0.0], anchor=anchor)
 
 
 def import_profile(folder: str | Path, task: TaskDescription, provider: Provider, *,
@@ -240,8 +284,9 @@ def import_profile(folder: str | Path, task: TaskDescription, provider: Provider
     allow-list and the agent's size and mass checks, the JSON shapes, finite numbers, agents that start apart,
     and ``evaluation.py`` under the scoring sandbox's allow-list, run once on a synthetic batch. With ``adapt``,
     what the format leaves open is adapted the way the authors' simulator would run it (agents that start inside
-    each other are spread apart, via-points centred at each pose's opening), each adaptation named in the profile's
-    ``notes``; without, a folder with overlapping agents is refused and via-points keep the box's centre.
+    each other are spread apart, via-points centred at each pose's opening and scaled from the class's typical
+    object to each pose's box, :func:`typical_half_extents`), each adaptation named in the profile's ``notes``;
+    without, a folder with overlapping agents is refused and via-points keep the box's centre and their metres.
     """
     folder = Path(folder)
     if not folder.is_dir():
@@ -267,7 +312,7 @@ def import_profile(folder: str | Path, task: TaskDescription, provider: Provider
     mark("agent_configuration", layout is not None)
     layout = layout or stages.generate_layout(LayoutRequest(task=task, analysis=analysis, agent=agent), provider)
     both = _plans(folder, trajs, offsets if offsets is not None else layout_offsets(layout), lift, side, adapt,
-                  notes)
+                  notes, task.affordance)
     mark("motion_planner", both is not None)
     mark("trajectory", both is not None)
     if both is None:

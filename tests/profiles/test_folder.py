@@ -26,6 +26,7 @@ from rail_mj.profiles import (
     save_profile,
     urdf_to_fragment,
 )
+from rail_mj.profiles.folder import typical_half_extents
 from rail_mj.profiles.source import folder_task
 from rail_mj.scoring import compile_scoring, probe_outcomes
 
@@ -50,7 +51,7 @@ def _import(folder: Path, name: str, provider, **kw):
 
 
 def test_cup_folder_becomes_the_profile(offline) -> None:
-    profile = _import(FIXTURES / "cup", "cup", offline)
+    profile = _import(FIXTURES / "cup", "cup", offline, adapt=False)
     arrangement = json.loads((FIXTURES / "cup" / "arrangement.json").read_text())
     assert np.allclose(layout_offsets(profile.layout), [arrangement[f"agent_{i}"] for i in range(1, 9)])
     assert profile.layout.n_agents == 8
@@ -61,12 +62,36 @@ def test_cup_folder_becomes_the_profile(offline) -> None:
     for traj, points in zip(got, plans.values()):  # ground origin: the task frame's ground is at z = -h_z
         assert np.allclose(traj[:, :3], np.array(points) - [0, 0, h[2]])
     centred = import_profile(FIXTURES / "cup", profile_task := task_description("cup", DIMS["cup"], offline),
-                             offline, origin="center")
+                             offline, origin="center", adapt=False)
     assert profile_task.affordance == "cup"
     assert np.allclose(trajectory_array(centred.trajectories.trajectories, h)[0][:, :3], plans["plan_1"])
     # stages the folder lacks come from the provider: the cup has no evaluation.py
     assert profile.prompt_versions["scoring"] != "folder" and profile.prompt_versions["agent_model"] == "folder"
     assert profile.analysis.fits and "droplets" in profile.analysis.ibd
+
+
+def test_via_points_written_for_a_typical_object_are_scaled_to_each_pose(offline) -> None:
+    """A folder's metres are for one typical object of its class (a cup about 10 cm tall: the middle of the cup's
+    typical heights, 6-16 cm, on a log scale). Adapted, a via-point above that cup keeps its clearance above each
+    pose's top and one within it keeps its place in proportion, so the release 2 cm over a 10 cm cup's rim is 2 cm
+    over a 30 cm vessel's, not 18 cm down inside it; a bowl's footprint scales too. Not adapted, metres stay."""
+    typical = 2 * typical_half_extents("cup")[2]
+    assert typical == pytest.approx(np.sqrt(0.06 * 0.16)) and typical_half_extents("cup")[:2] == (None, None)
+    plans = json.loads((FIXTURES / "cup" / "plan.json").read_text())
+    adapted = _import(FIXTURES / "cup", "cup", offline)
+    plain = _import(FIXTURES / "cup", "cup", offline, adapt=False)
+    assert any("typical cup (height 0.098 m" in n for n in adapted.notes)
+    for hz in (0.05, 0.15):
+        h = np.array([0.05, 0.05, hz])
+        release = trajectory_array(adapted.trajectories.trajectories, h)[0][-1, :3]  # from the box centre
+        above_top = plans["plan_1"][-1][2] - typical
+        assert release[2] - hz == pytest.approx(above_top) and above_top > 0
+        assert trajectory_array(plain.trajectories.trajectories, h)[0][-1, 2] == pytest.approx(0.12 - hz)
+    inside = import_profile(FIXTURES / "cup", task_description("bowl", DIMS["basket"], offline), offline)
+    t = typical_half_extents("bowl")
+    h = np.array([2 * t[0], 2 * t[1], t[2]])  # a bowl twice as wide as a typical one
+    via = trajectory_array(inside.trajectories.trajectories, h)[1][:, :3]  # plan_2: from x = 0.2 m
+    assert via[0, 0] == pytest.approx(h[0] + 0.2 - t[0]) and via[-1, 0] == pytest.approx(0.0)
 
 
 def test_chair_links_fuse_into_one_body_and_agents_traj_gives_the_plans(offline) -> None:
@@ -114,7 +139,7 @@ def test_an_edited_file_wins_over_rail_mj_json(tmp_path: Path, offline) -> None:
     plans = json.loads((folder / "plan.json").read_text())
     plans["plan_1"][-1][2] += 0.05
     (folder / "plan.json").write_text(json.dumps(plans))
-    profile = _import(folder, "cup", offline)
+    profile = _import(folder, "cup", offline, adapt=False)
     assert profile.trajectories != made.trajectories and profile.agent == made.agent
     assert profile.trajectories.trajectories[0].via_poses[-1].offset_m == plans["plan_1"][-1]
     assert profile.provider == "folder+offline" and profile.prompt_versions["trajectory"] == "folder"
@@ -173,7 +198,8 @@ def test_agents_that_start_inside_each_other_are_spread_apart_and_the_import_say
     gaps = [float(np.linalg.norm(a - b)) for k, a in enumerate(offsets) for b in offsets[k + 1:]]
     assert min(gaps) == pytest.approx(0.04)  # the agent's diameter: the closest two touch
     assert np.allclose(offsets.mean(axis=0), [0.01 / 3, 0.01, 0.0])  # about the arrangement's centre
-    spread, centred = profile.notes
+    spread, centred, scaled = profile.notes
+    assert "read as written for a typical basket" in scaled
     assert "agents 1 and 2 are 0.0100 m apart" in spread and "spread 4.00x about its centre" in spread
     assert "via-points are centred at each pose's opening" in centred
     with pytest.raises(ProfileFolderError, match=r"arrangement\.json: agents 1 and 2 are 0\.0100 m apart, closer "
@@ -268,8 +294,9 @@ def test_a_folders_via_points_are_centred_at_the_opening_where_a_handle_moves_th
     plain = _import(FIXTURES / "cup", "cup", offline, adapt=False)
     moved = trajectory_array(adapted.trajectories.trajectories, h, basin)
     kept = trajectory_array(plain.trajectories.trajectories, h, basin)
-    for a, b in zip(moved, kept, strict=True):
-        assert np.allclose(a[:, 0] - b[:, 0], -0.015) and np.allclose(a[:, 1:3], b[:, 1:3])
+    alone = trajectory_array(adapted.trajectories.trajectories, h)
+    for a, b, c in zip(moved, kept, alone, strict=True):
+        assert np.allclose(a[:, 0] - b[:, 0], -0.015) and np.allclose(a[:, 1:3], c[:, 1:3])
     assert any("centred at each pose's opening" in n for n in adapted.notes) and plain.notes == []
 
 
@@ -287,7 +314,7 @@ def test_a_run_names_what_it_adapted_in_the_result_and_its_explanation(tmp_path:
     offsets[first] = [v + 0.001 for v in offsets[first]]  # 1.7 mm apart: spread to touching
     (folder / "arrangement.json").write_text(json.dumps(offsets))
     (cup,) = classify([cup_mesh], ["cup"], config=config, progress=False, workers=1)
-    assert cup.error is None and len(cup.profile_notes) == 2 and "spread" in cup.profile_notes[0]
+    assert cup.error is None and len(cup.profile_notes) == 3 and "spread" in cup.profile_notes[0]
     assert "profile folder adapted: " in format_explanation(explain(cup))
     (off,) = classify([cup_mesh], ["cup"], config=config.model_copy(update={"profile_adapt": False}), progress=False,
                       workers=1)
