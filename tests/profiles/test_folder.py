@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from paths import FIXTURES as TEST_FIXTURES
+from paths import REPO
 
 from rail_mj.core.errors import ConfigError, ProfileFolderError
 from rail_mj.imagination.inputs import layout_offsets, trajectory_array
@@ -92,6 +93,18 @@ def test_via_points_written_for_a_typical_object_are_scaled_to_each_pose(offline
     h = np.array([2 * t[0], 2 * t[1], t[2]])  # a bowl twice as wide as a typical one
     via = trajectory_array(inside.trajectories.trajectories, h)[1][:, :3]  # plan_2: from x = 0.2 m
     assert via[0, 0] == pytest.approx(h[0] + 0.2 - t[0]) and via[-1, 0] == pytest.approx(0.0)
+
+
+@pytest.mark.parametrize("name", ["cup", "bowl", "vase", "basket", "bathtub", "plate", "table", "chair"])
+def test_the_benchmarks_paper_format_folders_import_without_an_error(name: str, offline) -> None:
+    """benchmarks/paper_format_profiles, written as the authors wrote theirs, each import whole: the folder's agent,
+    arrangement, plans and evaluation.py (where it has one) become the profile, scaled from the class's typical
+    object."""
+    profile = import_profile(REPO / "benchmarks" / "paper_format_profiles" / name,
+                             task_description(name, DIMS.get(name, [0.3, 0.2, 0.1]), offline), offline)
+    folder = REPO / "benchmarks" / "paper_format_profiles" / name
+    assert profile.prompt_versions["agent_model"] == "folder" and profile.prompt_versions["trajectory"] == "folder"
+    assert (profile.prompt_versions["scoring"] == "folder") == (folder / "evaluation.py").is_file()
 
 
 def test_chair_links_fuse_into_one_body_and_agents_traj_gives_the_plans(offline) -> None:
