@@ -58,7 +58,7 @@ class Item:
 
     builder: str  # "demo:KIND", "shapes:BUILDER" or "real:MESH_STEM" (a row of the real-mesh set)
     seed: int = 0
-    scale: float = 1.0  # for shapes builders: their real-world mesh scaled to the robot's table
+    scale: float = 1.0  # shapes and real meshes: their real-world mesh scaled (to the robot's table, a dinner plate)
     flip: bool = False  # stands upside down as placed
     name: str = ""  # default: the builder's kind
 
@@ -127,6 +127,12 @@ TASKS: tuple[Task, ...] = (
     Task("real_doll_dining_table", "real:maniskill_dining_table", 0, "put the doll on the table"),
     Task("real_doll_desk", "real:libero_desk", 0, "put the doll on the table"),
     Task("real_doll_bathtub", "real:genesis_bathtub", 0, "put the doll in the bathtub"),
+    # scanned plates and shallow dishes (issue 43): a dinner plate, a side plate as a saucer, other agents
+    Task("real_dinner_plate", "real:libero_plate", 0, "put the food on the plate", scale=0.8),
+    Task("real_plate_bread", "real:libero_plate", 0, "put the bread on the plate"),
+    Task("real_saucer", "real:libero_plate", 0, "put the cup on the saucer", scale=0.5),
+    Task("real_akita_bowl", "real:libero_akita_bowl", 0, "put the food in the bowl"),
+    Task("real_wide_bowl", "real:maniskill_bowl", 0, "put the apple in the bowl"),
     # requests the object does not afford as it stands: declining, with nothing executed, is right
     Task("no_plate_water", "real:libero_plate", 0, "pour the water into the cup", decline=True),
     Task("no_closed_box_apple", "real:maniskill_cardboard_box", 0, "put the apple in the basket", decline=True),
