@@ -133,6 +133,9 @@ TASKS: tuple[Task, ...] = (
     Task("real_saucer", "real:libero_plate", 0, "put the cup on the saucer", scale=0.5),
     Task("real_akita_bowl", "real:libero_akita_bowl", 0, "put the food in the bowl"),
     Task("real_wide_bowl", "real:maniskill_bowl", 0, "put the apple in the bowl"),
+    # serving trays 40-43 cm across: their floor is the largest level face the wrist camera sees
+    Task("large_tray", "shapes:tray", 1, "put the food on the tray"),
+    Task("deep_tray", "shapes:tray", 2, "put the food on the tray"),
     # requests the object does not afford as it stands: declining, with nothing executed, is right
     Task("no_plate_water", "real:libero_plate", 0, "pour the water into the cup", decline=True),
     Task("no_closed_box_apple", "real:maniskill_cardboard_box", 0, "put the apple in the basket", decline=True),

@@ -168,7 +168,8 @@ def _canonical_mesh(o3d: ModuleType, mesh):
 
 def extract(volume, depths: list[np.ndarray], views: list[ScanView], config: ScanConfig, table_top: float,
              workspace_centre: np.ndarray, n_fused: int | None = None) -> tuple[trimesh.Trimesh, float, list[str]]:
-    """Table plane (RANSAC) out, largest cluster (DBSCAN) in, the TSDF mesh cropped to the cluster's box.
+    """Table plane (RANSAC; a level plane above the table's known height is a dish's floor, and the known height is
+    used) out, largest cluster (DBSCAN) in, the TSDF mesh cropped to the cluster's box.
 
     Open3D keeps voxels whose weight (views fused) is strictly above its threshold: hence ``- 0.5``. The first
     ``n_fused`` views (default all) are the TSDF's and carve it; the rest (the top view) count for the closings
@@ -188,10 +189,17 @@ def extract(volume, depths: list[np.ndarray], views: list[ScanView], config: Sca
                                    np.random.default_rng(config.seed))
     a, b, c, d = plane
     table_z = table_top
-    if abs(c) > 0.95 * math.sqrt(a * a + b * b + c * c):
-        # a horizontal plane: the table; its height under the workspace centre
-        x, y = workspace_centre[:2]
-        table_z = float(-(a * x + b * y + d) / c)
+    x, y = workspace_centre[:2]
+    level = abs(c) > 0.95 * math.sqrt(a * a + b * b + c * c)
+    plane_z = float(-(a * x + b * y + d) / c) if level else math.nan  # its height under the workspace centre
+    if level and plane_z > table_top + config.plane_distance / 2:
+        # the largest flat face in view can be a dish's floor standing on the table (a 40 cm tray's, against the
+        # strip of table the workspace shows beside it); the table's own plane lies within 0.1 mm of its height
+        notes.append(f"the largest level plane lies {1000 * (plane_z - table_top):.1f} mm above the table's known "
+                     f"height: it is on the table (a dish's floor); the table is taken at its known height")
+        inliers = np.flatnonzero(np.abs(np.asarray(cloud.points)[:, 2] - table_top) <= config.plane_distance).tolist()
+    elif level:
+        table_z = plane_z  # the table
     else:
         notes.append(f"the largest plane is not horizontal (normal {np.round(plane[:3], 3).tolist()}); "
                      f"the table is taken at its known height {table_top:.3f} m")

@@ -203,3 +203,21 @@ def test_the_tsdf_mesh_order_is_canonical():
     assert np.array_equal(np.asarray(a.vertices), np.asarray(b.vertices))
     assert np.array_equal(np.asarray(a.triangles), np.asarray(b.triangles))
     assert trimesh.Trimesh(np.asarray(a.vertices), np.asarray(a.triangles)).volume > 0  # winding kept
+
+
+def test_a_trays_floor_is_not_taken_for_the_table() -> None:
+    """A 40 x 28 cm tray, 2 cm tall on a 4 mm floor: its floor is the largest level face in the workspace (the table
+    shows only a strip beside it). Taken for the table, it cut the tray down to a rim fragment 9 cm long; the
+    table is at its known height instead, and the scan is the tray."""
+    outer = trimesh.creation.box(extents=[0.40, 0.28, 0.02])
+    inner = trimesh.creation.box(extents=[0.38, 0.26, 0.02])
+    outer.apply_translation([0.0, 0.0, 0.01])
+    inner.apply_translation([0.0, 0.0, 0.014])
+    tray = outer.difference(inner)
+    obj = RailObject(name="tray", mesh=tray, hulls=(np.asarray(tray.vertices),), mesh_hash=mesh_hash(tray),
+                     obb_dims=np.array([0.40, 0.28, 0.02]), com=np.array([0.0, 0.0, 0.005]), mass=0.5,
+                     density=600.0)
+    result = scan_object(obj, upright_pose(obj))
+    assert any("a dish's floor" in n for n in result.notes), result.notes
+    assert result.table_z == pytest.approx(ScanConfig().robot.table_height)
+    assert np.all(np.abs(result.mesh.extents - [0.40, 0.28, 0.02]) < 0.01), result.mesh.extents
