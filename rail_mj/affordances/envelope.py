@@ -18,13 +18,17 @@ from dataclasses import dataclass
 from rail_mj.affordances.prior import check_width
 from rail_mj.core.errors import ConfigError
 
-__all__ = ["ANY", "BOX", "QUANTITIES", "Range", "Envelope"]
+__all__ = ["ANY", "BOX", "QUANTITIES", "VESSEL_BASE", "Range", "Envelope"]
 
 Range = tuple[float, float]
 #: No constraint.
 ANY: Range = (0.0, math.inf)
 #: The envelope's sizes of the object's box (``rest`` is the agent's, not the box's).
 BOX = ("height", "width", "length", "height/width")
+#: The thickest solid base under a vessel's cavity, m (a heavy tumbler's, 2-3 cm): a cavity floor higher than this
+#: stands on a stem or a foot, which raises the vessel without making it a larger one (a 20 cm wine glass is a
+#: 12 cm cup on a stem).
+VESSEL_BASE = 0.03
 #: Every quantity a prior weighs: the envelope's box sizes, the OBB's largest and smallest dims, and the agent's rest
 #: height (``rest``, measured in the rollouts).
 QUANTITIES = (*BOX, "largest dim", "smallest dim", "rest height")
@@ -54,15 +58,18 @@ class Envelope:
         ranges = dict(zip(BOX, (self.height, self.width, self.length, self.aspect), strict=True))
         return {name: rng for name, rng in ranges.items() if rng != ANY}
 
-    def values(self, half: Sequence[float], rim: float | None = None) -> list[tuple[str, float, Range]]:
+    def values(self, half: Sequence[float], rim: float | None = None,
+               stem: float = 0.0) -> list[tuple[str, float, Range]]:
         """(name, value, range) of each constrained box size of a pose (half extents); with the pose's ``rim``
         (spill level, m) the aspect is the rim's, ``min(H, rim) / W``: a handle rising above the rim makes a
-        vessel neither taller than a bowl nor deep enough for a cup."""
+        vessel neither taller than a bowl nor deep enough for a cup. ``stem`` (m) is taken off the height and the
+        rim: a stem or a foot under a vessel's cavity (its floor above :data:`VESSEL_BASE`)."""
         hx, hy, hz = (float(v) for v in half)
+        hz -= stem / 2
         width = min(hx, hy)
         aspect = hz / width if width > 0 else math.inf
         if rim is not None and width > 0:
-            aspect = min(hz, rim / 2) / width
+            aspect = min(hz, (rim - stem) / 2) / width
         values = {"height": 2 * hz, "width": 2 * width, "length": 2 * max(hx, hy), "height/width": aspect}
         return [(name, values[name], rng) for name, rng in self.ranges().items()]
 

@@ -12,7 +12,7 @@ import math
 from collections.abc import Iterable
 from dataclasses import dataclass, replace
 
-from rail_mj.affordances.envelope import ANY, Envelope, Range
+from rail_mj.affordances.envelope import ANY, VESSEL_BASE, Envelope, Range
 from rail_mj.affordances.prior import FUNCTIONAL, Prior, reach, width_of
 from rail_mj.core.errors import ConfigError
 
@@ -99,16 +99,21 @@ class Affordance:
         :data:`~rail_mj.affordances.prior.FUNCTIONAL` (the sizes are as plausible for this use as not)."""
         return self.dims_prior(dims).value >= FUNCTIONAL
 
-    def pose_prior(self, half: Iterable[float], rim: float | None = None) -> Prior:
+    def pose_prior(self, half: Iterable[float], rim: float | None = None, floor: float | None = None) -> Prior:
         """The envelope as a prior over one pose's box (half extents), a vessel's aspect at its ``rim`` (the
-        pose's spill level, m) when given: the product of each constrained size's plausibility."""
-        values = self.envelope.values([float(v) for v in half], rim)
+        pose's spill level, m) when given: the product of each constrained size's plausibility. A vessel (the
+        container kind) whose basin ``floor`` (m) stands higher than :data:`VESSEL_BASE` is weighed without its
+        stem: a wine glass by its bowl, not by its bowl on a stem."""
+        stem = max(0.0, floor - VESSEL_BASE) if floor is not None and self.kind == "container" else 0.0
+        values = self.envelope.values([float(v) for v in half], rim, stem)
         return Prior.of([(name, v, rng, self._width(name)) for name, v, rng in values])
 
-    def pose_fits(self, half: Iterable[float], rim: float | None = None) -> tuple[bool, str]:
+    def pose_fits(self, half: Iterable[float], rim: float | None = None,
+                  floor: float | None = None) -> tuple[bool, str]:
         """Whether a pose's box (half extents) is inside the envelope's typical ranges, a vessel's aspect at its
-        ``rim`` (the pose's spill level, m) when given; the sizes outside them when it is not."""
-        out = [f for f in self.pose_prior(half, rim).factors if f.plausibility < 1.0]
+        ``rim`` (the pose's spill level, m) and without its stem (its basin's ``floor``) when given; the sizes
+        outside them when it is not."""
+        out = [f for f in self.pose_prior(half, rim, floor).factors if f.plausibility < 1.0]
         if not out:
             return True, ""
         return False, "; ".join(f"in this pose its {f.name} is {f.value:.3f}; a {self.name} typically has "

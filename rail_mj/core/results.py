@@ -20,15 +20,19 @@ class BasinInfo(BaseModel):
     opening: list[float] = Field(min_length=2, max_length=2, description="x, y (m) of the middle of that basin's "
                                  "water surface from the box centre (where pours aim)")
     length: float = Field(description="longer side (m) of that basin's water surface at the spill level")
+    floor: float = Field(default=0.0, description="height (m) of that basin's floor where it is deepest above the "
+                                                  "ground (a wine glass's stem raises it)")
 
     @classmethod
     def of(cls, basin: Basin | None) -> BasinInfo | None:
         if basin is None:
             return None
-        return cls(rim=float(basin.rim), opening=[float(v) for v in basin.opening], length=float(basin.length))
+        return cls(rim=float(basin.rim), opening=[float(v) for v in basin.opening], length=float(basin.length),
+                   floor=float(basin.floor))
 
     def to_basin(self) -> Basin:
-        return Basin(rim=self.rim, opening=np.asarray(self.opening, dtype=np.float64), length=self.length)
+        return Basin(rim=self.rim, opening=np.asarray(self.opening, dtype=np.float64), length=self.length,
+                     floor=self.floor)
 
 
 class PoseInfo(BaseModel):

@@ -75,6 +75,8 @@ class Basin:
     opening: np.ndarray
     #: (m) the water surface's longer side along x or y at the spill level
     length: float
+    #: height (m) above the lowest point of the basin's floor where it is deepest: a mug's base, a wine glass's stem
+    floor: float = 0.0
 
 
 @dataclass(frozen=True)

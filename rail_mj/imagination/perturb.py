@@ -105,7 +105,7 @@ def scaled_pose(pose: StablePose, s: float) -> StablePose:
         pose, pos=np.asarray(pose.pos, dtype=np.float64) * s,
         half_extents=np.asarray(pose.half_extents, dtype=np.float64) * s,
         basin=None if basin is None else Basin(rim=basin.rim * s, opening=np.asarray(basin.opening) * s,
-                                               length=basin.length * s))
+                                               length=basin.length * s, floor=basin.floor * s))
 
 
 def resting_on(pose: StablePose, hulls: tuple[np.ndarray, ...], other: tuple[np.ndarray, ...]) -> StablePose:

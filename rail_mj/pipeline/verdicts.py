@@ -157,8 +157,10 @@ def pose_prior(aff: Affordance | None, obb_dims: Sequence[float] | np.ndarray, p
     made = Prior((Factor.said(*design),)) if design is not None else Prior()
     if aff is None:
         return (sizes.prior(obb_dims) if sizes is not None else Prior()) * made
+    basin = pose.basin
     return aff.size_prior([float(d) for d in obb_dims]) * aff.pose_prior(
-        [float(v) for v in pose.half_extents], None if pose.basin is None else pose.basin.rim) * made
+        [float(v) for v in pose.half_extents], None if basin is None else basin.rim,
+        None if basin is None else basin.floor) * made
 
 
 def _judged(evidence: ImaginedWorlds, world: World) -> Accepted:

@@ -12,9 +12,10 @@ import re
 
 from pydantic import BaseModel, Field
 
+from rail_mj.affordances.envelope import VESSEL_BASE
 from rail_mj.affordances.names import get
 from rail_mj.core.errors import UnknownAffordanceError
-from rail_mj.core.results import AffordanceResult, PoseProbability
+from rail_mj.core.results import AffordanceResult, BasinInfo, PoseProbability
 
 __all__ = ["PoseExplanation", "Explanation", "explain", "format_explanation", "up_axis"]
 
@@ -74,12 +75,13 @@ def up_axis(up: list[float]) -> str:
     return "[" + ", ".join(f"{v:.2f}" for v in up) + "]"
 
 
-def _envelope(affordance: str, half: list[float], rim: float | None) -> str:
+def _envelope(affordance: str, half: list[float], basin: BasinInfo | None) -> str:
     try:
         aff = get(affordance)
     except UnknownAffordanceError:
         return "no registered envelope"
-    return aff.pose_prior(half, rim).doc()  # a vessel's aspect at its rim
+    # a vessel's aspect at its rim, without its stem
+    return aff.pose_prior(half, None if basin is None else basin.rim, None if basin is None else basin.floor).doc()
 
 
 def _factors(v: PoseProbability) -> str:
@@ -112,8 +114,10 @@ def explain(r: AffordanceResult) -> Explanation:
             index=p.index, probability=p.probability, up=up_axis(p.up_in_mesh_frame),
             up_in_mesh_frame=[round(v, 4) for v in p.up_in_mesh_frame],
             box_size_m=[round(2.0 * v, 4) for v in p.half_extents],
-            envelope=_envelope(r.affordance, p.half_extents, None if p.basin is None else p.basin.rim),
-            basin="none" if p.basin is None else f"water stands up to {p.basin.rim:.3f} m, {p.basin.length:.2f} m long",
+            envelope=_envelope(r.affordance, p.half_extents, p.basin),
+            basin="none" if p.basin is None else (f"water stands up to {p.basin.rim:.3f} m, {p.basin.length:.2f} m long"
+                                                  + (f", over a floor {p.basin.floor:.3f} m up" if p.basin.floor
+                                                     > VESSEL_BASE else "")),
             toe_room="" if p.toe_room is None else f"a foot up to {p.toe_room:.3f} m broad gets under the middle",
             scores={name: round(s, 4) for name, s in zip(r.plans, row, strict=False)},
             analyzer="; ".join(per_pose.get(p.index, [])), functional=p.index == best,

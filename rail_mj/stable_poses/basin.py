@@ -75,4 +75,5 @@ def spill_basin(points: np.ndarray) -> Basin | None:
     # walls (to a sample's noise) parts two basins
     surface, _ = scipy.ndimage.label(depth > 0.05 * depth[deepest])  # pyright: ignore[reportGeneralTypeIssues]
     span = np.ptp(np.argwhere(surface == surface[deepest]), axis=0) + 1
-    return Basin(rim=float(level[deepest]), opening=centre, length=float(span.max() * cell))
+    return Basin(rim=float(level[deepest]), opening=centre, length=float(span.max() * cell),
+                 floor=float(height[deepest]))

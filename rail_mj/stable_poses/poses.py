@@ -44,8 +44,8 @@ from rail_mj.stable_poses.legroom import toe_room
 __all__ = ["find_stable_poses", "pose_from_up"]
 
 #: bump when the algorithm changes, so old cache entries are ignored (4: poses carry their spill level, 6: and
-#: where their basin opens, and how long it is, 8: how wide a foot gets under them)
-_CACHE_VERSION = 8
+#: where their basin opens, and how long it is, 8: how wide a foot gets under them, 9: how high the basin's floor is)
+_CACHE_VERSION = 9
 
 
 def _footprint_yaw(xy: np.ndarray) -> float:

@@ -152,6 +152,33 @@ def test_a_cups_depth_is_its_rims_a_scoops_rising_handle_makes_it_no_deeper() ->
     assert cup.pose_prior(mug, rim=0.1).value == 1.0
 
 
+def _wine_glass() -> trimesh.Trimesh:
+    """A 20 cm wine glass: a 12 cm bowl (rim 7 cm, 8.6 cm at its widest) on an 8 cm stem and a 7 cm foot."""
+    from scipy.interpolate import PchipInterpolator
+
+    top, base = 0.2, 0.088  # the bowl's outside starts on the stem 8.8 cm up; its inside floor is 9.4 cm up
+    r_of = PchipInterpolator([base, base + 0.017, base + 0.062, top], [0.006, 0.026, 0.043, 0.035])
+    outer = [(float(r_of(z)), float(z)) for z in np.linspace(base, top, 16)]
+    inner = [(max(float(r_of(z)) - 0.0025, 0.002), float(z)) for z in np.linspace(top, base + 0.006, 16)]
+    foot = [(0.0, 0.0), (0.035, 0.0), (0.035, 0.004), (0.01, 0.008), (0.004, 0.016), (0.004, base - 0.004)]
+    return trimesh.creation.revolve(np.array(foot + outer + inner + [(0.0, base + 0.006)]), sections=48)
+
+
+def test_a_wine_glass_is_a_cup_by_its_bowl_not_its_bowl_on_a_stem() -> None:
+    """Its box is 20 cm tall, past a cup's 16 cm (prior 0.02); its basin's floor stands 9.4 cm up, and without the
+    stem under it (all but a heavy tumbler's 3 cm base) it is a 14 cm cup. A table is weighed whole: its top is no
+    vessel's floor on a stem."""
+    cup, table = get("cup"), get("table")
+    glass = [0.043, 0.043, 0.1]
+    assert cup.pose_prior(glass, rim=0.2).value < 0.05
+    assert cup.pose_prior(glass, rim=0.2, floor=0.094).value == 1.0
+    assert table.pose_prior([0.6, 0.4, 0.38], floor=0.74).value == table.pose_prior([0.6, 0.4, 0.38]).value
+    r = _verdict(_wine_glass(), "wine_glass", "cup")
+    assert r.functional and r.probability > 0.9, (r.prior, r.analyzer_reasons)
+    upright = r.stable_poses[r.functional_pose.index] if r.functional_pose is not None else None
+    assert upright is not None and upright.basin is not None and upright.basin.floor == pytest.approx(0.094, abs=0.01)
+
+
 def test_a_scoop_whose_handle_rises_above_its_rim_is_a_bowl() -> None:
     """Its handle makes the box 0.82 as high as wide; its rim is 0.47 of its width."""
     r = _verdict(shapes.GENERATORS["scoop"](np.random.default_rng(1)).mesh, "scoop", "bowl")
