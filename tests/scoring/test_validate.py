@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import os
 import signal
+import subprocess
+import sys
 import threading
 
 import numpy as np
@@ -149,8 +151,9 @@ def arena(tmp_path_factory):
 def _assert_unharmed(watched, cwd, batch):
     assert list(watched.iterdir()) == []
     assert list(cwd.iterdir()) == []
-    for worker in list(pool._LIVE):
-        assert os.listdir(worker.tmpdir) == []
+    for worker in list(pool._LIVE):  # each runs in a folder removed when it started: nothing written there stays
+        if worker.proc.poll() is None:
+            assert os.readlink(f"/proc/{worker.proc.pid}/cwd").endswith("(deleted)")
     np.testing.assert_array_equal(compile_scoring(LEGIT)(**batch), batch["contacts_object"].sum(axis=1) - 0.5)
 
 
@@ -210,6 +213,14 @@ def test_idle_worker_that_died_is_replaced_silently(arena):
         w.proc.wait()
     _assert_unharmed(watched, cwd, batch)
     assert all(w not in pool._LIVE for w in workers)
+
+
+def test_a_parent_that_exits_without_its_clean_up_leaves_no_folder(tmp_path):
+    """A forked eval worker leaves with os._exit, which skips atexit and the workers' clean-up: their folders are
+    gone already (269 had piled up in /tmp)."""
+    code = "import os; from rail_mj.scoring import warm_up; warm_up(1); os._exit(0)"
+    subprocess.run([sys.executable, "-c", code], env={**os.environ, "TMPDIR": str(tmp_path)}, check=True, timeout=120)
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_huge_error_message_is_clipped(arena):
