@@ -201,8 +201,9 @@ class PoseShape(ProfileModel):
                                               "through which most of the object's cavity sees out; [] for none")
     cavity: float = Field(ge=0, le=1, description="share of the pose's box that is cavity: empty, and bounded by the "
                                                   "object on at least 4 of its 6 sides")
-    as_it_came: bool = Field(description="this pose has the mesh file's own up axis up (within 20 deg): the pose "
-                                         "the object was modelled or scanned in")
+    as_it_came: bool | None = Field(description="this pose has the mesh file's own up axis up (within 20 deg): the "
+                                                "pose the object was modelled or scanned in; null for an object that "
+                                                "came in an arbitrary orientation")
 
 
 class PoseCandidates(ProfileModel):

@@ -11,6 +11,7 @@ from rail_mj.llm.anthropic_provider import AnthropicConfig, AnthropicProvider
 from rail_mj.llm.checks import InvalidAnswerError
 from rail_mj.llm.offline import known_affordances, normalize_affordance
 from rail_mj.llm.openai_provider import OpenAIConfig, OpenAIProvider
+from rail_mj.llm.pictures import Picture
 from rail_mj.llm.prompts import PROMPT_VERSION
 from rail_mj.llm.providers import OfflineProvider, Provider, ProviderConfig, get_provider
 
@@ -42,6 +43,7 @@ __all__ = [
     "OpenAIConfig",
     "OpenAIProvider",
     "PROMPT_VERSION",
+    "Picture",
     "Provider",
     "ProviderConfig",
     "analyze_affordance",

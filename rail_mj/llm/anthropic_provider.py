@@ -8,7 +8,8 @@ from __future__ import annotations
 import os
 from typing import TYPE_CHECKING, Any, cast
 
-from rail_mj.core.errors import ConfigError, ProviderError
+from rail_mj.core.errors import ConfigError, ProviderError, RequestRefusedError
+from rail_mj.llm.pictures import Picture, picture_b64
 from rail_mj.llm.prompts import StageSpec
 from rail_mj.llm.provider_base import (
     MODEL_ENV,
@@ -114,11 +115,18 @@ class AnthropicProvider(LLMProvider):
             ) from exc
         except anthropic.AuthenticationError as exc:
             raise ProviderError(f"stage {stage.name!r}: the API key was rejected; check ANTHROPIC_API_KEY") from exc
+        except anthropic.BadRequestError as exc:
+            raise RequestRefusedError(
+                f"stage {stage.name!r}: the Anthropic API refused the request (HTTP {exc.status_code}): {exc.message}"
+            ) from exc
         except anthropic.APIStatusError as exc:
             raise ProviderError(
                 f"stage {stage.name!r}: the Anthropic API answered HTTP {exc.status_code} "
                 f"(after the SDK's retries for 429/5xx): {exc.message}"
             ) from exc
+
+    def _picture_part(self, picture: Picture) -> dict[str, Any]:
+        return {"type": "image", "source": {"type": "base64", "media_type": "image/png", "data": picture_b64(picture)}}
 
     def _read_reply(self, body: str) -> tuple[str, str | None]:
         text, stop_reason = _reply_text(body)

@@ -24,7 +24,8 @@ from typing import Any
 
 from pydantic import Field, field_validator
 
-from rail_mj.core.errors import ConfigError, ProviderError
+from rail_mj.core.errors import ConfigError, ProviderError, RequestRefusedError
+from rail_mj.llm.pictures import Picture, picture_b64
 from rail_mj.llm.prompts import StageSpec
 from rail_mj.llm.provider_base import (
     MODEL_ENV,
@@ -170,6 +171,8 @@ class OpenAIProvider(LLMProvider):
             status, text, headers = self._post(stage, data)
             if 200 <= status < 300:
                 return text
+            if status in (400, 422):
+                raise RequestRefusedError(self._http_problem(stage, status, text, retried=attempt))
             if status not in _RETRIED or attempt == retries:
                 raise ProviderError(self._http_problem(stage, status, text, retried=attempt))
             time.sleep(_backoff(headers, attempt))
@@ -224,6 +227,9 @@ class OpenAIProvider(LLMProvider):
         if 300 <= status < 400:
             return f"{head} (a redirect, not followed: a POST would lose its body); set {BASE_URL_ENV} to the final URL"
         return f"{head} ({detail})"
+
+    def _picture_part(self, picture: Picture) -> dict[str, Any]:
+        return {"type": "image_url", "image_url": {"url": f"data:image/png;base64,{picture_b64(picture)}"}}
 
     def _read_reply(self, body: str) -> tuple[str, str | None]:
         text, finish_reason = _reply_text(body)

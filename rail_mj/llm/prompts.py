@@ -64,8 +64,9 @@ PROMPT_VERSION: dict[str, str] = {
     # 3: the synthetic batch and the proof on prototypes stated
     "scoring": "3",
     # 3: the poses carry their basin's length; 5: each pose's shape, the object's as it came, the drop frequency;
-    # 6: every field of the request named with its meaning
-    "functional_pose": "6",
+    # 6: every field of the request named with its meaning; 7: pictures of the poses, as_it_came null for an object
+    # that came in an arbitrary orientation
+    "functional_pose": "7",
     # 2: the owner the object's name gives (a doll's chair)
     "request_parser": "2",
 }
@@ -252,7 +253,12 @@ cavity opens through, whether it is the pose the object came in: the mesh file's
 or scanned in, as files usually store an object as built), and the candidate interactions that the scoring \
 function called successful, each with its plan, via-poses (task frame, m), score and a summary of the resultant \
 configuration; `failed` lists the pose's other plans, which the scoring function called failures, as evidence \
-about the object. "came_in" is the object's shape as it came, whether or not that pose is among them. Decide per \
+about the object. "came_in" is the object's shape as it came, whether or not that pose is among them; for an object \
+that came in an arbitrary orientation (a scan whose up is unknown) "came_in" and each pose's "as_it_came" are null: \
+then nothing says which pose its maker designed, so judge by the shape and the physics alone. A model that takes \
+pictures also gets one picture per pose after the request, each after its caption: the object resting in that pose, \
+drawn as the convex parts the physics used (brown shades), the agents blue where the pose's best plan left them, on \
+a ground of 10 cm checker squares; read the object's shape from it. Decide per \
 pose whether the success is consistent with common sense for the affordance (reject successes that rely on the \
 object tipping over, agents arriving from an implausible direction, or resting at an implausible height, and a \
 container through which agents poured at its centre reached the ground beneath it: it leaks); weigh whether a \

@@ -20,7 +20,7 @@ from __future__ import annotations
 import json
 from abc import ABC, abstractmethod
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -33,12 +33,14 @@ from rail_mj.core.errors import (
     ConfigError,
     FragmentError,
     ProviderError,
+    RequestRefusedError,
     StageError,
     UnknownAffordanceError,
     UnsafeCodeError,
 )
 from rail_mj.llm.cache import ResponseCache, cache_enabled, cache_key
 from rail_mj.llm.checks import InvalidAnswerError
+from rail_mj.llm.pictures import Picture, pictures_key
 from rail_mj.llm.prompts import StageSpec, repair_prompt, system_prompt, user_prompt
 
 __all__ = [
@@ -119,9 +121,16 @@ class Provider(ABC):
                 return text
             raise
 
+    @property
+    def sees_pictures(self) -> bool:
+        """Whether requests go with pictures (:class:`~rail_mj.llm.pictures.Picture`) to this provider's model."""
+        return False
+
     @abstractmethod
-    def answer(self, stage: StageSpec, request: BaseModel, check: Callable[[Any], object]) -> Any:
-        """A validated answer of type ``stage.output_type``; StageError when none is found."""
+    def answer(self, stage: StageSpec, request: BaseModel, check: Callable[[Any], object],
+               pictures: Sequence[Picture] = ()) -> Any:
+        """A validated answer of type ``stage.output_type``; StageError when none is found. ``pictures`` go with
+        the request to a model that sees them (:attr:`sees_pictures`); other providers leave them."""
 
 
 class LLMConfig(ProviderConfig):
@@ -134,6 +143,8 @@ class LLMConfig(ProviderConfig):
     temperature: float | None = DEFAULT_TEMPERATURE
     max_tokens: int = Field(default=8192, ge=1)
     cache_root: Path | None = Field(default=None, description="default: cache_dir('llm')")
+    pictures: bool = Field(default=True, description="send stage 7 a picture of each pose with its plan's end "
+                                                     "state (a model that refuses them is asked again without)")
 
 
 class LLMProvider(Provider):
@@ -151,6 +162,25 @@ class LLMProvider(Provider):
     def __init__(self, config: LLMConfig) -> None:
         super().__init__(config)
         self._responses = ResponseCache(config.cache_root)
+        #: why the model was found to take no pictures (its API refused a request with them), else None
+        self.pictures_refused: str | None = None
+
+    @property
+    def sees_pictures(self) -> bool:
+        return self.config.pictures and self.pictures_refused is None
+
+    @abstractmethod
+    def _picture_part(self, picture: Picture) -> dict[str, Any]:
+        """One picture as a content block of this API's user message."""
+
+    def _content(self, text: str, pictures: Sequence[Picture]) -> str | list[dict[str, Any]]:
+        """A user message's content: the text, then each picture after its caption."""
+        if not pictures:
+            return text
+        parts: list[dict[str, Any]] = [{"type": "text", "text": text}]
+        for p in pictures:
+            parts += [{"type": "text", "text": p.caption}, self._picture_part(p)]
+        return parts
 
     @property
     def config(self) -> LLMConfig:
@@ -169,10 +199,12 @@ class LLMProvider(Provider):
         """The answer text of an HTTP 200 body, and the API's reason when it was cut off at ``max_tokens``
         (e.g. ``"stop_reason 'max_tokens'"``), else None; ProviderError for a body of any other shape."""
 
-    def answer(self, stage, request, check):
+    def answer(self, stage, request, check, pictures=()):
         max_retries = self.config.max_retries
+        pictures = tuple(pictures) if self.sees_pictures else ()
         request_json = request.model_dump(mode="json")
-        key = cache_key(self.name, self.model, stage.version, stage.name, request_json)
+        keyed = {**request_json, "pictures": pictures_key(pictures)} if pictures else request_json
+        key = cache_key(self.name, self.model, stage.version, stage.name, keyed)
         use_cache = cache_enabled(self.config.cache)
         if use_cache:
             cached = self._responses.get(key)
@@ -183,12 +215,22 @@ class LLMProvider(Provider):
                     return result
                 except (pydantic.ValidationError, *REJECTIONS):
                     pass  # stale under today's checks: ask again
-        messages: list[dict[str, Any]] = [{"role": "user", "content": user_prompt(request)}]
+        messages: list[dict[str, Any]] = [{"role": "user", "content": self._content(user_prompt(request), pictures)}]
         system = system_prompt(stage)
         problem = ""
         for attempt in range(max_retries + 1):
             (self.repairs if attempt else self.calls)[stage.name] += 1
-            body = self._call(stage, system, messages)
+            try:
+                body = self._call(stage, system, messages)
+            except RequestRefusedError as exc:
+                if not pictures or attempt:
+                    raise
+                # a model that takes no pictures: the same request as text, and no pictures from now on
+                self.pictures_refused = str(exc)
+                pictures, keyed = (), request_json
+                key = cache_key(self.name, self.model, stage.version, stage.name, keyed)
+                messages[0] = {"role": "user", "content": user_prompt(request)}
+                body = self._call(stage, system, messages)
             try:
                 text, cut_reason = self._read_reply(body)
             except ProviderError as exc:  # an HTTP 200 that is no usable reply: a failed attempt
@@ -212,7 +254,7 @@ class LLMProvider(Provider):
                 continue
             if use_cache:
                 meta = {"provider": self.name, "model": self.model, "prompt_version": stage.version,
-                        "stage": stage.name, "request": request_json}
+                        "stage": stage.name, "request": keyed}
                 self._responses.put(key, result.model_dump_json(), meta)
             return result
         raise StageError(

@@ -4,7 +4,8 @@
 
 Point the OpenAI-compatible provider at it (``OPENAI_BASE_URL=http://127.0.0.1:8765/v1``). Each request becomes
 ``DIR/NNNN.prompt.md`` (the system prompt, the conversation and the JSON schema the answer must match: everything
-the model is shown) and ``DIR/NNNN.request.json`` (the body as sent); whoever answers (a person, a model behind
+the model is shown; its pictures as ``DIR/NNNN-K.png``, named in the prompt where they stand) and
+``DIR/NNNN.request.json`` (the body as sent); whoever answers (a person, a model behind
 another API, a helper shown nothing but the prompt file) writes the answer's text to ``DIR/NNNN.answer.json``.
 The relay sends it back as the completion and appends the exchange to ``DIR/exchanges.jsonl``: the recorded
 corpus (:func:`read_exchanges`), which :mod:`rail_mj.llm.replay` serves again with no model. A request nobody
@@ -14,6 +15,7 @@ answers within ``--wait`` seconds gets HTTP 504. It listens on 127.0.0.1 only an
 from __future__ import annotations
 
 import argparse
+import base64
 import json
 import threading
 import time
@@ -22,17 +24,35 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 from typing import Any
 
-__all__ = ["RelayServer", "prompt_text", "read_exchanges", "main"]
+__all__ = ["RelayServer", "pictures_of", "prompt_text", "read_exchanges", "main"]
 
 PATH = "/v1/chat/completions"
 
 
-def prompt_text(body: dict[str, Any]) -> str:
-    """What the model is shown: every message in order, then the schema its answer must match."""
-    parts = []
+def pictures_of(body: dict[str, Any]) -> list[bytes]:
+    """The PNGs a request carries (``image_url`` blocks with base64 data URLs), in order."""
+    return [base64.b64decode(b["image_url"]["url"].split(",", 1)[1])
+            for m in body.get("messages", []) if not isinstance(m.get("content"), str)
+            for b in m.get("content") or [] if b.get("type") == "image_url"]
+
+
+def prompt_text(body: dict[str, Any], stem: str = "NNNN") -> str:
+    """What the model is shown: every message in order (its k-th picture named as the file ``{stem}-{k}.png``
+    beside the prompt), then the schema its answer must match."""
+    parts, k = [], 0
     for m in body.get("messages", []):
         content = m.get("content")
-        text = content if isinstance(content, str) else " ".join(b.get("text", "") for b in content or [])
+        if isinstance(content, str):
+            text = content
+        else:
+            blocks = []
+            for b in content or []:
+                if b.get("type") == "image_url":
+                    k += 1
+                    blocks.append(f"[picture: the image file {stem}-{k}.png]")
+                else:
+                    blocks.append(b.get("text", ""))
+            text = "\n\n".join(blocks)
         parts.append(f"## {m.get('role', '?')}\n\n{text}")
     schema = (body.get("response_format") or {}).get("json_schema")
     if schema:
@@ -96,7 +116,9 @@ class RelayServer:
             n = self._n
         stem = self.folder / f"{n:04d}"
         Path(f"{stem}.request.json").write_text(json.dumps(body, indent=1))
-        Path(f"{stem}.prompt.md").write_text(prompt_text(body))
+        for k, png in enumerate(pictures_of(body), start=1):
+            Path(f"{stem}-{k}.png").write_bytes(png)
+        Path(f"{stem}.prompt.md").write_text(prompt_text(body, stem.name))
         answer = Path(f"{stem}.answer.json")
         deadline = time.monotonic() + wait_s
         while not answer.exists():

@@ -35,6 +35,7 @@ from rail_mj.llm.checks import (
     check_verdict,
     task_half_extents,
 )
+from rail_mj.llm.pictures import Picture
 from rail_mj.llm.prompts import PROMPT_VERSION, STAGES
 from rail_mj.llm.providers import Provider, get_provider
 from rail_mj.llm.schemas import (
@@ -148,10 +149,12 @@ def generate_scoring(request: ScoringRequest, provider: ProviderLike = "offline"
     return _provider(provider).answer(STAGES["scoring"], request, check)
 
 
-def analyze_functional_poses(request: FunctionalPoseRequest,
-                             provider: ProviderLike = "offline") -> FunctionalPoseVerdict:
-    """Stage 7: accept or reject each pose's successes by common sense; pick the best (pose, plan)."""
-    return _provider(provider).answer(STAGES["functional_pose"], request, lambda v: check_verdict(v, request))
+def analyze_functional_poses(request: FunctionalPoseRequest, provider: ProviderLike = "offline",
+                             pictures: Sequence[Picture] = ()) -> FunctionalPoseVerdict:
+    """Stage 7: accept or reject each pose's successes by common sense; pick the best (pose, plan). ``pictures``
+    (one per pose of the request, with its plan's end state) go with it to a model that sees them."""
+    return _provider(provider).answer(STAGES["functional_pose"], request, lambda v: check_verdict(v, request),
+                                      pictures)
 
 
 def define_affordance(request: DefinitionRequest, provider: ProviderLike,

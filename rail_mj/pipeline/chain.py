@@ -27,6 +27,7 @@ from rail_mj.affordances.judge import rules_row
 from rail_mj.affordances.kinds import kind_of
 from rail_mj.affordances.prior import FUNCTIONAL, NEGLIGIBLE, Prior
 from rail_mj.core.errors import ConfigError, RailError, UnknownAffordanceError
+from rail_mj.core.profile import PoseShape
 from rail_mj.core.results import AffordanceResult, PlanInfo, PoseInfo
 from rail_mj.core.types import AgentSetup, RailObject, StablePose, StablePoses
 from rail_mj.imagination import PerturbationSet, draw_perturbations, imagine, pose_plan, resolve_backend
@@ -38,6 +39,7 @@ from rail_mj.mesh import load_object, mesh_notes, redecomposed
 from rail_mj.pipeline import definitions
 from rail_mj.pipeline.config import Definition, ObjectInput, RunConfig
 from rail_mj.pipeline.parallel import run_tasks
+from rail_mj.pipeline.pose_pictures import stage7_pictures
 from rail_mj.pipeline.tasks import ObjectTask
 from rail_mj.pipeline.verdicts import candidate_slots, judge, most_probable, next_worlds, pose_prior, undecided
 from rail_mj.scoring import ScoringFunction, compile_scoring
@@ -71,8 +73,19 @@ def provider_for(config: RunConfig) -> llm.Provider:
     """The run's provider, configured once with the run's LLM settings (those left None: the provider's own)."""
     options = {**config.provider_options,
                **{k: v for k, v in (("model", config.model), ("max_retries", config.max_retries),
-                                    ("cache", config.cache), ("timeout", config.llm_timeout)) if v is not None}}
+                                    ("cache", config.cache), ("timeout", config.llm_timeout),
+                                    ("pictures", config.llm_pictures)) if v is not None}}
     return llm.get_provider(config.provider, **options)
+
+
+def _pose_shape(shapes: ObjectShapes | None, oriented: bool) -> Callable[[int], PoseShape] | None:
+    """Each pose's shape for stage 7's model; for an object that came in an arbitrary orientation, without whether
+    the pose is the one it came in, which then says nothing of the pose its maker designed."""
+    if shapes is None:
+        return None
+    if oriented:
+        return shapes.pose
+    return lambda i: shapes.pose(i).model_copy(update={"as_it_came": None})
 
 
 def as_placed_pose(obj: RailObject) -> StablePoses:
@@ -331,10 +344,11 @@ class Pipeline:
         veto = self.provider_name != "offline"  # a model's common sense; the offline answer is the rules' own
         # a model also gets the shape facts it cannot read from the numbers; the rules read the physics alone
         shapes = self._shapes(obj, poses) if veto else None
-        request = llm.functional_pose_request(profile, evidence.candidates(nominal),
-                                              shapes.pose if shapes is not None else None,
-                                              shapes.came_in if shapes is not None else None)
-        stage7 = None if request is None else llm.analyze_functional_poses(request, self.provider)
+        request = llm.functional_pose_request(profile, evidence.candidates(nominal), _pose_shape(shapes, obj.oriented),
+                                              shapes.came_in if shapes is not None and obj.oriented else None)
+        pictures = (stage7_pictures(obj, profile.agent.mjcf, poses, evidence, request)
+                    if request is not None and veto and self.provider.sees_pictures else [])
+        stage7 = None if request is None else llm.analyze_functional_poses(request, self.provider, pictures)
         vetoed = {v.pose_index for v in stage7.poses if not v.accept} if veto and stage7 is not None else set()
         sizes = profile.analysis.sizes
 

@@ -41,9 +41,10 @@ def _number(kind: type, lowest: float, strict: bool, what: str):
 
 
 def add_llm_options(parser: argparse.ArgumentParser) -> None:
-    """``--model``, ``--llm-timeout``, ``--max-repairs`` and ``--save-affordance``, which every command that imagines
-    takes: a model the server names, a slow model waited for, how often a rejected answer goes back (defaults: the
-    provider's), and where the uses the model defined are written."""
+    """``--model``, ``--llm-timeout``, ``--max-repairs``, ``--no-llm-pictures`` and ``--save-affordance``, which every
+    command that imagines takes: a model the server names, a slow model waited for, how often a rejected answer goes
+    back (defaults: the provider's), whether stage 7 sees pictures, and where the uses the model defined are
+    written."""
     from rail_mj.llm.provider_base import LLMConfig
 
     fields = LLMConfig.model_fields
@@ -55,6 +56,10 @@ def add_llm_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--max-repairs", type=_number(int, 0, False, "a whole number >= 0"), metavar="N",
                         help=f"repair rounds per stage after a rejected answer (default "
                              f"{fields['max_retries'].default})")
+    parser.add_argument("--no-llm-pictures", dest="llm_pictures", action="store_false", default=None,
+                        help="send stage 7 no pictures of the poses (default: a picture of each pose with its "
+                             "plan's end state, to a model that takes them; one whose API refuses them is asked "
+                             "again as text)")
     parser.add_argument("--save-affordance", type=Path, metavar="DIR",
                         help="write each use outside the registry that the model defined, once proven on its "
                              "prototypes: a row of a kind as DIR/<use>.toml (for --affordances-file), a profile of its "
@@ -73,7 +78,7 @@ def run_settings(args: argparse.Namespace) -> dict[str, Any]:
 def llm_settings(args: argparse.Namespace) -> dict[str, Any]:
     """The :class:`~rail_mj.pipeline.config.RunConfig` fields of :func:`add_llm_options`' options that were given."""
     given = {"model": args.model, "llm_timeout": args.llm_timeout, "max_retries": args.max_repairs,
-             "save_affordance": args.save_affordance}
+             "llm_pictures": args.llm_pictures, "save_affordance": args.save_affordance}
     return {k: v for k, v in given.items() if v is not None}
 
 

@@ -61,6 +61,8 @@ class RunOptions(BaseModel):
     cache: bool | None = Field(default=None, description="cache LLM answers on disk; None: the provider's")
     llm_timeout: float | None = Field(default=None, description="seconds one LLM request may take (--llm-timeout); "
                                                                 "None: the provider's")
+    llm_pictures: bool | None = Field(default=None, description="send stage 7 a picture of each pose "
+                                                                "(--no-llm-pictures); None: the provider's")
     provider_options: dict[str, Any] = Field(
         default_factory=dict, description="further settings of the provider (rail_mj.llm.get_provider: temperature, "
                                           "max_tokens, base_url, http_retries, strict, ...); the fields above win")

@@ -23,8 +23,8 @@ import numpy as np
 
 from rail_mj.core.errors import RailError
 from rail_mj.core.geometry import quat_mul, quat_rotate
-from rail_mj.core.results import AffordanceResult
-from rail_mj.core.types import AgentSetup, RailObject
+from rail_mj.core.results import AffordanceResult, PoseInfo
+from rail_mj.core.types import AgentSetup, RailObject, StablePose
 from rail_mj.mjcf import build_scene
 from rail_mj.mjcf.scene import GROUND_GEOM, OBJECT_BODY, agent_body_name, agent_prefix
 
@@ -78,7 +78,12 @@ def _placement_state(result: AffordanceResult, pose: int, agent_pos: np.ndarray,
                      object_move: tuple[np.ndarray, np.ndarray] | None = None) -> _State:
     """World state from task-frame agents; ``object_move`` = (displacement of the task-frame origin,
     rotation relative to placement) puts the object and the frame where the rollout left them."""
-    info = result.stable_poses[pose]
+    return placed_state(result.stable_poses[pose], agent_pos, agent_quat, object_move)
+
+
+def placed_state(info: StablePose | PoseInfo, agent_pos: np.ndarray, agent_quat: np.ndarray | None,
+                 object_move: tuple[np.ndarray, np.ndarray] | None = None) -> _State:
+    """:func:`_placement_state` for a pose (``pos``, ``quat``, ``half_extents``) given directly."""
     origin0 = np.array([0.0, 0.0, info.half_extents[2]])  # the task frame at placement (rail_mj.core.types)
     obj_pos, obj_quat = np.asarray(info.pos, dtype=np.float64), np.asarray(info.quat, dtype=np.float64)
     agent_pos = np.asarray(agent_pos, dtype=np.float64).reshape(-1, 3)

@@ -109,8 +109,9 @@ def verdicts() -> dict[str, dict[str, Any]]:
 
 def run(name: str, objects: list, base_url: str, provider: str = "openai",
         timeout: float | None = None) -> list[AffordanceResult]:
+    # recorded as text: stage 7 went without pictures
     config = RunConfig(provider=provider, backend="native", max_retries=2, cache=False, llm_timeout=timeout,
-                       provider_options={"base_url": base_url})
+                       provider_options={"base_url": base_url, "pictures": False})
     return classify(objects, [name], config=config, progress=False, workers=1)
 
 

@@ -72,7 +72,8 @@ def request_payload(body: dict[str, Any]) -> dict[str, Any]:
     """The stage request JSON from the first user message (``Request:\\n{...}``), in either API's shape (OpenAI's
     messages open with the system prompt; a message's content is text or a list of text blocks)."""
     content = next(m["content"] for m in body["messages"] if m["role"] == "user")
-    text = content if isinstance(content, str) else " ".join(b.get("text", "") for b in content)
+    # with pictures, the request is the first text block; each picture follows its caption
+    text = content if isinstance(content, str) else next(b["text"] for b in content if b.get("type") == "text")
     return json.loads(text.split("\n", 1)[1])
 
 
