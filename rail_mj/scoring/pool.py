@@ -19,6 +19,7 @@ import json
 import mmap
 import os
 import pickle
+import shutil
 import signal
 import subprocess
 import sys
@@ -79,6 +80,7 @@ class _Worker:
     request: Connection
     reply: Connection
     shm_fd: int
+    tmpdir: str
     owner_pid: int
     shm: mmap.mmap | None = None
     ready: bool = False
@@ -103,15 +105,12 @@ class _Worker:
         except OSError as exc:
             for fd in (req_r, req_w, rep_r, rep_w, shm_fd):
                 os.close(fd)
+            shutil.rmtree(tmpdir, ignore_errors=True)
             raise WorkerStartError(f"could not start a scoring worker: {exc}") from exc
-        finally:
-            # the worker has started in the empty folder (Popen changes directory before it returns); removed now,
-            # nothing can be written there, and a parent killed before its clean-up leaves no folder behind (a
-            # forked eval worker's exit skips atexit: 269 of them had piled up in /tmp)
-            os.rmdir(tmpdir)
         os.close(req_r)
         os.close(rep_w)
-        return cls(proc, Connection(req_w, readable=False), Connection(rep_r, writable=False), shm_fd, os.getpid())
+        return cls(proc, Connection(req_w, readable=False), Connection(rep_r, writable=False), shm_fd, tmpdir,
+                   os.getpid())
 
     def wait_ready(self) -> None:
         if self.ready:
@@ -123,6 +122,10 @@ class _Worker:
         except (EOFError, OSError, ValueError) as exc:
             raise WorkerStartError(
                 f"the scoring worker failed to start: {_death_reason(self.proc.poll())}") from exc
+        # the worker has started in its empty folder (Python's start may read it: an empty PYTHONPATH entry);
+        # removed now, nothing can be written there, and a parent that exits without its clean-up leaves no folder
+        # behind (a forked eval worker's os._exit skips atexit: 269 of them had piled up in /tmp)
+        shutil.rmtree(self.tmpdir, ignore_errors=True)
         self.ready = True
 
     def write_inputs(self, arrays: dict[str, np.ndarray]) -> tuple[int, list]:
@@ -156,6 +159,7 @@ class _Worker:
             self.shm.close()
             self.shm = None
         os.close(self.shm_fd)
+        shutil.rmtree(self.tmpdir, ignore_errors=True)
 
     def kill(self) -> None:
         self.proc.kill()

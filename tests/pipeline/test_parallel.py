@@ -197,7 +197,7 @@ def test_a_crashed_worker_is_an_error_line_and_the_run_goes_on(module_cache, tmp
     for r in results[2:4]:
         assert r.error.startswith("WorkerError: the worker process") and "SIGSEGV" in r.error
         assert "while on crasher.obj" in r.error and r.dims_fit is None
-    assert all(r.error is None for r in results[:2] + results[4:])
+    assert all(r.error is None for r in results[:2] + results[4:]), [r.error for r in results]
     assert seen == [(i, 8) for i in range(1, 9)]  # one progress count per case, crashed ones included
 
 

@@ -151,8 +151,8 @@ def arena(tmp_path_factory):
 def _assert_unharmed(watched, cwd, batch):
     assert list(watched.iterdir()) == []
     assert list(cwd.iterdir()) == []
-    for worker in list(pool._LIVE):  # each runs in a folder removed when it started: nothing written there stays
-        if worker.proc.poll() is None:
+    for worker in list(pool._LIVE):  # each runs in a folder removed once it started: nothing written there stays
+        if worker.ready and worker.proc.poll() is None:
             assert os.readlink(f"/proc/{worker.proc.pid}/cwd").endswith("(deleted)")
     np.testing.assert_array_equal(compile_scoring(LEGIT)(**batch), batch["contacts_object"].sum(axis=1) - 0.5)
 
