@@ -33,7 +33,6 @@ from rail_mj.core.errors import (
     ConfigError,
     FragmentError,
     ProviderError,
-    RequestRefusedError,
     StageError,
     UnknownAffordanceError,
     UnsafeCodeError,
@@ -144,7 +143,8 @@ class LLMConfig(ProviderConfig):
     max_tokens: int = Field(default=8192, ge=1)
     cache_root: Path | None = Field(default=None, description="default: cache_dir('llm')")
     pictures: bool = Field(default=True, description="send stage 7 a picture of each pose with its plan's end "
-                                                     "state (a model that refuses them is asked again without)")
+                                                     "state (a server that refuses or fails on them is asked again "
+                                                     "without)")
 
 
 class LLMProvider(Provider):
@@ -222,10 +222,11 @@ class LLMProvider(Provider):
             (self.repairs if attempt else self.calls)[stage.name] += 1
             try:
                 body = self._call(stage, system, messages)
-            except RequestRefusedError as exc:
+            except ProviderError as exc:
                 if not pictures or attempt:
                     raise
-                # a model that takes no pictures: the same request as text, and no pictures from now on
+                # a model that takes no pictures (its server refuses them with an HTTP 400, or fails on them with
+                # another error): the same request as text, and no pictures from now on
                 self.pictures_refused = str(exc)
                 pictures, keyed = (), request_json
                 key = cache_key(self.name, self.model, stage.version, stage.name, keyed)

@@ -91,6 +91,20 @@ def test_a_model_whose_api_refuses_pictures_is_asked_again_as_text(cup, tmp_path
     assert not isinstance(refused["messages"][1]["content"], str) and isinstance(again["messages"][1]["content"], str)
 
 
+def test_a_server_that_fails_on_pictures_is_asked_again_as_text(cup, tmp_path):
+    def fails(body):
+        if not isinstance(body["messages"][1]["content"], str):
+            return chat_error(500, "the vision encoder crashed")
+        return offline_completion(body)
+
+    with ChatServer(fails) as server:
+        provider = OpenAIProvider(base_url=server.base_url, model="test-model", cache_root=tmp_path / "h",
+                                  http_retries=1)
+        _run(provider, cup)
+    assert provider.pictures_refused is not None and "HTTP 500" in provider.pictures_refused
+    assert [isinstance(b["messages"][1]["content"], str) for b in _stage7(server.requests)] == [False, False, True]
+
+
 def test_no_pictures_from_the_offline_library_or_when_turned_off(cup, tmp_path):
     assert not get_provider("offline").sees_pictures
     with ChatServer(offline_completion) as server:
