@@ -184,9 +184,9 @@ def extract(volume, depths: list[np.ndarray], views: list[ScanView], config: Sca
         raise ScanError(f"the scan saw nothing: {len(points)} surface points in the workspace "
                         f"(half size {config.workspace_half} m at {np.round(workspace_centre, 3).tolist()})")
     cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points)).voxel_down_sample(2 * config.voxel_size)
-    cloud.points = o3d.utility.Vector3dVector(_sorted_rows(np.asarray(cloud.points)))
-    plane, inliers = _ransac_plane(np.asarray(cloud.points), config.plane_distance, 200,
-                                   np.random.default_rng(config.seed))
+    pts = _sorted_rows(np.asarray(cloud.points))
+    cloud.points = o3d.utility.Vector3dVector(pts)
+    plane, inliers = _ransac_plane(pts, config.plane_distance, 200, np.random.default_rng(config.seed))
     a, b, c, d = plane
     table_z = table_top
     x, y = workspace_centre[:2]
@@ -197,14 +197,13 @@ def extract(volume, depths: list[np.ndarray], views: list[ScanView], config: Sca
         # strip of table the workspace shows beside it); the table's own plane lies within 0.1 mm of its height
         notes.append(f"the largest level plane lies {1000 * (plane_z - table_top):.1f} mm above the table's known "
                      f"height: it is on the table (a dish's floor); the table is taken at its known height")
-        inliers = np.flatnonzero(np.abs(np.asarray(cloud.points)[:, 2] - table_top) <= config.plane_distance).tolist()
+        inliers = []  # the height cut below takes the table's points out
     elif level:
         table_z = plane_z  # the table
     else:
         notes.append(f"the largest plane is not horizontal (normal {np.round(plane[:3], 3).tolist()}); "
                      f"the table is taken at its known height {table_top:.3f} m")
         inliers = []
-    pts = np.asarray(cloud.points)
     keep = np.ones(len(pts), dtype=bool)
     keep[np.asarray(inliers, dtype=int)] = False
     keep &= pts[:, 2] > table_z + config.plane_distance
