@@ -19,7 +19,6 @@ __all__ = [
     "StablePoseError",
     "ImaginationError",
     "UnknownAffordanceError",
-    "RequestRefusedError",
     "LLMError",
     "StageError",
     "ProviderError",
@@ -96,11 +95,6 @@ class StageError(LLMError):
 
 class ProviderError(LLMError):
     """The LLM provider failed (network, timeout, authentication, bad reply)."""
-
-
-class RequestRefusedError(ProviderError):
-    """The LLM API refused a request as malformed (HTTP 400 or 422): a model that takes no pictures, an option the
-    server does not support."""
 
 
 class UnsafeCodeError(RailError):

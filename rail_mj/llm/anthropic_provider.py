@@ -8,7 +8,7 @@ from __future__ import annotations
 import os
 from typing import TYPE_CHECKING, Any, cast
 
-from rail_mj.core.errors import ConfigError, ProviderError, RequestRefusedError
+from rail_mj.core.errors import ConfigError, ProviderError
 from rail_mj.llm.pictures import Picture, picture_b64
 from rail_mj.llm.prompts import StageSpec
 from rail_mj.llm.provider_base import (
@@ -115,10 +115,6 @@ class AnthropicProvider(LLMProvider):
             ) from exc
         except anthropic.AuthenticationError as exc:
             raise ProviderError(f"stage {stage.name!r}: the API key was rejected; check ANTHROPIC_API_KEY") from exc
-        except anthropic.BadRequestError as exc:
-            raise RequestRefusedError(
-                f"stage {stage.name!r}: the Anthropic API refused the request (HTTP {exc.status_code}): {exc.message}"
-            ) from exc
         except anthropic.APIStatusError as exc:
             raise ProviderError(
                 f"stage {stage.name!r}: the Anthropic API answered HTTP {exc.status_code} "

@@ -24,7 +24,7 @@ from typing import Any
 
 from pydantic import Field, field_validator
 
-from rail_mj.core.errors import ConfigError, ProviderError, RequestRefusedError
+from rail_mj.core.errors import ConfigError, ProviderError
 from rail_mj.llm.pictures import Picture, picture_b64
 from rail_mj.llm.prompts import StageSpec
 from rail_mj.llm.provider_base import (
@@ -171,8 +171,6 @@ class OpenAIProvider(LLMProvider):
             status, text, headers = self._post(stage, data)
             if 200 <= status < 300:
                 return text
-            if status in (400, 422):
-                raise RequestRefusedError(self._http_problem(stage, status, text, retried=attempt))
             if status not in _RETRIED or attempt == retries:
                 raise ProviderError(self._http_problem(stage, status, text, retried=attempt))
             time.sleep(_backoff(headers, attempt))

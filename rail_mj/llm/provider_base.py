@@ -203,8 +203,11 @@ class LLMProvider(Provider):
         max_retries = self.config.max_retries
         pictures = tuple(pictures) if self.sees_pictures else ()
         request_json = request.model_dump(mode="json")
-        keyed = {**request_json, "pictures": pictures_key(pictures)} if pictures else request_json
-        key = cache_key(self.name, self.model, stage.version, stage.name, keyed)
+
+        def keyed() -> dict[str, Any]:  # what the cache keys the request by: with its pictures, what they draw
+            return {**request_json, "pictures": pictures_key(pictures)} if pictures else request_json
+
+        key = cache_key(self.name, self.model, stage.version, stage.name, keyed())
         use_cache = cache_enabled(self.config.cache)
         if use_cache:
             cached = self._responses.get(key)
@@ -228,8 +231,8 @@ class LLMProvider(Provider):
                 # a model that takes no pictures (its server refuses them with an HTTP 400, or fails on them with
                 # another error): the same request as text, and no pictures from now on
                 self.pictures_refused = str(exc)
-                pictures, keyed = (), request_json
-                key = cache_key(self.name, self.model, stage.version, stage.name, keyed)
+                pictures = ()
+                key = cache_key(self.name, self.model, stage.version, stage.name, keyed())
                 messages[0] = {"role": "user", "content": user_prompt(request)}
                 body = self._call(stage, system, messages)
             try:
@@ -255,7 +258,7 @@ class LLMProvider(Provider):
                 continue
             if use_cache:
                 meta = {"provider": self.name, "model": self.model, "prompt_version": stage.version,
-                        "stage": stage.name, "request": keyed}
+                        "stage": stage.name, "request": keyed()}
                 self._responses.put(key, result.model_dump_json(), meta)
             return result
         raise StageError(

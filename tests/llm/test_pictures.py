@@ -124,7 +124,7 @@ def test_the_anthropic_api_refusing_them_is_asked_again_as_text_too(cup, tmp_pat
         provider = AnthropicProvider(api_key="test-key", base_url=server.base_url, model="test-model",
                                      cache_root=tmp_path / "e")
         _run(provider, cup)
-    assert provider.pictures_refused is not None and "refused the request (HTTP 400)" in provider.pictures_refused
+    assert provider.pictures_refused is not None and "the Anthropic API answered HTTP 400" in provider.pictures_refused
 
 
 def test_an_object_of_arbitrary_orientation_says_nothing_of_the_pose_it_came_in(cup, tmp_path):
