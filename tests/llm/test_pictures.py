@@ -37,6 +37,16 @@ def _stage7(requests: list[dict]) -> list[dict]:
     return [r for r in requests if "FunctionalPose" in str(r.get("response_format") or r.get("output_config"))]
 
 
+def _as_text_only(refusal, answer):
+    """A server that answers ``refusal`` to a request with pictures and ``answer``s it as text."""
+
+    def responder(body):
+        content = next(m["content"] for m in body["messages"] if m["role"] == "user")
+        return answer(body) if isinstance(content, str) else refusal
+
+    return responder
+
+
 def _run(provider, cup) -> None:
     pipe = Pipeline(RunConfig(provider="offline", backend="native", stable_poses=StablePoseConfig(n_drops=16)))
     pipe.provider = provider
@@ -75,13 +85,8 @@ def test_anthropic_gets_them_as_image_blocks_and_a_rerun_is_served_from_the_cach
 
 
 def test_a_model_whose_api_refuses_pictures_is_asked_again_as_text(cup, tmp_path):
-    def no_pictures(body):
-        content = next(m["content"] for m in body["messages"] if m["role"] == "user")
-        if not isinstance(content, str):
-            return chat_error(400, "this model does not take image_url content")
-        return offline_completion(body)
-
-    with ChatServer(no_pictures) as server:
+    with ChatServer(_as_text_only(chat_error(400, "this model does not take image_url content"),
+                                  offline_completion)) as server:
         provider = OpenAIProvider(base_url=server.base_url, model="test-model", cache_root=tmp_path / "c",
                                   http_retries=0)
         _run(provider, cup)
@@ -92,12 +97,7 @@ def test_a_model_whose_api_refuses_pictures_is_asked_again_as_text(cup, tmp_path
 
 
 def test_a_server_that_fails_on_pictures_is_asked_again_as_text(cup, tmp_path):
-    def fails(body):
-        if not isinstance(body["messages"][1]["content"], str):
-            return chat_error(500, "the vision encoder crashed")
-        return offline_completion(body)
-
-    with ChatServer(fails) as server:
+    with ChatServer(_as_text_only(chat_error(500, "the vision encoder crashed"), offline_completion)) as server:
         provider = OpenAIProvider(base_url=server.base_url, model="test-model", cache_root=tmp_path / "h",
                                   http_retries=1)
         _run(provider, cup)
@@ -115,12 +115,7 @@ def test_no_pictures_from_the_offline_library_or_when_turned_off(cup, tmp_path):
 
 
 def test_the_anthropic_api_refusing_them_is_asked_again_as_text_too(cup, tmp_path):
-    def no_pictures(body):
-        if not isinstance(body["messages"][0]["content"], str):
-            return error_reply(400, "invalid_request_error")
-        return offline_answer(body)
-
-    with MessagesServer(no_pictures) as server:
+    with MessagesServer(_as_text_only(error_reply(400, "invalid_request_error"), offline_answer)) as server:
         provider = AnthropicProvider(api_key="test-key", base_url=server.base_url, model="test-model",
                                      cache_root=tmp_path / "e")
         _run(provider, cup)
