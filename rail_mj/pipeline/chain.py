@@ -78,14 +78,16 @@ def provider_for(config: RunConfig) -> llm.Provider:
     return llm.get_provider(config.provider, **options)
 
 
-def _pose_shape(shapes: ObjectShapes | None, oriented: bool) -> Callable[[int], PoseShape] | None:
-    """Each pose's shape for stage 7's model; for an object that came in an arbitrary orientation, without whether
-    the pose is the one it came in, which then says nothing of the pose its maker designed."""
+def _shape_facts(shapes: ObjectShapes | None,
+                 oriented: bool) -> tuple[Callable[[int], PoseShape] | None, PoseShape | None]:
+    """Stage 7's shape facts: each pose's shape and the object's as it came. For an object that came in an arbitrary
+    orientation, neither the shape it came in nor whether a pose is that one: they say nothing of the pose its
+    maker designed."""
     if shapes is None:
-        return None
+        return None, None
     if oriented:
-        return shapes.pose
-    return lambda i: shapes.pose(i).model_copy(update={"as_it_came": None})
+        return shapes.pose, shapes.came_in
+    return lambda i: shapes.pose(i).model_copy(update={"as_it_came": None}), None
 
 
 def as_placed_pose(obj: RailObject) -> StablePoses:
@@ -344,8 +346,8 @@ class Pipeline:
         veto = self.provider_name != "offline"  # a model's common sense; the offline answer is the rules' own
         # a model also gets the shape facts it cannot read from the numbers; the rules read the physics alone
         shapes = self._shapes(obj, poses) if veto else None
-        request = llm.functional_pose_request(profile, evidence.candidates(nominal), _pose_shape(shapes, obj.oriented),
-                                              shapes.came_in if shapes is not None and obj.oriented else None)
+        request = llm.functional_pose_request(profile, evidence.candidates(nominal),
+                                              *_shape_facts(shapes, obj.oriented))
         pictures = (stage7_pictures(obj, profile.agent.mjcf, poses, evidence, request)
                     if request is not None and veto and self.provider.sees_pictures else [])
         stage7 = None if request is None else llm.analyze_functional_poses(request, self.provider, pictures)
