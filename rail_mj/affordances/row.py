@@ -108,12 +108,10 @@ class Affordance:
         values = self.envelope.values([float(v) for v in half], rim, stem)
         return Prior.of([(name, v, rng, self._width(name)) for name, v, rng in values])
 
-    def pose_fits(self, half: Iterable[float], rim: float | None = None,
-                  floor: float | None = None) -> tuple[bool, str]:
+    def pose_fits(self, half: Iterable[float], rim: float | None = None) -> tuple[bool, str]:
         """Whether a pose's box (half extents) is inside the envelope's typical ranges, a vessel's aspect at its
-        ``rim`` (the pose's spill level, m) and without its stem (its basin's ``floor``) when given; the sizes
-        outside them when it is not."""
-        out = [f for f in self.pose_prior(half, rim, floor).factors if f.plausibility < 1.0]
+        ``rim`` (the pose's spill level, m) when given; the sizes outside them when it is not."""
+        out = [f for f in self.pose_prior(half, rim).factors if f.plausibility < 1.0]
         if not out:
             return True, ""
         return False, "; ".join(f"in this pose its {f.name} is {f.value:.3f}; a {self.name} typically has "
