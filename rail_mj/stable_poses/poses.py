@@ -40,12 +40,14 @@ from rail_mj.stable_poses.cluster import CONGRUENT, cluster_ups, merge_symmetric
 from rail_mj.stable_poses.config import StablePoseConfig, drop_physics
 from rail_mj.stable_poses.drop import drop, quasi_static, uniform_quats, verified
 from rail_mj.stable_poses.legroom import toe_room
+from rail_mj.stable_poses.shape import AS_IT_CAME_DEG
 
 __all__ = ["find_stable_poses", "pose_from_up"]
 
 #: bump when the algorithm changes, so old cache entries are ignored (4: poses carry their spill level, 6: and
-#: where their basin opens, and how long it is, 8: how wide a foot gets under them, 9: how high the basin's floor is)
-_CACHE_VERSION = 9
+#: where their basin opens, and how long it is, 8: how wide a foot gets under them, 9: how high the basin's floor is,
+#: 10: of congruent poses, the one an oriented object came in stands for them)
+_CACHE_VERSION = 10
 
 
 def _footprint_yaw(xy: np.ndarray) -> float:
@@ -97,7 +99,8 @@ def pose_from_up(obj: RailObject, up: np.ndarray, probability: float,
 def _cache_path(obj: RailObject, params: dict) -> Path:
     # the poses come from the hulls, which change with the decomposition settings under an unchanged mesh
     hulls = hashlib.sha256(b"".join(np.ascontiguousarray(h, dtype=np.float64).tobytes() for h in obj.hulls))
-    key = json.dumps({"mesh": obj.mesh_hash, "hulls": hulls.hexdigest(), "version": _CACHE_VERSION, **params},
+    key = json.dumps({"mesh": obj.mesh_hash, "hulls": hulls.hexdigest(), "version": _CACHE_VERSION,
+                      "oriented": obj.oriented, **params},
                      sort_keys=True)
     return cache_dir("stable_poses") / f"{hashlib.sha256(key.encode()).hexdigest()[:32]}.json"
 
@@ -186,8 +189,11 @@ def find_stable_poses(
         quasi.append(p)
     poses = []
     samples = surface_samples(obj)  # one set for every pose's spill level
+    # of congruent poses (one pose rolled about a symmetry axis: a nearly square open-fronted cubby upright, on a side
+    # or upside down), the one the object came in stands for them, so that the pose it came in is found
+    came = np.cos(np.deg2rad(AS_IT_CAME_DEG)) if obj.oriented else np.inf
     for group in merge_symmetric(obj, reps, CONGRUENT):
-        best = max(group, key=lambda i: (counts[i], quasi[i]))
+        best = max(group, key=lambda i: (bool(reps[i][2] >= came), counts[i], quasi[i]))
         probability = 0.5 * sum(counts[i] / n_drops + quasi[i] for i in group)
         if probability >= min_probability:
             poses.append(pose_from_up(obj, reps[best], probability, samples))

@@ -120,3 +120,24 @@ def test_bad_arguments_say_what_is_valid(box):
         find_stable_poses(box, n_drops=0)
     with pytest.raises(ConfigError, match=r"tolerance_deg must be a number in \(0, 90\); got 90.0"):
         find_stable_poses(box, tolerance_deg=90.0)
+
+
+def _square_cubby(roll: float) -> RailObject:
+    """A cubby 33 cm wide and tall, 32 cm deep, of 14 mm boards, open at its front (+x), rolled ``roll`` rad about its
+    depth: upright, on a side or upside down it is one pose rolled about a near-symmetry axis."""
+    s, d, t = 0.33, 0.32, 0.014
+    boards = [([d, s, t], [0, 0, t / 2 - s / 2]), ([d, s, t], [0, 0, s / 2 - t / 2]),
+              ([d, t, s], [0, t / 2 - s / 2, 0]), ([d, t, s], [0, s / 2 - t / 2, 0]),
+              ([t, s, s], [t / 2 - d / 2, 0, 0])]
+    turn = trimesh.transformations.rotation_matrix(roll, [1, 0, 0])[:3, :3]
+    return _object("cubby", [(trimesh.creation.box(extents=e).vertices + c) @ turn.T for e, c in boards])
+
+
+def test_of_congruent_poses_the_one_an_object_came_in_stands_for_them(tmp_path, monkeypatch):
+    """Whichever of its four rolls the cubby came in, that one is among its stable poses: the pose it came in is
+    evidence of its use (rail_mj.stable_poses.came_in)."""
+    monkeypatch.setenv("RAIL_MJ_CACHE", str(tmp_path))
+    for quarter in range(4):
+        cubby = _square_cubby(quarter * np.pi / 2)
+        ups = np.array([p.up_in_mesh_frame for p in find_stable_poses(cubby, n_drops=32)])
+        assert np.max(ups[:, 2]) > 0.99, quarter
