@@ -12,10 +12,14 @@ between the two (:data:`PLACED`), an object that came at rest in pose A, whose d
 p_A`` if B is, and A and B are equally likely before). It is at most 1/3: a use that works only in a pose other than
 the one the object came in stays below :data:`rail_mj.affordances.prior.FUNCTIONAL`, and where it works in both,
 the pose it came in is the functional one (a plate's face up, not its foot). An object that came turned over, its
-cavity opening through the bottom of its box and not the top (a cup or a bowl stored upside down to drain or keep
-dust out: :mod:`rail_mj.stable_poses.shape`), says nothing of how it is used; nor does one that came in an
-arbitrary orientation (``RailObject.oriented`` False: a generated set's random rotations, a scan whose up is
-unknown) or in no stable pose (tilted, in the air): every pose's factor is 1.
+cavity opening through the bottom of its box and not the top (:mod:`rail_mj.stable_poses.shape`), was either stored
+so, a cup or a bowl upside down to drain or keep dust out, made for the pose its cavity opens up in; or it stands as
+it was made to stand or as it fell, a display riser or a cover on its open side. With even odds between the two
+(:data:`STORED_TURNED`), another pose is the one it was made for with probability ``(1 + P(B | came in A)) / 2``,
+between 1/2 and 2/3: a use that works only with the cavity up is no longer certain, and a cup stored upside down is
+still a cup. One that came in an arbitrary orientation (``RailObject.oriented`` False: a generated set's random
+rotations, a scan whose up is unknown) or in no stable pose (tilted, in the air) says nothing of how it is used:
+every pose's factor is 1.
 """
 
 from __future__ import annotations
@@ -28,11 +32,14 @@ from rail_mj.core.profile import PoseShape
 from rail_mj.core.types import RailObject, StablePose
 from rail_mj.stable_poses.shape import AS_IT_CAME_DEG, tilt_from_came
 
-__all__ = ["PLACED", "came_in_pose", "made_to_stand", "turned_over", "design_factors"]
+__all__ = ["PLACED", "STORED_TURNED", "came_in_pose", "made_to_stand", "turned_over", "design_factors"]
 
 #: The odds that an object came at rest as it was made to stand rather than as it fell: even, for want of
 #: evidence either way.
 PLACED = 0.5
+#: The odds that an object which came turned over was stored so (made for the pose its cavity opens up in) rather
+#: than standing as made or as it fell: even, for want of evidence either way.
+STORED_TURNED = 0.5
 
 
 def came_in_pose(obj: RailObject, poses: Sequence[StablePose]) -> int | None:
@@ -63,12 +70,18 @@ def design_factors(obj: RailObject, poses: Sequence[StablePose],
                    came_shape: Callable[[], PoseShape]) -> list[tuple[str, float] | None]:
     """Per stable pose, the probability that ``obj`` was made to stand in it, in words and as a number, from the
     pose it came in: None (no factor) for that pose, and for every pose without evidence; :func:`made_to_stand`
-    for every other. ``came_shape`` gives the object's shape facts as it came (measured only when it came in a
-    stable pose)."""
+    for every other, or, where it came turned over, that weighed evenly with its having been stored so (module
+    docstring). ``came_shape`` gives the object's shape facts as it came (measured only when it came in a stable
+    pose)."""
     came = came_in_pose(obj, poses)
-    if came is None or turned_over(came_shape()):
+    if came is None:
         return [None for _ in poses]
     p = float(poses[came].probability)
-    other = (f"made to stand this way, having come in pose {came} (drops end there {p:.0%} of the time)",
-             made_to_stand(p))
+    if turned_over(came_shape()):
+        factor = STORED_TURNED + (1.0 - STORED_TURNED) * made_to_stand(p)
+        other = (f"made to stand this way, having come turned over in pose {came} (its cavity opening down: stored so, "
+                 f"or standing as made or as it fell; drops end there {p:.0%} of the time)", factor)
+    else:
+        other = (f"made to stand this way, having come in pose {came} (drops end there {p:.0%} of the time)",
+                 made_to_stand(p))
     return [None if i == came else other for i in range(len(poses))]

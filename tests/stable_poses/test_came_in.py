@@ -1,6 +1,6 @@
 """The pose an object came in as evidence of the pose it was made to stand in: a shelf box that came standing is
-no basket on its back; a cup that came upside down is still a cup; an object in an arbitrary orientation gives no
-evidence."""
+no basket on its back; a cup that came upside down is still a cup, less certainly; an object in an arbitrary
+orientation gives no evidence."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from rail_mj.mesh import object_from_mesh
 from rail_mj.pipeline.chain import Pipeline, classify
 from rail_mj.pipeline.config import RunConfig
 from rail_mj.robot.demo import make_object
-from rail_mj.stable_poses.came_in import PLACED, came_in_pose, design_factors, made_to_stand
+from rail_mj.stable_poses.came_in import PLACED, STORED_TURNED, came_in_pose, design_factors, made_to_stand
 from rail_mj.stable_poses.shape import came_in_shape
 
 
@@ -62,11 +62,22 @@ def test_the_pose_it_came_in_carries_no_factor_and_every_other_one() -> None:
     assert design_factors(arbitrary, poses, lambda: came_in_shape(arbitrary)) == [None] * len(poses)
 
 
-def test_an_object_that_came_turned_over_gives_no_evidence() -> None:
+def test_an_object_that_came_turned_over_was_stored_so_or_stands_as_made() -> None:
+    """Mouth down, a cup stored upside down and a display riser on its open side look alike: every other pose gets
+    even odds of the two, between 1/2 and 2/3, so the cup stays a cup and no use with the cavity up is certain."""
     cup = _turned_over(make_object("cup", 0))
     poses = Pipeline(RunConfig(provider="offline")).stable_poses(cup)
-    assert came_in_pose(cup, poses) is not None  # it came at rest, mouth down
-    assert design_factors(cup, poses, lambda: came_in_shape(cup)) == [None] * len(poses)
+    came = came_in_pose(cup, poses)
+    assert came is not None and poses[came].up_in_mesh_frame[2] > 0.9  # it came at rest, mouth down
+    factors = design_factors(cup, poses, lambda: came_in_shape(cup))
+    assert factors[came] is None
+    others = [f for i, f in enumerate(factors) if i != came]
+    assert STORED_TURNED == 0.5
+    stored = STORED_TURNED + (1 - STORED_TURNED) * made_to_stand(poses[came].probability)
+    assert others and all(f is not None and f[1] == pytest.approx(stored) and "turned over" in f[0] for f in others)
+    assert 0.5 <= stored <= 2 / 3
+    verdict, = classify([cup], ["cup"], config=RunConfig(provider="offline"), progress=False, workers=1)
+    assert verdict.functional and 0.5 <= verdict.probability <= 2 / 3
 
 
 def test_a_shelf_box_that_came_standing_is_no_basket_on_its_back() -> None:
