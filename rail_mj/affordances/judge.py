@@ -65,7 +65,8 @@ def judge_pose(aff: Affordance | None, pose: PoseCandidates) -> tuple[list[Candi
 
 def functional_poses(affordance: str, scale: float, poses: Sequence[PoseCandidates]) -> FunctionalPoseVerdict:
     """Stage 7 by the rules: accept a pose when its kind's rules accept one of its candidates; the best pose is the
-    one the kind ranks first, then the one accepted with the most plans, the top score, the most probable.
+    one the kind ranks first, then the one accepted with the most plans, the one the kind's tie rank puts first,
+    the top score, the most probable.
 
     Affordances outside the registry get the generic rules (object not tipped, agents not mostly on the ground
     away from it).
@@ -73,22 +74,23 @@ def functional_poses(affordance: str, scale: float, poses: Sequence[PoseCandidat
     aff = rules_row(affordance, scale)
     kind = kind_of(aff) if aff is not None else None
     verdicts: list[PoseVerdict] = []
-    # best = (kind's rank, accepted plans, top score, probability, pose, plan): the pose that works from the most
-    # approaches, after what the kind ranks first (for dishes: a rim rises around the food)
-    best: tuple[int, int, float, float, int, str] | None = None
+    # best = (kind's rank, accepted plans, kind's tie rank, top score, probability, pose, plan): the pose that works
+    # from the most approaches, after what the kind ranks first (for dishes: a rim rises around the food)
+    best: tuple[int, int, int, float, float, int, str] | None = None
     for pose in poses:
         h = list(pose.half_extents)
         accepted, reasons = judge_pose(aff, pose)
         top = max(accepted, key=lambda c: c.score) if accepted else None
         verdicts.append(PoseVerdict(pose_index=pose.pose_index, accept=top is not None, reason="; ".join(reasons),
                                     plan=top.plan if top else None))
-        rank = kind.rank(aff, accepted, h) if kind is not None and aff is not None else 0
-        key = (rank, len(accepted), top.score if top else 0.0, pose.probability)
-        if top is not None and (best is None or key > best[:4]):
+        rank, tie = ((kind.rank(aff, accepted, h), kind.tie_rank(aff, accepted, h)) if kind is not None
+                     and aff is not None else (0, 0))
+        key = (rank, len(accepted), tie, top.score if top else 0.0, pose.probability)
+        if top is not None and (best is None or key > best[:5]):
             best = (*key, pose.pose_index, top.plan)
     if best is None:
         return FunctionalPoseVerdict(poses=verdicts, best_pose=None, best_plan=None,
                                      reason="no candidate interaction is consistent with common sense")
-    return FunctionalPoseVerdict(poses=verdicts, best_pose=best[4], best_plan=best[5],
-                                 reason=f"pose {best[4]} works with the most plans ({best[1]}); plan {best[5]!r} "
-                                        f"has its best accepted score ({best[2]:.3f})")
+    return FunctionalPoseVerdict(poses=verdicts, best_pose=best[5], best_plan=best[6],
+                                 reason=f"pose {best[5]} works with the most plans ({best[1]}); plan {best[6]!r} "
+                                        f"has its best accepted score ({best[3]:.3f})")

@@ -174,6 +174,11 @@ class Kind(ABC):
         a kind cares."""
         return 0
 
+    def tie_rank(self, aff: Affordance, accepted: list[CandidateInteraction], h: Sequence[float]) -> int:
+        """Key in choosing the best pose after the number of accepted plans, before the top score; 0 unless a kind
+        cares."""
+        return 0
+
 
 #: Every registered kind by name, one instance each (:func:`register_kind` fills it).
 KINDS: dict[str, Kind] = {}

@@ -243,15 +243,17 @@ class Seat(Kind):
 
     def rank(self, aff: Affordance, accepted: list[CandidateInteraction], h: Sequence[float]) -> int:
         """A seat with a back first: of two poses that seat the body, the one where its torso leans on the object
-        (a chair standing, not lying on its side or back). Then a seat whose sitter's feet reach the floor: a chair
-        is made for the feet to be put down (its seat at the lower leg's height); feet resting on the object alone,
-        on a rung or a ledge, are a perch's, which a tall chair lying on its back also gives."""
-        bodies = [agents_segments(c) for c in accepted]
-        back = any(all(seg["torso"].touching_object for seg in segs) for segs in bodies)
-        if not bodies or self.agent(aff, h).body is None:
-            return int(back)
+        (a chair standing, not lying on its side or back)."""
+        return int(any(all(seg["torso"].touching_object for seg in agents_segments(c)) for c in accepted))
+
+    def tie_rank(self, aff: Affordance, accepted: list[CandidateInteraction], h: Sequence[float]) -> int:
+        """Of two poses that seat the body from as many approaches, the one whose sitter's feet reach the floor: a
+        chair is made for the feet to be put down (its seat at the lower leg's height); feet resting on the object
+        alone, on a rung or a ledge, are a perch's, which a tall chair lying on its back also gives. After the number
+        of approaches: a bar chair standing seats the body from more of them than lying on its back does."""
         body = self.agent(aff, h).body
-        assert body is not None
+        if body is None:
+            return 0
         reach = body.ankle + TOE_REACH * body.foot  # the ankle's height when the toes touch down, as accept reads it
-        down = any(all(seg[f].on_ground or seg[f].height <= reach for seg in segs for f in FEET) for segs in bodies)
-        return 2 * int(back) + int(down)
+        return int(any(all(seg[f].on_ground or seg[f].height <= reach for seg in agents_segments(c) for f in FEET)
+                       for c in accepted))

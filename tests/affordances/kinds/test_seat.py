@@ -139,9 +139,9 @@ def test_a_chair_lying_on_its_back_is_not_its_seat():
 
 def test_an_armchair_on_its_back_is_a_perch_its_upright_seat_puts_the_feet_down():
     """An upholstered armchair lying on its back seats the body 0.78 m up on its box's top, the feet on the object (a
-    ledge: a perch); standing, the feet reach the floor from a 0.45 m seat. Neither torso finds the back, the same
-    plans pass, and the lying pose is the likelier: the feet put down decide, and a bar chair, whose only seat
-    perches the feet, stays a chair."""
+    ledge: a perch); standing, the feet reach the floor from a 0.45 m seat. Neither torso finds the back, as many
+    plans pass, and the lying pose is the likelier: the feet put down decide. A bar chair standing perches the feet
+    on its rung, and seats the body from more approaches than lying on its back, where the feet reach the floor."""
     lying, standing = [0.44, 0.41, 0.34], list(ARMCHAIR)
     up = body_size().thigh_radius
     verdict = _verdict("chair", _seated(0, 0.22, lying, SITS[:2], 0.78, feet="object"),
@@ -151,6 +151,10 @@ def test_an_armchair_on_its_back_is_a_perch_its_upright_seat_puts_the_feet_down(
     verdict = _verdict("chair", _seated(0, 0.22, lying, SITS[:2], 0.78, feet="object"),
                        _seated(4, 0.13, standing, SITS[:2], 0.45 + up, feet="air"))
     assert verdict.best_pose == 4
+    bar = [0.23, 0.22, 0.53]
+    verdict = _verdict("chair", _seated(1, 0.2, [0.53, 0.23, 0.22], SITS[:1], 0.49),
+                       _seated(5, 0.02, bar, SITS[2:], 0.72 + up, feet="object"))
+    assert [v.accept for v in verdict.poses] == [True, True] and verdict.best_pose == 5
 
 
 def test_a_console_upside_down_on_its_legs_is_not_its_table_pose():
