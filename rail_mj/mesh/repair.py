@@ -10,7 +10,10 @@ fast-simplification) before any step whose cost grows faster than the face count
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse
+import scipy.sparse.csgraph
 import trimesh
+from scipy.spatial import KDTree
 
 from rail_mj.core.errors import MeshError
 
@@ -50,6 +53,11 @@ _MIN_PIECE_FACES = 4
 _MAX_LOOSE_FRACTION = 0.5
 # A mesh is flat when its smallest extent is below this fraction of its largest.
 _FLAT_RATIO = 1e-6
+#: Vertices closer than this fraction of the mesh's largest extent are one vertex. Files that store float32 (STL,
+#: glTF) or round to 7 significant digits keep two faces' copies of one vertex a few roundings apart (2^-23 of the
+#: coordinate each: a robosuite can's lid and body, 2-8 nm apart at 4 cm, left 72 open edges, so CoACD remeshed it
+#: and filled its lid's recess); a millionth of a 10 cm cup is 0.1 µm, far below any feature the physics resolves.
+_WELD = 1e-6
 
 # trimesh.Trimesh.metadata key under which repair_mesh records what it did to the mesh.
 _NOTES_KEY = "rail_mj_notes"
@@ -69,10 +77,28 @@ def _too_many_faces(label: str, n_faces: int) -> MeshError:
 
 
 def _clean(mesh: trimesh.Trimesh) -> None:
-    """Merge duplicate vertices, drop degenerate and duplicate faces and unreferenced vertices (in place)."""
+    """Merge duplicate vertices (and those within :data:`_WELD` of each other), drop degenerate and duplicate faces
+    and unreferenced vertices (in place)."""
     mesh.merge_vertices()
+    _weld(mesh)
     mesh.update_faces(mesh.nondegenerate_faces() & mesh.unique_faces())
     mesh.remove_unreferenced_vertices()
+
+
+def _weld(mesh: trimesh.Trimesh) -> None:
+    """Make vertices within :data:`_WELD` of the largest extent of each other one (in place): trimesh's merge rounds
+    coordinates to a grid, so two copies of a vertex a few nanometres apart that straddle a grid line stay apart."""
+    vertices = np.asarray(mesh.vertices)
+    tolerance = _WELD * float(np.ptp(vertices, axis=0).max())
+    pairs = KDTree(vertices).query_pairs(tolerance, output_type="ndarray")
+    if tolerance <= 0.0 or len(pairs) == 0:
+        return
+    n = len(vertices)
+    graph = scipy.sparse.coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, group = scipy.sparse.csgraph.connected_components(graph, directed=False)
+    first = np.full(group.max() + 1, n)
+    np.minimum.at(first, group, np.arange(n))  # each group's first vertex stands for it
+    mesh.faces = first[group][np.asarray(mesh.faces)]
 
 
 def _simplify_closed(mesh: trimesh.Trimesh, face_count: int, *, strict: bool) -> trimesh.Trimesh | None:
@@ -171,7 +197,8 @@ def _check_not_a_soup(label: str, mesh: trimesh.Trimesh) -> None:
 def repair_mesh(mesh: trimesh.Trimesh, *, label: str = "mesh") -> trimesh.Trimesh:
     """Validate and repair a mesh (returns a new one); raise MeshError naming ``label``.
 
-    Repairs: merge duplicate vertices, drop degenerate and duplicate faces and
+    Repairs: merge duplicate vertices (and weld those within a millionth of the largest extent), drop degenerate
+    and duplicate faces and
     unreferenced vertices, decimate to at most :data:`FACE_BUDGET` faces when over it,
     make winding consistent and normals outward.
     Rejects: no faces, more than :data:`MAX_FACES` faces, non-finite vertices,

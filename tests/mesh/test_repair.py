@@ -55,3 +55,20 @@ def test_open_pieces_are_not_united() -> None:
     open_box.apply_translation([0.0, 0.0, 0.2])
     mesh = repair_mesh(trimesh.util.concatenate([pieces, open_box]))
     assert mesh_notes(mesh) == [] and mesh.body_count == 41
+
+
+def _split_cylinder(gap: float) -> trimesh.Trimesh:
+    """A closed 8 cm can whose lid (the faces above 3.9 cm) is a shell of its own, its vertices copied and moved
+    ``gap`` m off the body's: how a file storing float32 keeps two faces' copies of one vertex apart."""
+    can = trimesh.creation.cylinder(radius=0.025, height=0.08, sections=24)
+    top = can.triangles_center[:, 2] > 0.039
+    body = trimesh.Trimesh(can.vertices, can.faces[~top], process=False)
+    lid = trimesh.Trimesh(can.vertices + gap, can.faces[top], process=False)
+    return trimesh.util.concatenate([body, lid])
+
+
+def test_copies_of_a_vertex_nanometres_apart_are_welded_a_seam_is_not() -> None:
+    rounded = repair_mesh(_split_cylinder(4e-9))  # a few float32 roundings at 4 cm
+    assert rounded.is_volume and len(rounded.vertices) == 50
+    seam = repair_mesh(_split_cylinder(2e-4))  # an open seam of 0.2 mm, as the world family's corruption makes
+    assert not seam.is_watertight
