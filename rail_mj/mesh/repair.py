@@ -90,14 +90,15 @@ def _weld(mesh: trimesh.Trimesh) -> None:
     coordinates to a grid, so two copies of a vertex a few nanometres apart that straddle a grid line stay apart."""
     vertices = np.asarray(mesh.vertices)
     tolerance = _WELD * float(np.ptp(vertices, axis=0).max())
+    if tolerance <= 0.0:
+        return
     pairs = KDTree(vertices).query_pairs(tolerance, output_type="ndarray")
-    if tolerance <= 0.0 or len(pairs) == 0:
+    if len(pairs) == 0:
         return
     n = len(vertices)
     graph = scipy.sparse.coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
     _, group = scipy.sparse.csgraph.connected_components(graph, directed=False)
-    first = np.full(group.max() + 1, n)
-    np.minimum.at(first, group, np.arange(n))  # each group's first vertex stands for it
+    _, first = np.unique(group, return_index=True)  # each group's first vertex stands for it
     mesh.faces = first[group][np.asarray(mesh.faces)]
 
 

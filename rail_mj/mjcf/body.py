@@ -117,6 +117,12 @@ class BodySize:
         return _W_FOOT * self.stature
 
     @property
+    def toes_down(self) -> float:
+        """The ankle's height (m) when a hanging foot's relaxed toes touch the floor (:data:`TOE_REACH`): a sitter's
+        feet this high or lower reach it."""
+        return self.ankle + TOE_REACH * self.foot
+
+    @property
     def lumbar(self) -> float:
         """Hip joints to the lumbar joint (m): the trunk's length shared by pelvis and torso in proportion to their
         mass (a uniform trunk)."""

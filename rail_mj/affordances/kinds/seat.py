@@ -48,7 +48,7 @@ from rail_mj.core.profile import (
     SegmentState,
     ViaPose,
 )
-from rail_mj.mjcf.body import FEET, SIT_KNEE, TOE_REACH
+from rail_mj.mjcf.body import FEET, SIT_KNEE
 
 __all__ = ["SeatParams", "Seat"]
 
@@ -161,7 +161,7 @@ class Seat(Kind):
         if why:
             return False, why
         assert shape.body is not None  # _unseated refuses a row without its body
-        reach = shape.body.ankle + TOE_REACH * shape.body.foot  # the ankle's height when the toes touch down
+        reach = shape.body.toes_down
         for i, seg in enumerate(bodies):
             who = f"body {i + 1}: " if len(bodies) > 1 else ""
             dangling = [f for f in FEET if not (seg[f].on_ground or seg[f].touching_object or seg[f].height <= reach
@@ -254,6 +254,5 @@ class Seat(Kind):
         body = self.agent(aff, h).body
         if body is None:
             return 0
-        reach = body.ankle + TOE_REACH * body.foot  # the ankle's height when the toes touch down, as accept reads it
-        return int(any(all(seg[f].on_ground or seg[f].height <= reach for seg in agents_segments(c) for f in FEET)
-                       for c in accepted))
+        return int(any(all(seg[f].on_ground or seg[f].height <= body.toes_down
+                           for seg in agents_segments(c) for f in FEET) for c in accepted))
