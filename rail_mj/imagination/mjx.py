@@ -28,7 +28,7 @@ from rail_mj.imagination.backend import Backend, Progress
 from rail_mj.imagination.batch import RolloutBatch, outcomes_from_states
 from rail_mj.imagination.config import ImaginationConfig
 from rail_mj.imagination.perturb import world_models
-from rail_mj.mjcf import Scene, count_contacts
+from rail_mj.mjcf import Scene, count_contacts, settled_bodies
 
 __all__ = ["MjxBackend", "hull_bucket", "HULL_BUCKETS", "SUPPORTED_MJX"]
 
@@ -44,6 +44,7 @@ class _Layout:
 
     agent_qpos: tuple[int, ...]
     agent_dof: tuple[int, ...]
+    free_qpos: tuple[int, ...]
     free_dofs: tuple[int, ...]
     check_every: int
 
@@ -79,10 +80,11 @@ def _world_step(m, layout: _Layout, d, k, driven, n_drive, row_pose, row_vel):
     return d, driven & ~(active & touching), early
 
 
-def _at_rest(qvel, layout: _Layout, radius, settle_speed):
+def _at_rest(qpos, qvel, layout: _Layout, radius, settle_speed):
+    pos = jnp.stack([qpos[a : a + 3] for a in layout.free_qpos])
     lin = jnp.stack([qvel[d : d + 3] for d in layout.free_dofs])
     ang = jnp.stack([qvel[d + 3 : d + 6] for d in layout.free_dofs])
-    return jnp.all(jnp.linalg.norm(lin, axis=-1) + jnp.linalg.norm(ang, axis=-1) * radius < settle_speed)
+    return jnp.all(settled_bodies(jnp, pos, lin, ang, radius, settle_speed))
 
 
 def _rollout(m, fields, world, layout: _Layout, qpos0, pose_table, vel_table, n_drive, limit, hold, radius,
@@ -101,7 +103,7 @@ def _rollout(m, fields, world, layout: _Layout, qpos0, pose_table, vel_table, n_
         return _world_step(mw, layout, d, k, driven, nd, pose_t[idx], vel_t[idx])
 
     step_all = jax.vmap(one, in_axes=(0, None, 0, 0, 0, 0, 0))
-    rest_all = jax.vmap(lambda qv: _at_rest(qv, layout, radius, settle_speed))
+    rest_all = jax.vmap(lambda qp, qv: _at_rest(qp, qv, layout, radius, settle_speed))
     n_max = n_drive.max()
 
     def cond(carry):
@@ -114,7 +116,7 @@ def _rollout(m, fields, world, layout: _Layout, qpos0, pose_table, vel_table, n_
         k = k + 1
         free_since = jnp.where(~driven.any(axis=1), jnp.minimum(free_since, k), free_since)
         check = (k % layout.check_every == 0) & (k >= jnp.minimum(free_since + hold, n_max)) & (k <= limit)
-        rest = rest_all(d.qvel)
+        rest = rest_all(d.qpos, d.qvel)
         settled = settled | (check & rest & quiet)
         quiet = jnp.where(check, rest, quiet)
         return k, d, driven, early | new_early, settled, quiet, free_since
@@ -216,6 +218,7 @@ class MjxBackend(Backend):
         layout = _Layout(
             agent_qpos=tuple(int(a) for a in scene.agent_qpos),
             agent_dof=tuple(int(a) for a in scene.agent_dof),
+            free_qpos=tuple(int(a) for a in scene.free_qpos),
             free_dofs=tuple(int(a) for a in scene.free_dofs),
             check_every=cfg.check_every,
         )

@@ -63,7 +63,7 @@ class NativeBackend(Backend):
         while True:
             if k % cfg.check_every == 0:
                 # rest counts from a hold after the release, and at the latest once the batch's drive is over
-                rest = scene.at_rest(qvel, cfg.settle_speed) & (k >= np.minimum(free_since + hold, n_max))
+                rest = scene.at_rest(qpos, qvel, cfg.settle_speed) & (k >= np.minimum(free_since + hold, n_max))
                 # two quiet checks in a row, so a bounce's apex does not count as rest
                 settled |= rest & quiet
                 quiet = rest

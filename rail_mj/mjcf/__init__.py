@@ -14,6 +14,7 @@ from rail_mj.mjcf.compose import (
     compose_scene,
     count_contacts,
     segment_state,
+    settled_bodies,
 )
 from rail_mj.mjcf.scene import (
     AGENT_BIT,
@@ -68,4 +69,5 @@ __all__ = [
     "compose_scene",
     "count_contacts",
     "segment_state",
+    "settled_bodies",
 ]

@@ -55,6 +55,7 @@ __all__ = [
     "OWNER_OTHER",
     "ScenePhysics",
     "Scene",
+    "settled_bodies",
     "compose_scene",
     "build_scene",
     "add_object",
@@ -147,19 +148,42 @@ class Scene:
         prefix = agent_prefix(0)
         return tuple(self.model.body(int(b)).name.removeprefix(prefix) for b in self.agent_bodies[0])
 
-    def at_rest(self, qvel: np.ndarray, settle_speed: float) -> np.ndarray:
-        """Whether every free body of each world is slower than ``settle_speed``; qvel (..., nv) → (...).
+    @property
+    def free_qpos(self) -> np.ndarray:
+        """qpos addresses of every free joint (object first), (1 + N,)."""
+        return np.concatenate([[self.object_qpos], self.agent_qpos]).astype(np.int64)
 
-        A body's speed bound is |v| + |w| r (r = its bounding radius), so a rolling droplet and a spinning cup
-        count alike.
-        """
+    def at_rest(self, qpos: np.ndarray, qvel: np.ndarray, settle_speed: float) -> np.ndarray:
+        """Whether every free body of each world has settled (:func:`settled_bodies`); qpos (..., nq), qvel (..., nv)
+        → (...)."""
+        pos = np.stack([qpos[..., a : a + 3] for a in self.free_qpos], axis=-2)
         lin = np.stack([qvel[..., d : d + 3] for d in self.free_dofs], axis=-2)
         ang = np.stack([qvel[..., d + 3 : d + 6] for d in self.free_dofs], axis=-2)
-        speed = np.linalg.norm(lin, axis=-1) + np.linalg.norm(ang, axis=-1) * self.free_radius
-        rest = np.all(speed < settle_speed, axis=-1)
+        rest = np.all(settled_bodies(np, pos, lin, ang, self.free_radius, settle_speed), axis=-1)
         if self.articulated:  # a limb swinging about its joint moves as fast as its far end
             rest &= np.all(np.abs(qvel[..., self.hinge_dofs]) * self.hinge_radius < settle_speed, axis=-1)
         return rest
+
+
+def settled_bodies(xp, pos, lin, ang, radius, settle_speed: float):
+    """Whether each free body (the object first, then the agents) has settled, (..., 1 + N), from their positions,
+    linear and angular velocities (..., 1 + N, 3) and bounding radii (1 + N,); ``xp`` is numpy or jax.numpy, so both
+    backends judge rest alike.
+
+    A body has settled when no point of it moves faster than ``settle_speed``: its speed bound is |v| + |w| r, so a
+    rolling droplet and a spinning cup count alike. An agent has also settled once it has rolled clear: its centre
+    within its radius of the ground (low enough to touch it), farther across from the object's centre than the two
+    radii (out of the object's reach) and moving away across the ground. Where it ends is decided (off the object), and
+    nothing but another agent turns it back; a ball rolling on the floor, which nothing in the scene slows, would
+    otherwise keep its world running to the time limit.
+    """
+    speed = xp.linalg.norm(lin, axis=-1) + xp.linalg.norm(ang, axis=-1) * radius
+    still = speed < settle_speed
+    away = pos[..., 1:, :2] - pos[..., :1, :2]
+    clear = ((pos[..., 1:, 2] <= radius[1:])
+             & (xp.linalg.norm(away, axis=-1) > radius[0] + radius[1:])
+             & (xp.sum(away * lin[..., 1:, :2], axis=-1) >= 0.0))
+    return xp.concatenate([still[..., :1], still[..., 1:] | clear], axis=-1)
 
 
 def _reach(m: mujoco.MjModel, body: int) -> float:

@@ -67,7 +67,7 @@ def drop(
             break
         batch.step(ids=running, nstep=cfg.check_every)
         steps += cfg.check_every
-        rest = scene.at_rest(qvel, cfg.settle_speed) & (steps >= first_check)
+        rest = scene.at_rest(qpos, qvel, cfg.settle_speed) & (steps >= first_check)
         settled |= rest & quiet
         quiet = rest
     final = np.array(qpos[:, o + 3 : o + 7])

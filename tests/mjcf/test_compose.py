@@ -22,7 +22,9 @@ from rail_mj.mjcf import (
     agent_prefix,
     build_scene,
     check_fragment,
+    compose_scene,
     hull_geom_name,
+    settled_bodies,
 )
 
 ONE = '<worldbody><body><geom size="0.01"/></body></worldbody>'  # a minimal agent body, inlined below
@@ -155,6 +157,45 @@ def test_agents_touch_object_and_ground(obj: RailObject) -> None:
     assert (obj_id, b0) in bodies or (b0, obj_id) in bodies
     assert (0, b1) in bodies
     assert (0, obj_id) in bodies
+
+
+def _rolling(obj: RailObject, at: tuple[float, float, float], velocity: tuple[float, float]):
+    """The scene with one ball at ``at`` (world), rolling without slip at ``velocity`` across the ground: (scene, qpos,
+    qvel)."""
+    scene = compose_scene(obj, AgentSetup(fragment=BALL, offsets=np.zeros((1, 3))))
+    qpos, qvel = scene.model.qpos0.copy(), np.zeros(scene.model.nv)
+    qpos[scene.agent_qpos[0] : scene.agent_qpos[0] + 3] = at
+    d = scene.agent_dof[0]
+    qvel[d : d + 2] = velocity
+    qvel[d + 3 : d + 5] = np.array([-velocity[1], velocity[0]]) / 0.02  # rolling: w = z x v / r
+    return scene, qpos, qvel
+
+
+@pytest.mark.parametrize(("at", "velocity", "rests"), [
+    ((1.0, 0.0, 0.019), (0.3, 0.0), True),  # on the floor, clear of the object, rolling away: decided
+    ((1.0, 0.0, 0.019), (0.0, 0.3), True),  # rolling past: its distance grows, it never comes back
+    ((1.0, 0.0, 0.019), (-0.3, 0.0), False),  # rolling back towards the object
+    ((0.25, 0.0, 0.019), (0.3, 0.0), False),  # within the object's reach: the object may still turn it
+    ((1.0, 0.0, 0.3), (0.3, 0.0), False),  # in the air
+    ((1.0, 0.0, 0.019), (0.0, 0.0), True),  # still
+])
+def test_an_agent_that_rolled_clear_of_the_object_counts_as_settled(obj: RailObject, at, velocity, rests) -> None:
+    scene, qpos, qvel = _rolling(obj, at, velocity)
+    assert bool(scene.at_rest(qpos, qvel, 0.02)) is rests
+    qvel[scene.object_dof] = 0.1  # the object itself moving: nothing is settled
+    assert not scene.at_rest(qpos, qvel, 0.02)
+
+
+def test_both_backends_judge_rest_alike(obj: RailObject) -> None:
+    jnp = pytest.importorskip("jax.numpy")
+    rng = np.random.default_rng(0)
+    pos = rng.uniform([-1.0, -1.0, 0.0], [1.0, 1.0, 0.1], size=(64, 4, 3))
+    lin, ang = rng.normal(0.0, 0.02, size=(2, 64, 4, 3))
+    radius = np.array([0.3, 0.02, 0.03, 0.05])
+    flags = settled_bodies(np, pos, lin, ang, radius, 0.02)
+    assert 0 < flags.sum() < flags.size
+    np.testing.assert_array_equal(np.asarray(settled_bodies(jnp, *map(jnp.asarray, (pos, lin, ang, radius)), 0.02)),
+                                  flags)
 
 
 def test_visual_only_agent_geoms_stay_visual(obj: RailObject) -> None:

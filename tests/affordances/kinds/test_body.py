@@ -133,10 +133,10 @@ def test_every_segment_is_the_agents_and_one_body_agents_are_unchanged():
     agent_geoms = np.nonzero(body.geom_owner == 0)[0]
     assert len(agent_geoms) == len(SEGMENTS)
     # a hinge turning fast enough keeps the world from resting, though every free body is still
-    qvel = np.zeros(body.model.nv)
-    assert body.at_rest(qvel, 0.05)
+    qpos, qvel = body.model.qpos0.copy(), np.zeros(body.model.nv)
+    assert body.at_rest(qpos, qvel, 0.05)
     qvel[body.hinge_dofs[0]] = 1.0
-    assert not body.at_rest(qvel, 0.05)
+    assert not body.at_rest(qpos, qvel, 0.05)
     drops = compose_scene(obj, AgentSetup(fragment=DROPLET, offsets=np.zeros((2, 3))))
     assert not drops.articulated and drops.agent_bodies.shape == (2, 1)
 
