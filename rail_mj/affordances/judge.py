@@ -74,9 +74,9 @@ def functional_poses(affordance: str, scale: float, poses: Sequence[PoseCandidat
     aff = rules_row(affordance, scale)
     kind = kind_of(aff) if aff is not None else None
     verdicts: list[PoseVerdict] = []
-    # best = (kind's rank, accepted plans, kind's tie rank, top score, probability, pose, plan): the pose that works
+    # best = ((kind's rank, accepted plans, kind's tie rank, top score, probability), pose, plan): the pose that works
     # from the most approaches, after what the kind ranks first (for dishes: a rim rises around the food)
-    best: tuple[int, int, int, float, float, int, str] | None = None
+    best: tuple[tuple[int, int, int, float, float], int, str] | None = None
     for pose in poses:
         h = list(pose.half_extents)
         accepted, reasons = judge_pose(aff, pose)
@@ -86,11 +86,12 @@ def functional_poses(affordance: str, scale: float, poses: Sequence[PoseCandidat
         rank, tie = ((kind.rank(aff, accepted, h), kind.tie_rank(aff, accepted, h)) if kind is not None
                      and aff is not None else (0, 0))
         key = (rank, len(accepted), tie, top.score if top else 0.0, pose.probability)
-        if top is not None and (best is None or key > best[:5]):
-            best = (*key, pose.pose_index, top.plan)
+        if top is not None and (best is None or key > best[0]):
+            best = (key, pose.pose_index, top.plan)
     if best is None:
         return FunctionalPoseVerdict(poses=verdicts, best_pose=None, best_plan=None,
                                      reason="no candidate interaction is consistent with common sense")
-    return FunctionalPoseVerdict(poses=verdicts, best_pose=best[5], best_plan=best[6],
-                                 reason=f"pose {best[5]} works with the most plans ({best[1]}); plan {best[6]!r} "
-                                        f"has its best accepted score ({best[3]:.3f})")
+    (_, n_plans, _, score, _), index, plan = best
+    return FunctionalPoseVerdict(poses=verdicts, best_pose=index, best_plan=plan,
+                                 reason=f"pose {index} works with the most plans ({n_plans}); plan {plan!r} "
+                                        f"has its best accepted score ({score:.3f})")

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import mujoco
 import numpy as np
@@ -123,12 +124,13 @@ class Scene:
     #: (N, S) body ids of each agent's bodies (segments), the root first; S = 1 for one-body agents
     agent_bodies: np.ndarray = field(default_factory=lambda: np.zeros((0, 1), dtype=np.int64))
 
-    @property
+    # the free bodies' addresses and radii are read at every settle check: computed once per scene
+    @cached_property
     def free_dofs(self) -> np.ndarray:
         """dof addresses of every free joint (object first), (1 + N,)."""
         return np.concatenate([[self.object_dof], self.agent_dof]).astype(np.int64)
 
-    @property
+    @cached_property
     def free_radius(self) -> np.ndarray:
         """Bounding radius of each free body (object first) and the bodies it carries, about its frame origin,
         (1 + N,)."""
@@ -148,7 +150,7 @@ class Scene:
         prefix = agent_prefix(0)
         return tuple(self.model.body(int(b)).name.removeprefix(prefix) for b in self.agent_bodies[0])
 
-    @property
+    @cached_property
     def free_qpos(self) -> np.ndarray:
         """qpos addresses of every free joint (object first), (1 + N,)."""
         return np.concatenate([[self.object_qpos], self.agent_qpos]).astype(np.int64)
