@@ -56,11 +56,10 @@ _MIN_HULL_VOLUME = 1e-12
 class DecompositionConfig(BaseModel):
     """CoACD parameters and the hull vertex cap.
 
-    The defaults decompose a 2.1k-face hemispherical bowl shell in 3.7 s of CPU into 32 hulls
-    that leave its cavity free, and a 3.8k-face open cup (remeshed) in 9.4 s
-    (``benchmarks/coacd_time.py``; 4.9 s and 13.6 s with 30 MCTS iterations);
+    The defaults decompose a ~5.9k-face mug with a handle in ~7 s of CPU into
+    25 hulls that leave its cavity free (``benchmarks/coacd_time.py``);
     CoACD's own defaults (resolution 2000, 150 MCTS iterations, remeshing)
-    took ~2 minutes on a mug here. ``mcts_max_depth=1`` is a trap: worse cuts and a
+    took ~2 minutes here. ``mcts_max_depth=1`` is a trap: worse cuts and a
     ~50x slower merge. A bad value is a ConfigError naming the field's declared range.
     """
 
@@ -76,9 +75,7 @@ class DecompositionConfig(BaseModel):
     preprocess_resolution: int = Field(default=30, ge=1)
     resolution: int = Field(default=500, ge=1)  # surface samples per cut evaluation
     mcts_nodes: int = Field(default=10, ge=1)
-    # 15, as the dense settings have used on the real set's scans: 30 took 19% more of CoACD's CPU on the real set's
-    # meshes with hulls as good (probe excess within 0.04, the same worst)
-    mcts_iterations: int = Field(default=15, ge=1)
+    mcts_iterations: int = Field(default=30, ge=1)
     mcts_max_depth: int = Field(default=2, ge=1)
     seed: int = 0
     convex_shortcut: bool = True  # a convex mesh is its own (reduced) hull, no CoACD call
@@ -97,7 +94,7 @@ class DecompositionConfig(BaseModel):
 
 
 #: :func:`decomposition_for` meshes of more than :data:`DENSE_FACES` faces.
-DENSE_DECOMPOSITION = DecompositionConfig(threshold=0.07, max_faces=3_000)
+DENSE_DECOMPOSITION = DecompositionConfig(threshold=0.07, mcts_iterations=15, max_faces=3_000)
 
 
 def mesh_hash(mesh: trimesh.Trimesh) -> str:
@@ -357,7 +354,7 @@ def decomposition_for(mesh: trimesh.Trimesh) -> DecompositionConfig:
 
     Meshes of at most :data:`DENSE_FACES` faces get the defaults. Denser ones (scans, CAD
     exports) get :data:`DENSE_DECOMPOSITION`: CoACD sees them cut to 3,000 faces, with a coarser
-    concavity threshold (0.07); with half the MCTS iterations then the default (15 of 30), on the real-mesh set's eight
+    concavity threshold (0.07) and half the MCTS iterations (15). On the real-mesh set's eight
     dense closed meshes (8k-66k faces) that took CoACD from 5-60 s of CPU to 2.4-10 s, with the
     same hull count (22-32 of 32), volume ratio within 6% and excess within 0.02
     (``benchmarks/coacd_time.py``). Fewer hulls (16) were slower (more merging) and filled more

@@ -607,14 +607,10 @@ def test_a_single_body_goes_to_coacd_whole(monkeypatch: pytest.MonkeyPatch, tmp_
 
 
 def test_cache_keys_of_single_bodies_did_not_change() -> None:
-    # the keys the procedural dataset's hulls were cached under before max_faces and the body split (then with 30
-    # MCTS iterations by default); the defaults' hulls since 15 are keyed apart from them
+    # the keys the procedural dataset's hulls were cached under before max_faces and the body split
     digest = "0" * 64
-    assert mesh_decomposition._cache_key(digest, DecompositionConfig(mcts_iterations=30), 1) == (
+    assert mesh_decomposition._cache_key(digest, DecompositionConfig(), 1) == (
         "82496c24c8cd318b41f73c1c3be66c6a99dbf1b53977774f4711195a0da23847"
-    )
-    assert mesh_decomposition._cache_key(digest, DecompositionConfig(), 1) != (
-        mesh_decomposition._cache_key(digest, DecompositionConfig(mcts_iterations=30), 1)
     )
     assert mesh_decomposition._cache_key(digest, TINY, 1) == (
         "0e91cd61c40fff7a6e1f455d28148e6602525719d7bf1085a32811bf2604c5bd"
