@@ -40,7 +40,7 @@ from rail_mj.stable_poses.cluster import CONGRUENT, cluster_ups, merge_symmetric
 from rail_mj.stable_poses.config import StablePoseConfig, drop_physics
 from rail_mj.stable_poses.drop import drop, quasi_static, uniform_quats, verified
 from rail_mj.stable_poses.legroom import toe_room
-from rail_mj.stable_poses.shape import AS_IT_CAME_DEG
+from rail_mj.stable_poses.shape import AS_IT_CAME_DEG, tilt_from_up
 
 __all__ = ["find_stable_poses", "pose_from_up"]
 
@@ -191,9 +191,8 @@ def find_stable_poses(
     samples = surface_samples(obj)  # one set for every pose's spill level
     # of congruent poses (one pose rolled about a symmetry axis: a nearly square open-fronted cubby upright, on a side
     # or upside down), the one the object came in stands for them, so that the pose it came in is found
-    came = np.cos(np.deg2rad(AS_IT_CAME_DEG)) if obj.oriented else np.inf
     for group in merge_symmetric(obj, reps, CONGRUENT):
-        best = max(group, key=lambda i: (bool(reps[i][2] >= came), counts[i], quasi[i]))
+        best = max(group, key=lambda i: (obj.oriented and tilt_from_up(reps[i]) <= AS_IT_CAME_DEG, counts[i], quasi[i]))
         probability = 0.5 * sum(counts[i] / n_drops + quasi[i] for i in group)
         if probability >= min_probability:
             poses.append(pose_from_up(obj, reps[best], probability, samples))

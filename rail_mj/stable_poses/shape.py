@@ -21,8 +21,8 @@ from scipy.spatial import ConvexHull
 from rail_mj.core.profile import PoseShape
 from rail_mj.core.types import RailObject, StablePose
 
-__all__ = ["FACES", "ENCLOSED", "GRID", "AS_IT_CAME_DEG", "tilt_from_came", "pose_shape", "came_in_shape",
-           "ObjectShapes"]
+__all__ = ["FACES", "ENCLOSED", "GRID", "AS_IT_CAME_DEG", "tilt_from_up", "tilt_from_came", "pose_shape",
+           "came_in_shape", "ObjectShapes"]
 
 #: The faces of a pose's box, by the task frame's directions (front = +x, left = +y).
 FACES: dict[str, tuple[float, float, float]] = {
@@ -80,9 +80,14 @@ def _placed(obj: RailObject, rotation: np.ndarray) -> tuple[trimesh.Trimesh, lis
     return mesh, [np.asarray(h) @ rotation.T for h in obj.hulls]
 
 
+def tilt_from_up(up: np.ndarray | Sequence[float]) -> float:
+    """Degrees between the unit ``up`` (mesh frame) and the up the object came in (its mesh frame's +z)."""
+    return math.degrees(math.acos(float(np.clip(up[2], -1.0, 1.0))))
+
+
 def tilt_from_came(pose: StablePose) -> float:
     """Degrees between ``pose``'s up and the up the object came in (its mesh frame's +z)."""
-    return math.degrees(math.acos(float(np.clip(pose.up_in_mesh_frame[2], -1.0, 1.0))))
+    return tilt_from_up(pose.up_in_mesh_frame)
 
 
 def pose_shape(obj: RailObject, pose: StablePose) -> PoseShape:

@@ -8,7 +8,7 @@ import pytest
 
 from rail_mj.core.types import StablePose
 from rail_mj.robot.demo import make_object
-from rail_mj.stable_poses.shape import ObjectShapes, came_in_shape, pose_shape
+from rail_mj.stable_poses.shape import ObjectShapes, came_in_shape, pose_shape, tilt_from_came, tilt_from_up
 
 
 def _pose(up_axis: str) -> StablePose:
@@ -16,6 +16,14 @@ def _pose(up_axis: str) -> StablePose:
     quat = {"+z": [1.0, 0.0, 0.0, 0.0], "-z": [0.0, 1.0, 0.0, 0.0],
             "+x": [np.cos(np.pi / 4), 0.0, -np.sin(np.pi / 4), 0.0]}[up_axis]
     return StablePose(pos=np.zeros(3), quat=np.asarray(quat), probability=0.5, half_extents=np.ones(3))
+
+
+@pytest.mark.parametrize("up_axis, tilt", [("+z", 0.0), ("+x", 90.0), ("-z", 180.0)])
+def test_a_pose_and_its_up_tilt_alike_from_the_up_it_came_in(up_axis: str, tilt: float) -> None:
+    pose = _pose(up_axis)
+    assert tilt_from_came(pose) == pytest.approx(tilt, abs=1e-6)
+    assert tilt_from_up(pose.up_in_mesh_frame) == tilt_from_came(pose)
+    assert tilt_from_up(1.0000001 * np.asarray(pose.up_in_mesh_frame)) == pytest.approx(tilt, abs=1e-3)  # rounding
 
 
 @pytest.mark.parametrize("kind, up_axis, faces, came", [
