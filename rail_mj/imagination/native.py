@@ -99,7 +99,8 @@ class NativeBackend(Backend):
             contacts[b] = count_contacts(scene.geom_owner, data.contact.geom[: data.ncon], n_agents)
             unstable[b] = any(data.warning[w].number > 0 for w in _BLOW_UPS)
             if scene.articulated:  # the segments where the rollout's own world (its agent's size) put them
-                segments.append(segment_state(scene, data, data.contact.geom[: data.ncon], models[b]))
+                segments.append(segment_state(scene, data, data.contact.geom[: data.ncon], models[b],
+                                              float(placement.scales[b])))
         stacked = tuple(np.stack(a) for a in zip(*segments, strict=True)) if segments else None
         return outcomes_from_states(scene, placement, np.array(qpos), np.array(qvel), contacts, released_early, settled,
                                     unstable, stacked)  # pyright: ignore[reportArgumentType]  # three arrays

@@ -24,6 +24,7 @@ import mujoco
 import numpy as np
 
 from rail_mj.core.errors import ConfigError
+from rail_mj.mjcf.surface import OwnSurface
 
 __all__ = ["Posture", "POSTURES", "SEGMENTS", "SEGMENT_AXES", "FEET", "THIGHS", "SIT_KNEE", "TOE_REACH",
            "REACH_PROBES", "BEARING_PROBES", "BodySize", "body_size", "body_fragment", "toes_reach", "seat_under",
@@ -334,14 +335,22 @@ _SIT_BONES = 0.36
 #: The soft tissue under a sitting bone gives about 2 cm under a sitter's weight (MRI of seated adults): a quarter of
 #: a thigh's radius (7 cm at 1.75 m and 75 kg). A face farther below the buttocks does not bear the bone.
 _SIT_TISSUE = 0.25
+#: Flesh fills a hollow no deeper than itself: the buttock between a sitting bone and a flat seat, a thigh's radius
+#: (units of it) thick, still bears on the object's own surface that far under the face of a convex hull that rounds
+#: a crease (an armchair's seat and back); under a hull that spans a gap (two legs of a chair on its side, as rails)
+#: the object is farther, and the bone bears on nothing.
+_FLESH_CONFORMS = 1.0
 
 
-def sit_bones(m: mujoco.MjModel, data: mujoco.MjData, pelvis: int, geoms: np.ndarray) -> bool:
+def sit_bones(m: mujoco.MjModel, data: mujoco.MjData, pelvis: int, geoms: np.ndarray,
+              own: OwnSurface | None = None) -> bool:
     """Whether one of ``geoms`` bears both sitting bones of a pelvis (body id ``pelvis``) that touches it: straight
     below each, at the hip joints' line or a thigh's radius ahead of or behind it (the loaded tissue under a sit
-    bone), a face within 45° of level no lower than the buttocks less the tissue's give (:data:`_SIT_TISSUE`). A seat
-    pan, a shell, a bench's slats bear them; an upturned stool's leg ends, a pouf's feet, a rail or an edge under the
-    hips do not. ``data`` holds the world's kinematics (``mj_kinematics``)."""
+    bone), a face within 45° of level no lower than the buttocks less the tissue's give (:data:`_SIT_TISSUE`), and,
+    given the object's ``own`` surface, that surface within a buttock's depth under the face
+    (:data:`_FLESH_CONFORMS`). A seat pan, a shell, a bench's slats bear them; an upturned stool's leg ends, a pouf's
+    feet, a rail or an edge under the hips, or a hull spanning the gap between two rails do not. ``data`` holds the
+    world's kinematics (``mj_kinematics``)."""
     pelvis_geom, thigh_geom = int(m.body_geomadr[pelvis]), int(m.body_geomadr[pelvis + SEGMENTS.index(THIGHS[0])])
     half = _SIT_BONES * float(m.geom_size[pelvis_geom][1])  # the pelvis box's half breadth is the hips'
     radius = float(m.geom_size[thigh_geom][0])
@@ -352,7 +361,7 @@ def sit_bones(m: mujoco.MjModel, data: mujoco.MjData, pelvis: int, geoms: np.nda
         for g in geoms:
             distance, normal_z = _ray(m, data, int(g), point, down)
             if 0.0 <= distance <= (1 + _SIT_TISSUE) * radius and normal_z >= _BEARING_COS:
-                return True
+                return own is None or 0.0 <= own.distance(point, down) <= distance + _FLESH_CONFORMS * radius
         return False
 
     return all(any(borne(data.xpos[pelvis] + frame @ np.array([ahead, side, 0.0])) for ahead in (0.0, radius, -radius))

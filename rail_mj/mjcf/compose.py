@@ -48,7 +48,7 @@ from rail_mj.mjcf.scene import (
     check_fragment,
     hull_geom_name,
 )
-from rail_mj.mjcf.surface import surface_model
+from rail_mj.mjcf.surface import OwnSurface, surface_model
 
 __all__ = [
     "OWNER_GROUND",
@@ -208,15 +208,16 @@ def count_contacts(geom_owner: np.ndarray, geom_pairs: np.ndarray, n_agents: int
     return out
 
 
-def segment_state(scene: Scene, data: mujoco.MjData, geom_pairs: np.ndarray,
-                  model: mujoco.MjModel | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def segment_state(scene: Scene, data: mujoco.MjData, geom_pairs: np.ndarray, model: mujoco.MjModel | None = None,
+                  scale: float = 1.0) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Where each agent's segments ended, from ``data.qpos`` and the (ncon, 2) contact geom pairs: (N, S) height
     (m) of each segment's origin above the ground, (N, S) ``up`` (the cosine of the angle between its own z axis
     and the vertical), (N, S, 3) its contact points with (object, other agents, ground) and (N, S) whether a foot
     or a thigh touching nothing reaches the object: a foot by bending its knee, a thigh over a seat pan it rose off
     (:func:`rail_mj.mjcf.body.toes_reach`, :func:`rail_mj.mjcf.body.seat_under`), and whether a pelvis touching the
-    object has both sitting bones over it (:func:`rail_mj.mjcf.body.sit_bones`); False for every other segment.
-    ``model``: the rollout's own model when it is not ``scene.model`` (a perturbed world's, the same layout)."""
+    object has both sitting bones over it, on its hulls and its own surface (:func:`rail_mj.mjcf.body.sit_bones`);
+    False for every other segment. ``model``: the rollout's own model when it is not ``scene.model`` (a perturbed
+    world's, the same layout); ``scale``: that world's mesh scale (the surface is the nominal mesh)."""
     m = scene.model if model is None else model
     mujoco.mj_kinematics(m, data)
     bodies = scene.agent_bodies
@@ -240,9 +241,14 @@ def segment_state(scene: Scene, data: mujoco.MjData, geom_pairs: np.ndarray,
     probes += [(k, BEARING_PROBES[name], True) for k, name in enumerate(scene.segment_names) if name in BEARING_PROBES]
     if probes:
         geoms = np.nonzero(scene.geom_owner == OWNER_OBJECT)[0]
+        body = int(m.geom_bodyid[geoms[0]])
+        own = None if scene.surface is None else OwnSurface(scene.surface, data.xpos[body].copy(),
+                                                            data.xmat[body].reshape(3, 3).copy(), scale)
         for i in range(n):
             for k, probe, touching in probes:
-                if bool(contacts[i, k, 0]) if touching else not contacts[i, k].any():
+                if touching and contacts[i, k, 0]:
+                    reach[i, k] = probe(m, data, int(bodies[i, k]), geoms, own)
+                elif not touching and not contacts[i, k].any():
                     reach[i, k] = probe(m, data, int(bodies[i, k]), geoms)
     return height, up, contacts, reach
 

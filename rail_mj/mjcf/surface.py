@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
 
 from rail_mj.core.types import RailObject
 
-__all__ = ["surface_model", "static_meshes"]
+__all__ = ["surface_model", "static_meshes", "OwnSurface"]
 
 
 def surface_model(obj: RailObject) -> mujoco.MjModel:
@@ -32,3 +33,27 @@ def static_meshes(meshes: Sequence[tuple[np.ndarray, np.ndarray | None]]) -> muj
             mesh.userface = np.asarray(faces, dtype=np.int32).ravel().tolist()
         spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh.name, contype=0, conaffinity=0)
     return spec.compile()
+
+
+@dataclass
+class OwnSurface:
+    """Rays from world points into the object's own surface (:func:`surface_model`) where the object stands in one
+    world: its body's position ``pos`` and rotation ``mat`` (3, 3), and the world's mesh ``scale`` (the surface is
+    the nominal mesh)."""
+
+    model: mujoco.MjModel
+    pos: np.ndarray
+    mat: np.ndarray
+    scale: float = 1.0
+    _data: mujoco.MjData = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        self._data = mujoco.MjData(self.model)
+        mujoco.mj_kinematics(self.model, self._data)
+
+    def distance(self, pnt: np.ndarray, vec: np.ndarray) -> float:
+        """Distance (m) along the unit ``vec`` (world frame) from ``pnt`` to the surface; -1 when the ray misses it."""
+        local = self.mat.T @ (np.asarray(pnt, dtype=np.float64) - self.pos) / self.scale
+        direction = self.mat.T @ np.asarray(vec, dtype=np.float64)
+        hit = mujoco.mj_ray(self.model, self._data, local, direction, None, True, -1, np.zeros(1, dtype=np.int32))
+        return hit * self.scale if hit >= 0.0 else -1.0

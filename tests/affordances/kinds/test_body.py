@@ -8,6 +8,7 @@ with the box "pelvis" the kinds had before (it has no segments to report and no 
 
 from __future__ import annotations
 
+import dataclasses
 from typing import cast
 
 import mujoco
@@ -259,6 +260,26 @@ def test_the_body_does_not_sit_on_an_upturned_stools_leg_ends():
     judged = _judged(_upturned_stool(), "chair")
     assert not any(ok for _, ok, _ in judged), [why for _, ok, why in judged if ok]
     assert any("sitting bones" in why for _, _, why in judged)
+
+
+def _railed(bridged: bool) -> RailObject:
+    """Two 4 cm rails 0.39 m apart, 0.46 m up on four legs (a chair's legs, the chair on its side), and a slab
+    between them at their height: in the hulls only (a convex hull spanning the gap, the mesh without it) when
+    ``bridged``, else in the mesh too (a seat)."""
+    rails = [([-0.225, sy * 0.195 - 0.02, 0.42], [0.225, sy * 0.195 + 0.02, 0.46]) for sy in (-1, 1)]
+    obj = _object("railed", [*rails, ([-0.225, -0.175, 0.43], [0.225, 0.175, 0.46]), *_legs(0.2, 0.195, 0.42)])
+    if not bridged:
+        return obj
+    parts = [trimesh.creation.box(bounds=[lo, hi]) for lo, hi in [*rails, *_legs(0.2, 0.195, 0.42)]]
+    return dataclasses.replace(obj, mesh=cast(trimesh.Trimesh, trimesh.util.concatenate(parts)))
+
+
+def test_the_sitting_bones_are_borne_by_the_objects_own_surface_not_a_hull_spanning_a_gap():
+    seat = _judged(_railed(bridged=False), "chair")
+    assert any(ok for _, ok, _ in seat), [why for _, _, why in seat]
+    bridged = _judged(_railed(bridged=True), "chair")
+    assert not any(ok for _, ok, _ in bridged), [why for _, ok, why in bridged if ok]
+    assert any("sitting bones" in why for _, _, why in bridged)
 
 
 def test_the_body_lies_in_a_bed_and_a_bathtub_holds_it_lying_down():
