@@ -344,11 +344,12 @@ _FLESH_CONFORMS = 1.0
 
 def sit_bones(m: mujoco.MjModel, data: mujoco.MjData, pelvis: int, geoms: np.ndarray,
               own: OwnSurface | None = None) -> bool:
-    """Whether one of ``geoms`` bears both sitting bones of a pelvis (body id ``pelvis``) that touches it: straight
-    below each, at the hip joints' line or a thigh's radius ahead of or behind it (the loaded tissue under a sit
-    bone), a face within 45° of level no lower than the buttocks less the tissue's give (:data:`_SIT_TISSUE`), and,
-    given the object's ``own`` surface, that surface within a buttock's depth under the face
-    (:data:`_FLESH_CONFORMS`). A seat pan, a shell, a bench's slats bear them; an upturned stool's leg ends, a pouf's
+    """Whether the object bears both sitting bones of a pelvis (body id ``pelvis``) that touches it: straight below
+    each, at the hip joints' line or a thigh's radius ahead of or behind it (the loaded tissue under a sit bone), a
+    face within 45° of level no lower than the buttocks less the tissue's give (:data:`_SIT_TISSUE`): a face of the
+    object's ``own`` surface, or of one of ``geoms`` (its hulls, on which the body rests) with, given ``own``, that
+    surface within a buttock's depth under it (:data:`_FLESH_CONFORMS`). A seat pan, a shell (whose curve the hulls
+    may split, none of them level under a bone), a bench's slats bear them; an upturned stool's leg ends, a pouf's
     feet, a rail or an edge under the hips, or a hull spanning the gap between two rails do not. ``data`` holds the
     world's kinematics (``mj_kinematics``)."""
     pelvis_geom, thigh_geom = int(m.body_geomadr[pelvis]), int(m.body_geomadr[pelvis + SEGMENTS.index(THIGHS[0])])
@@ -358,10 +359,14 @@ def sit_bones(m: mujoco.MjModel, data: mujoco.MjData, pelvis: int, geoms: np.nda
     down = np.array([0.0, 0.0, -1.0])
 
     def borne(point: np.ndarray) -> bool:
+        if own is not None:
+            distance, normal_z = own.ray(point, down)
+            if 0.0 <= distance <= (1 + _SIT_TISSUE) * radius and normal_z >= _BEARING_COS:
+                return True
         for g in geoms:
             distance, normal_z = _ray(m, data, int(g), point, down)
             if 0.0 <= distance <= (1 + _SIT_TISSUE) * radius and normal_z >= _BEARING_COS:
-                return own is None or 0.0 <= own.distance(point, down) <= distance + _FLESH_CONFORMS * radius
+                return own is None or 0.0 <= own.ray(point, down)[0] <= distance + _FLESH_CONFORMS * radius
         return False
 
     return all(any(borne(data.xpos[pelvis] + frame @ np.array([ahead, side, 0.0])) for ahead in (0.0, radius, -radius))

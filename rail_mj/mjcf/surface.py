@@ -51,9 +51,12 @@ class OwnSurface:
         self._data = mujoco.MjData(self.model)
         mujoco.mj_kinematics(self.model, self._data)
 
-    def distance(self, pnt: np.ndarray, vec: np.ndarray) -> float:
-        """Distance (m) along the unit ``vec`` (world frame) from ``pnt`` to the surface; -1 when the ray misses it."""
+    def ray(self, pnt: np.ndarray, vec: np.ndarray) -> tuple[float, float]:
+        """(distance (m) along the unit ``vec`` (world frame) from ``pnt`` to the surface, -1 when the ray misses it;
+        the vertical part of the surface's normal where it meets it)."""
         local = self.mat.T @ (np.asarray(pnt, dtype=np.float64) - self.pos) / self.scale
         direction = self.mat.T @ np.asarray(vec, dtype=np.float64)
-        hit = mujoco.mj_ray(self.model, self._data, local, direction, None, True, -1, np.zeros(1, dtype=np.int32))
-        return hit * self.scale if hit >= 0.0 else -1.0
+        normal = np.zeros(3)
+        hit = mujoco.mj_ray(self.model, self._data, local, direction, None, True, -1, np.zeros(1, dtype=np.int32),
+                            normal)
+        return (hit * self.scale if hit >= 0.0 else -1.0), float((self.mat @ normal)[2])

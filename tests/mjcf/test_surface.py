@@ -19,17 +19,17 @@ def _slab() -> OwnSurface:
 
 def test_a_ray_meets_the_top_of_the_object_where_it_stands() -> None:
     own = _slab()
-    assert own.distance(np.array([0.05, 0.0, 0.5]), DOWN) == pytest.approx(0.4)
+    assert own.ray(np.array([0.05, 0.0, 0.5]), DOWN) == pytest.approx((0.4, 1.0))  # its level top
     own.pos = np.array([1.0, 0.0, 0.2])  # the object moved 1 m across and 0.2 m up
-    assert own.distance(np.array([1.05, 0.0, 0.5]), DOWN) == pytest.approx(0.2)
-    assert own.distance(np.array([0.05, 0.0, 0.5]), DOWN) == -1.0  # where it stood, nothing now
+    assert own.ray(np.array([1.05, 0.0, 0.5]), DOWN)[0] == pytest.approx(0.2)
+    assert own.ray(np.array([0.05, 0.0, 0.5]), DOWN)[0] == -1.0  # where it stood, nothing now
 
 
 def test_a_turned_and_scaled_world_is_measured_in_metres() -> None:
     own = _slab()
     own.mat = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])  # upside down: its top faces down
     own.pos = np.array([0.0, 0.0, 0.3])
-    assert own.distance(np.array([0.0, 0.0, 0.5]), DOWN) == pytest.approx(0.2)  # its base, now on top, at 0.3 m
+    assert own.ray(np.array([0.0, 0.0, 0.5]), DOWN)[0] == pytest.approx(0.2)  # its base, now on top, at 0.3 m
     own.scale = 2.0  # the same object twice as large, about its frame's origin: 0.2 m thick, from 0.1 to 0.3 m up
-    assert own.distance(np.array([0.0, 0.0, 0.5]), DOWN) == pytest.approx(0.2)
-    assert own.distance(np.array([0.0, 0.0, 0.05]), -DOWN) == pytest.approx(0.05)
+    assert own.ray(np.array([0.0, 0.0, 0.5]), DOWN)[0] == pytest.approx(0.2)
+    assert own.ray(np.array([0.0, 0.0, 0.05]), -DOWN) == pytest.approx((0.05, -1.0))  # its top, facing down

@@ -282,6 +282,22 @@ def test_the_sitting_bones_are_borne_by_the_objects_own_surface_not_a_hull_spann
     assert any("sitting bones" in why for _, _, why in bridged)
 
 
+def _slotted() -> RailObject:
+    """A stool's whole 0.45 m square seat 0.46 m up, whose hulls leave an 18 cm slot under the sitting bones (two
+    halves, as a decomposition may leave a shell's middle uncovered)."""
+    halves = [([-0.225, -0.225, 0.43], [0.225, -0.09, 0.46]), ([-0.225, 0.09, 0.43], [0.225, 0.225, 0.46])]
+    obj = _object("slotted", [*halves, *_legs(0.2, 0.2, 0.43)])
+    parts = [trimesh.creation.box(bounds=[lo, hi]) for lo, hi in [([-0.225, -0.225, 0.43], [0.225, 0.225, 0.46]),
+                                                                 *_legs(0.2, 0.2, 0.43)]]
+    return dataclasses.replace(obj, mesh=cast(trimesh.Trimesh, trimesh.util.concatenate(parts)))
+
+
+def test_the_objects_own_surface_bears_the_sitting_bones_where_its_hulls_leave_a_slot():
+    # facing across the slot the bones lie over it and only the mesh bears them
+    judged = _judged(_slotted(), "chair")
+    assert sum(ok for _, ok, _ in judged) >= 4, [why for _, _, why in judged]
+
+
 def test_the_body_lies_in_a_bed_and_a_bathtub_holds_it_lying_down():
     assert any(ok for _, ok, _ in _judged(_bed(), "bed"))
     # a bathtub is no bed (its floor is below a bed's height), but it holds the body lying on its back, inside
