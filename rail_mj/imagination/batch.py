@@ -411,10 +411,9 @@ def open_sectors(scene: Scene, qpos: np.ndarray, scale: np.ndarray | None = None
     of each state's world (the surface is the nominal one; rays start at the point scaled back to it).
     """
     out = np.zeros((qpos.shape[0], scene.n_agents), dtype=np.int64)
-    if scene.surface is None:  # a scene without agents: nothing to probe
+    data = scene.surface_data
+    if scene.surface is None or data is None:  # a scene without agents: nothing to probe
         return out
-    data = mujoco.MjData(scene.surface)
-    mujoco.mj_kinematics(scene.surface, data)
     n_rays = PROBE_DIRECTIONS * _SUB_RAYS
     geomid = np.zeros(n_rays, dtype=np.int32)
     dist = np.zeros(n_rays)

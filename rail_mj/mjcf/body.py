@@ -358,15 +358,17 @@ def sit_bones(m: mujoco.MjModel, data: mujoco.MjData, pelvis: int, geoms: np.nda
     frame = data.xmat[pelvis].reshape(3, 3)
     down = np.array([0.0, 0.0, -1.0])
 
+    def bears(distance: float, normal_z: float) -> bool:
+        return 0.0 <= distance <= (1 + _SIT_TISSUE) * radius and normal_z >= _BEARING_COS
+
     def borne(point: np.ndarray) -> bool:
-        if own is not None:
-            distance, normal_z = own.ray(point, down)
-            if 0.0 <= distance <= (1 + _SIT_TISSUE) * radius and normal_z >= _BEARING_COS:
-                return True
+        surface = None if own is None else own.ray(point, down)
+        if surface is not None and bears(*surface):
+            return True
         for g in geoms:
             distance, normal_z = _ray(m, data, int(g), point, down)
-            if 0.0 <= distance <= (1 + _SIT_TISSUE) * radius and normal_z >= _BEARING_COS:
-                return own is None or 0.0 <= own.ray(point, down)[0] <= distance + _FLESH_CONFORMS * radius
+            if bears(distance, normal_z):
+                return surface is None or 0.0 <= surface[0] <= distance + _FLESH_CONFORMS * radius
         return False
 
     return all(any(borne(data.xpos[pelvis] + frame @ np.array([ahead, side, 0.0])) for ahead in (0.0, radius, -radius))

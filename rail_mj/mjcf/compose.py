@@ -48,7 +48,7 @@ from rail_mj.mjcf.scene import (
     check_fragment,
     hull_geom_name,
 )
-from rail_mj.mjcf.surface import OwnSurface, surface_model
+from rail_mj.mjcf.surface import OwnSurface, surface_data, surface_model
 
 __all__ = [
     "OWNER_GROUND",
@@ -151,6 +151,11 @@ class Scene:
         return tuple(self.model.body(int(b)).name.removeprefix(prefix) for b in self.agent_bodies[0])
 
     @cached_property
+    def surface_data(self) -> mujoco.MjData | None:
+        """The data of :attr:`surface` that its rays read (static: made once per scene); None without a surface."""
+        return None if self.surface is None else surface_data(self.surface)
+
+    @cached_property
     def free_qpos(self) -> np.ndarray:
         """qpos addresses of every free joint (object first), (1 + N,)."""
         return np.concatenate([[self.object_qpos], self.agent_qpos]).astype(np.int64)
@@ -242,8 +247,8 @@ def segment_state(scene: Scene, data: mujoco.MjData, geom_pairs: np.ndarray, mod
     if probes:
         geoms = np.nonzero(scene.geom_owner == OWNER_OBJECT)[0]
         body = int(m.geom_bodyid[geoms[0]])
-        own = None if scene.surface is None else OwnSurface(scene.surface, data.xpos[body].copy(),
-                                                            data.xmat[body].reshape(3, 3).copy(), scale)
+        own = None if scene.surface is None or scene.surface_data is None else OwnSurface(
+            scene.surface, scene.surface_data, data.xpos[body].copy(), data.xmat[body].reshape(3, 3).copy(), scale)
         for i in range(n):
             for k, probe, touching in probes:
                 if touching and contacts[i, k, 0]:

@@ -3,14 +3,21 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
 from rail_mj.core.types import RailObject
 
-__all__ = ["surface_model", "static_meshes", "OwnSurface"]
+__all__ = ["surface_model", "surface_data", "static_meshes", "OwnSurface"]
+
+
+def surface_data(model: mujoco.MjModel) -> mujoco.MjData:
+    """The static ``model``'s data with its kinematics done: what rays cast in it read."""
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    return data
 
 
 def surface_model(obj: RailObject) -> mujoco.MjModel:
@@ -35,21 +42,17 @@ def static_meshes(meshes: Sequence[tuple[np.ndarray, np.ndarray | None]]) -> muj
     return spec.compile()
 
 
-@dataclass
+@dataclass(frozen=True)
 class OwnSurface:
-    """Rays from world points into the object's own surface (:func:`surface_model`) where the object stands in one
-    world: its body's position ``pos`` and rotation ``mat`` (3, 3), and the world's mesh ``scale`` (the surface is
-    the nominal mesh)."""
+    """Rays from world points into the object's own surface (:func:`surface_model` and its ``data``, whose
+    kinematics are done) where the object stands in one world: its body's position ``pos`` and rotation ``mat``
+    (3, 3), and the world's mesh ``scale`` (the surface is the nominal mesh)."""
 
     model: mujoco.MjModel
+    data: mujoco.MjData
     pos: np.ndarray
     mat: np.ndarray
     scale: float = 1.0
-    _data: mujoco.MjData = field(init=False, repr=False)
-
-    def __post_init__(self) -> None:
-        self._data = mujoco.MjData(self.model)
-        mujoco.mj_kinematics(self.model, self._data)
 
     def ray(self, pnt: np.ndarray, vec: np.ndarray) -> tuple[float, float]:
         """(distance (m) along the unit ``vec`` (world frame) from ``pnt`` to the surface, -1 when the ray misses it;
@@ -57,6 +60,6 @@ class OwnSurface:
         local = self.mat.T @ (np.asarray(pnt, dtype=np.float64) - self.pos) / self.scale
         direction = self.mat.T @ np.asarray(vec, dtype=np.float64)
         normal = np.zeros(3)
-        hit = mujoco.mj_ray(self.model, self._data, local, direction, None, True, -1, np.zeros(1, dtype=np.int32),
+        hit = mujoco.mj_ray(self.model, self.data, local, direction, None, True, -1, np.zeros(1, dtype=np.int32),
                             normal)
         return (hit * self.scale if hit >= 0.0 else -1.0), float((self.mat @ normal)[2])
