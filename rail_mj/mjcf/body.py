@@ -26,9 +26,9 @@ import numpy as np
 from rail_mj.core.errors import ConfigError
 from rail_mj.mjcf.surface import OwnSurface
 
-__all__ = ["Posture", "POSTURES", "SEGMENTS", "SEGMENT_AXES", "FEET", "THIGHS", "SIT_KNEE", "TOE_REACH",
-           "REACH_PROBES", "BEARING_PROBES", "BodySize", "body_size", "body_fragment", "toes_reach", "seat_under",
-           "sit_bones"]
+__all__ = ["Posture", "POSTURES", "SEGMENTS", "SEGMENT_AXES", "FEET", "THIGHS", "SIT_KNEE", "TOE_REACH", "SAG_DEG",
+           "TRUNK_THIGH_DEG", "REACH_PROBES", "BEARING_PROBES", "BodySize", "body_size", "body_fragment", "toes_reach",
+           "seat_under", "sit_bones", "back_reach"]
 
 Posture = Literal["sit", "lie"]
 POSTURES: tuple[str, ...] = ("sit", "lie")
@@ -48,6 +48,9 @@ TOE_REACH = 0.75 * math.sin(math.radians(30))
 #: Steps (deg) of the knee's swing in which a hanging foot's reach is probed: a rung 2 cm across, 0.5 m from the
 #: knee, spans 2.3°; half of that misses none.
 _SWING_STEP = 1.0
+#: An easy chair's seat tilts back up to this (deg; Grandjean, easy chairs 14-24°, their back bearing the reclined
+#: trunk); steeper, the sitter slides or lies.
+EASY_SEAT_DEG = 24.0
 #: A foot or a thigh rests on a surface whose normal is within 45° of vertical: friction on it (μ ≤ 1) holds it there;
 #: a steeper face (a panel, a drawer front) it slides down.
 _BEARING_COS = math.cos(math.radians(45))
@@ -80,7 +83,7 @@ _LUMBAR_REST = -15.0
 SIT_KNEE = 105.0
 #: The posture spring lets a joint sag at most this far (deg) under the gravity moment of what it carries
 #: held out horizontally: a carried body keeps its posture, a load on it bends it.
-_SAG_DEG = 10.0
+SAG_DEG = 10.0
 #: Damping ratio of each joint's spring against what it carries: critically damped, so a set-down body settles.
 _DAMPING_RATIO = 1.0
 
@@ -192,7 +195,7 @@ def _f(v) -> str:
 
 def _spring(mass: float, arm: float) -> tuple[float, float]:
     """(stiffness N·m/rad, damping N·m·s/rad) of a joint carrying ``mass`` at lever ``arm`` (its centre of mass)."""
-    stiffness = mass * _G * arm / math.radians(_SAG_DEG)
+    stiffness = mass * _G * arm / math.radians(SAG_DEG)
     inertia = mass * arm * arm
     return stiffness, 2.0 * _DAMPING_RATIO * math.sqrt(stiffness * inertia)
 
@@ -300,15 +303,23 @@ def toes_reach(m: mujoco.MjModel, data: mujoco.MjData, foot: int, geoms: np.ndar
     return False
 
 
-def _ray(m: mujoco.MjModel, data: mujoco.MjData, g: int, pnt: np.ndarray, vec: np.ndarray) -> tuple[float, float]:
-    """(distance along the unit ``vec`` from ``pnt`` to geom ``g``, -1 when the ray misses it; the vertical part of
-    the surface's normal where it meets it)."""
+def _ray_normal(m: mujoco.MjModel, data: mujoco.MjData, g: int, pnt: np.ndarray, vec: np.ndarray
+                ) -> tuple[float, np.ndarray]:
+    """(distance along the unit ``vec`` from ``pnt`` to geom ``g``, -1 when the ray misses it; the surface's unit
+    normal where it meets it)."""
     normal = np.zeros(3)
     if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
         distance = mujoco.mj_rayMesh(m, data, g, pnt, vec, normal)
     else:
         distance = mujoco.mju_rayGeom(data.geom_xpos[g], data.geom_xmat[g], m.geom_size[g], pnt, vec,
                                       int(m.geom_type[g]), normal)
+    return distance, normal
+
+
+def _ray(m: mujoco.MjModel, data: mujoco.MjData, g: int, pnt: np.ndarray, vec: np.ndarray) -> tuple[float, float]:
+    """(distance along the unit ``vec`` from ``pnt`` to geom ``g``, -1 when the ray misses it; the vertical part of
+    the surface's normal where it meets it)."""
+    distance, normal = _ray_normal(m, data, g, pnt, vec)
     return distance, float(normal[2])
 
 
@@ -375,7 +386,80 @@ def sit_bones(m: mujoco.MjModel, data: mujoco.MjData, pelvis: int, geoms: np.nda
                for side in (half, -half))
 
 
+#: Keegan's (1953) relaxed sitting keeps the trunk-thigh angle within this (deg); opened further, the sitter lies.
+TRUNK_THIGH_DEG = 135.0
+#: Steps (deg) of the trunk's recline in which its reach of a back is probed: 1.3 cm at the shoulders.
+_RECLINE_STEP = 2.0
+#: Steps (m) of a sitter's shift back along the seat in which its reach of a back is probed.
+_SHIFT_STEP = 0.02
+#: Where along the torso (fractions of its length from the lumbar joint) a back may bear it: the lumbar curve, the
+#: shoulder blades, the shoulders.
+_BACK_HEIGHTS = (0.3, 0.6, 0.9)
+
+
+def _object_ray(m: mujoco.MjModel, data: mujoco.MjData, pnt: np.ndarray, vec: np.ndarray, exclude: int,
+                objects: set[int]) -> tuple[float, np.ndarray]:
+    """(distance along the unit ``vec`` from ``pnt`` to the nearest geom but the ground and body ``exclude``'s, -1
+    when that is none of ``objects``; its surface normal there)."""
+    geom, normal = np.full(1, -1, dtype=np.int32), np.zeros(3)
+    distance = mujoco.mj_ray(m, data, pnt, vec, None, False, exclude, geom, normal)
+    return (distance if int(geom[0]) in objects else -1.0), normal
+
+
+def back_reach(m: mujoco.MjModel, data: mujoco.MjData, torso: int, geoms: np.ndarray) -> bool:
+    """Whether a torso (body id ``torso``) that touches nothing comes to rest on one of ``geoms`` as a sitter settles
+    back: shifted back along the seat, as far as the seat still bears the hips and no further than a seat is deep (a
+    thigh's length, Pheasant's buttock-popliteal length), and reclined on, the hips opening no further than
+    :data:`TRUNK_THIGH_DEG` from either thigh, its back meets, within the soft tissue's give (:data:`_SIT_TISSUE`), a
+    face that bears it (its normal within 45° of the trunk's front). A sitter put down forward of a lounge chair's
+    back, which leans 30-55° from vertical, sits back and relaxes onto it; one on a stool, with nothing behind, holds
+    the trunk up. ``data`` holds the world's kinematics (``mj_kinematics``)."""
+    pelvis = int(m.body_parentid[torso])
+    geom = int(m.body_geomadr[torso])
+    thighs = [pelvis + SEGMENTS.index(t) for t in THIGHS]
+    thigh_geom = int(m.body_geomadr[thighs[0]])
+    depth, length = float(m.geom_size[geom][0]), 2 * float(m.geom_size[geom][2])
+    radius, seat_depth = float(m.geom_size[thigh_geom][0]), 2 * float(m.geom_size[thigh_geom][1])
+    give = _SIT_TISSUE * radius
+    frame, lumbar = data.xmat[torso].reshape(3, 3), data.xpos[torso]
+    hips, pelvis_frame = data.xpos[pelvis], data.xmat[pelvis].reshape(3, 3)
+    across = pelvis_frame[:, 1]
+    # a thigh's z axis runs from the knee to the hip: its distal direction is -z
+    opened = max(math.degrees(math.acos(float(np.clip(-(data.xmat[t].reshape(3, 3)[:, 2] @ frame[:, 2]), -1.0, 1.0))))
+                 for t in thighs)
+    swing = TRUNK_THIGH_DEG - opened
+    backward = -pelvis_frame[:, 0] * np.array([1.0, 1.0, 0.0])
+    if swing < 0.0 or np.linalg.norm(backward) < 1e-6:
+        return False
+    backward /= np.linalg.norm(backward)
+    objects = {int(g) for g in geoms}
+    down = np.array([0.0, 0.0, -1.0])
+    seat, _ = _object_ray(m, data, hips, down, pelvis, objects)
+    if seat < 0.0:
+        return False
+    slope = math.tan(math.radians(EASY_SEAT_DEG))
+    for shift in np.arange(0.0, seat_depth + 1e-9, _SHIFT_STEP):
+        moved = hips + shift * backward
+        if shift > 0.0:
+            # the seat still bears the hips, sloping down at most as an easy chair's; a steeper face is the back
+            under, normal = _object_ray(m, data, moved, down, pelvis, objects)
+            if not (0.0 <= under <= seat + shift * slope + give and normal[2] >= _BEARING_COS):
+                return False
+        for phi in np.radians(np.arange(0.0, swing + 1e-9, _RECLINE_STEP)):
+            # opening the hips turns the trunk back about the hip axis (the pelvis's y, to the body's left): its top
+            # towards -x; Rodrigues' rotation by -phi about it
+            turn = (math.cos(phi) * np.eye(3) - math.sin(phi) * np.cross(np.eye(3), across)
+                    + (1 - math.cos(phi)) * np.outer(across, across))
+            axis, ahead = turn @ frame[:, 2], turn @ frame[:, 0]
+            base = moved + turn @ (lumbar - hips)
+            for height in _BACK_HEIGHTS:
+                distance, normal = _object_ray(m, data, base + height * length * axis, -ahead, torso, objects)
+                if 0.0 <= distance <= depth + give and normal @ ahead >= _BEARING_COS:
+                    return True
+    return False
+
+
 #: Each segment whose reach of the object is probed when it touches nothing, with its probe.
-REACH_PROBES = {**dict.fromkeys(FEET, toes_reach), **dict.fromkeys(THIGHS, seat_under)}
+REACH_PROBES = {**dict.fromkeys(FEET, toes_reach), **dict.fromkeys(THIGHS, seat_under), "torso": back_reach}
 #: Each segment whose bearing is probed when it touches the object, with its probe (its ``reaches_object``).
 BEARING_PROBES = {"pelvis": sit_bones}

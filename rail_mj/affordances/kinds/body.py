@@ -11,7 +11,7 @@ from rail_mj.core.profile import CandidateInteraction, SegmentState, ViaPose
 from rail_mj.mjcf.body import THIGHS, Posture, body_fragment, body_size
 
 __all__ = ["HEADINGS", "ROOT", "LEGS", "body_agent", "heading_axes", "heading_vias", "agents_segments", "level",
-           "upright"]
+           "upright", "leans_back", "knees_raised"]
 
 #: Which way the body faces (its +x) when it is lowered, and the yaw (deg) that turns it so.
 HEADINGS = (("front", 0.0), ("left", 90.0), ("back", 180.0), ("right", 270.0))
@@ -71,3 +71,15 @@ def upright(segment: SegmentState, max_deg: float) -> str:
     """Why ``segment`` is more than ``max_deg`` from upright; "" when it is not."""
     tilt = math.degrees(math.acos(segment.up))
     return f"the {segment.name} leans {tilt:.0f} deg from upright" if tilt > max_deg else ""
+
+
+def leans_back(segments: dict[str, SegmentState]) -> bool:
+    """Whether a sitting body's torso rests on a back: touching the object, or reaching it as the trunk reclines
+    (:func:`rail_mj.mjcf.body.back_reach`)."""
+    return segments["torso"].touching_object or segments["torso"].reaches_object
+
+
+def knees_raised(segments: dict[str, SegmentState]) -> float:
+    """How far (deg) the lower-lying thigh rises from the hip to the knee; 0 where a thigh slopes down or lies
+    level. A thigh's z axis runs from the knee to the hip: past 90° from vertical, the knee is the higher end."""
+    return max(0.0, min(math.degrees(math.acos(segments[t].up)) - 90.0 for t in LEGS))

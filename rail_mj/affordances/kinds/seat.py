@@ -11,6 +11,7 @@ body at two places side by side along its length, half a shoulder breadth either
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import ClassVar, cast
@@ -24,7 +25,6 @@ from rail_mj.affordances.kinds.base import (
     register_kind,
     rest_bounds,
     rest_scoring,
-    rest_window,
     rest_words,
 )
 from rail_mj.affordances.kinds.body import (
@@ -35,6 +35,8 @@ from rail_mj.affordances.kinds.body import (
     body_agent,
     heading_axes,
     heading_vias,
+    knees_raised,
+    leans_back,
     level,
     upright,
 )
@@ -48,7 +50,7 @@ from rail_mj.core.profile import (
     SegmentState,
     ViaPose,
 )
-from rail_mj.mjcf.body import FEET, SIT_KNEE
+from rail_mj.mjcf.body import EASY_SEAT_DEG, FEET, SAG_DEG, SIT_KNEE, TRUNK_THIGH_DEG
 
 __all__ = ["SeatParams", "Seat"]
 
@@ -66,15 +68,20 @@ class SeatParams(KindParams):
 #: Thighs within this of level (deg): sitting bears the thighs on the seat with a trunk-thigh angle of 90-135°
 #: (Keegan 1953, the relaxed sitting range); a thigh steeper than a third of a right angle slides off the seat.
 _THIGH_DEG = NEAR_AXIS_DEG
-#: The torso within this of upright (deg): 135° trunk-thigh angle with level thighs, Keegan's relaxed limit.
-_TORSO_DEG = 45
+#: The torso within this of upright (deg): Keegan's relaxed 135° trunk-thigh angle with level thighs; as much further
+#: as a reclined seat raises the knees above the hips (:func:`knees_raised`), the trunk-thigh angle the same.
+_TORSO_DEG = TRUNK_THIGH_DEG - 90
 #: The pelvis (the scoring's agent) within this of its posture (deg), the same relaxed limit.
 _PELVIS_DEG = 45
-#: The pelvis resting within this of upright (deg) with its torso leaning on a back: an easy chair's seat tilts back up
-#: to 24° (Grandjean, easy chairs 14-24°, their back bearing the reclined trunk) and the pelvis with it; steeper, the
-#: sitter slides or lies. Without a back, LEVEL_DEG (15°), the level every kind's resting agent keeps (a work
-#: chair's seat tilts 0-10°, ISO 9241-5).
-_EASY_PAN_DEG = 24
+#: The pelvis resting within this of upright (deg) with its torso leaning on a back: an easy chair's seat
+#: (EASY_SEAT_DEG: Grandjean's easy chairs tilt back 14-24°, their back bearing the reclined trunk; steeper, the
+#: sitter slides or lies), and the pelvis rolled back on it by the hips' give under the reclined trunk's weight
+#: (SAG_DEG, the posture spring's sag: on lounge chairs reclined 10-15° the body's pelvis lies 2-7° past its thighs).
+#: Without a back, LEVEL_DEG (15°), the level every kind's resting agent keeps (a work chair's seat tilts 0-10°,
+#: ISO 9241-5).
+_RECLINED_PAN_DEG = EASY_SEAT_DEG + SAG_DEG
+#: The shanks, whose origins are the knees.
+_SHANKS = ("shank_l", "shank_r")
 #: Of the body, only these may touch the ground: a sitter's feet stand on the floor.
 _ON_FLOOR = ("shank_l", "foot_l", "shank_r", "foot_r")
 #: Where the hip joints are put down along the heading (units of h): the box's centre, and a quarter of the way to
@@ -92,6 +99,16 @@ _BESIDE = (("_beside_front", 1.0), ("_beside_back", -1.0))
 #: on either side, and the body facing it sits nowhere.
 _ASIDE = (("_aside_front", 1.0), ("_aside_back", -1.0))
 _ASIDE_HEADINGS = ("left", "right")
+
+def seat_height(segments: dict[str, SegmentState], thigh_radius: float) -> float:
+    """The seat height (m) a sitting body found: the thighs' undersides at the hips, or, leaning back
+    (:func:`leans_back`), at the knees. A seat's height is its front edge's, under the knees (the popliteal height,
+    Pheasant, Bodyspace); on a level seat the hips are as high, on a reclined one (an easy chair's, a lounge
+    chair's) they sink below it by the thighs' rise."""
+    if leans_back(segments):
+        return sum(segments[s].height for s in _SHANKS) / len(_SHANKS) - thigh_radius
+    return segments[ROOT].height - thigh_radius
+
 
 @register_kind
 class Seat(Kind):
@@ -152,7 +169,11 @@ class Seat(Kind):
         return heading_vias(shape, heading, (place * ux, place * uy), (shift, 0.0))
 
     def scoring(self, aff: Affordance, shape: AgentShape) -> ScoringCode:
-        return rest_scoring(aff, shape, *rest_bounds(aff), _PELVIS_DEG, MAX_OBJECT_TILT_DEG,
+        # the scoring sees the pelvis alone: its lower bound lets through hips as far below the seat's front as an
+        # easy chair's reclined seat sets them, and the rules then judge the seat at the knees (seat_height)
+        lo, hi = rest_bounds(aff)
+        drop = shape.body.thigh * math.sin(math.radians(EASY_SEAT_DEG)) if shape.body is not None else 0.0
+        return rest_scoring(aff, shape, f"{lo} - {drop:.4f}", hi, _PELVIS_DEG, MAX_OBJECT_TILT_DEG,
                             f"sitting {rest_words(aff)}", ground=False)
 
     def accept(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float]) -> tuple[bool, str]:
@@ -170,22 +191,23 @@ class Seat(Kind):
                 return False, (f"{who}the feet hang {seg[dangling[0]].height:.2f} m up, touching nothing (a sitter's "
                                f"toes reach the floor from {reach:.2f} m) and finding no rung as the knees bend: a "
                                "seat too high for the feet")
-        torso = all(seg["torso"].touching_object for seg in bodies)
+        torso = all(leans_back(seg) for seg in bodies)
         return True, (f"the body sits {bodies[0][ROOT].height:.2f} m up, thighs level, torso upright"
                       + (", leaning on a back" if torso else ""))
 
     def _unseated(self, aff: Affordance, shape: AgentShape, bodies: list[dict[str, SegmentState]]) -> str:
         """Why the object does not carry the sitting ``bodies`` (a candidate's :func:`agents_segments`) as a seat does
         (pelvis, thighs and torso; not the feet), or "" where it does."""
-        lo, hi = rest_window(aff, shape.half_z)
+        lo, hi = aff.rest_limits()
         if not bodies or shape.body is None:
             return "no body segments were reported: the seat kind needs its articulated body"
         for i, seg in enumerate(bodies):
             who = f"body {i + 1}: " if len(bodies) > 1 else ""
             pelvis = seg[ROOT]
-            if not lo <= pelvis.height <= hi:
-                return (f"{who}the hips rest {pelvis.height - shape.half_z:.2f} m above the ground; sitting "
-                        f"{rest_words(aff)}")
+            height = seat_height(seg, shape.half_z)
+            if not lo <= height <= hi:
+                where = "under the knees, leaning back," if leans_back(seg) else "at the hips"
+                return f"{who}the seat is {height:.2f} m above the ground {where}; sitting {rest_words(aff)}"
             if not pelvis.touching_object:
                 return f"{who}the pelvis does not rest on the object"
             if not pelvis.reaches_object:
@@ -198,18 +220,20 @@ class Seat(Kind):
             grounded = [name for name, s in seg.items() if s.on_ground and name not in _ON_FLOOR]
             if grounded:
                 return f"{who}the {grounded[0]} touches the ground: the body fell"
-            pan = _EASY_PAN_DEG if seg["torso"].touching_object else LEVEL_DEG
-            why = upright(pelvis, pan) or level(seg, LEGS, _THIGH_DEG) or upright(seg["torso"], _TORSO_DEG)
+            pan = _RECLINED_PAN_DEG if leans_back(seg) else LEVEL_DEG
+            why = (upright(pelvis, pan) or level(seg, LEGS, _THIGH_DEG)
+                   or upright(seg["torso"], _TORSO_DEG + knees_raised(seg)))
             if why:
                 return f"{who}{why}"
         return ""
 
     def rest_height(self, aff: Affordance, c: CandidateInteraction, h: Sequence[float]) -> float | None:
-        """The thighs' undersides above the ground (the seat height the sitter found), over the bodies."""
+        """The seat height the sitter found (:func:`seat_height`), over the bodies."""
         bodies = agents_segments(c)
         if not bodies:
             return None
-        return sum(seg[ROOT].height for seg in bodies) / len(bodies) - self.agent(aff, h).half_z
+        half_z = self.agent(aff, h).half_z
+        return sum(seat_height(seg, half_z) for seg in bodies) / len(bodies)
 
     def evidence_plans(self, aff: Affordance, plans: Sequence[str]) -> set[str]:
         """A seat for more: every place side by side (the pose needs both of a heading's). A seat for one: none; the
@@ -244,7 +268,7 @@ class Seat(Kind):
     def rank(self, aff: Affordance, accepted: list[CandidateInteraction], h: Sequence[float]) -> int:
         """A seat with a back first: of two poses that seat the body, the one where its torso leans on the object
         (a chair standing, not lying on its side or back)."""
-        return int(any(all(seg["torso"].touching_object for seg in agents_segments(c)) for c in accepted))
+        return int(any(all(leans_back(seg) for seg in agents_segments(c)) for c in accepted))
 
     def tie_rank(self, aff: Affordance, accepted: list[CandidateInteraction], h: Sequence[float]) -> int:
         """Of two poses that seat the body from as many approaches, the one whose sitter's feet reach the floor: a

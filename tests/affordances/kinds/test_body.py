@@ -18,7 +18,7 @@ import trimesh
 
 from rail_mj.affordances import get
 from rail_mj.affordances.kinds import kind_of
-from rail_mj.affordances.kinds.body import HEADINGS, heading_axes
+from rail_mj.affordances.kinds.body import HEADINGS, heading_axes, leans_back
 from rail_mj.affordances.prior import FUNCTIONAL, NEGLIGIBLE
 from rail_mj.core.errors import FragmentError, ImaginationError
 from rail_mj.core.geometry import quat_rotate
@@ -241,10 +241,40 @@ def test_the_body_sits_in_a_deep_armchair_its_feet_put_down_ahead_of_the_knees()
     assert all(c.plan.startswith(f"facing_{facing}") for c in sat), [c.plan for c in sat]
 
 
+def _lounge_chair() -> RailObject:
+    """A lounge chair on a sled base, facing +x: a 0.55 m deep seat 0.36 m high at its front edge, tilted back 12°,
+    its back 0.6 m long at 110° to the seat (32° from vertical)."""
+    seat = _tilted([-0.275, -0.26, 0.31], [0.275, -0.26 + 0.52, 0.36], 12.0, [0.275, 0.0, 0.36])
+    back = _tilted([-0.30, -0.26, 0.22], [-0.26, 0.26, 0.82], 32.0, [-0.28, 0.0, 0.24])
+    return _object("lounge_chair", [([-0.62, -0.26, 0.0], [0.27, 0.26, 0.03]), ([-0.25, -0.2, 0.03], [0.2, 0.2, 0.2])],
+                   hulls=(seat, back))
+
+
+def test_the_body_sits_in_a_lounge_chair_reclined_on_its_back():
+    """A lounge chair's seat reclines and its back leans far back: the sitter's trunk reclines onto the back (the
+    hips open within Keegan's 135°), its pelvis rolls back past the seat, and its hips sink below the seat's front
+    edge, where the seat's height is read. Before, the torso hovering over the back counted as no back (the pelvis
+    then had to be level within 15°), a torso reclined past 45° as lying, and the hips' height as the seat's."""
+    obj = _lounge_chair()
+    pose = pose_from_up(obj, np.array([0.0, 0.0, 1.0]), 1.0)
+    front = quat_rotate(np.asarray(pose.quat), np.array([1.0, 0.0, 0.0]))[:2]
+    facing = next(h for h, _ in HEADINGS if np.allclose(heading_axes(h)[0], front, atol=1e-6))
+    aff, h = get("chair"), [float(v) for v in pose.half_extents]
+    sat = [c for c, ok, _ in _judged(obj, "chair") if ok and c.plan.startswith(f"facing_{facing}")]
+    assert sat, "the body does not sit facing the lounge chair's front"
+    for c in sat:
+        seg = {s.name: s for s in c.summary.segments}
+        assert leans_back(seg)
+        assert seg["pelvis"].height - body_size().thigh_radius < 0.36 <= kind_of(aff).rest_height(aff, c, h)
+    # with nothing behind it a sitter's trunk finds no back: on a stool it reaches none
+    for c, _, _ in _judged(_stool(), "stool"):
+        assert not {s.name: s for s in c.summary.segments}["torso"].reaches_object
+
+
 def test_the_body_does_not_sit_on_a_seat_1_2_m_up():
     judged = _judged(_chair(1.2), "chair")
     assert not any(ok for _, ok, _ in judged)
-    assert any("the hips rest" in why or "the feet hang" in why for _, _, why in judged)
+    assert any("the seat is" in why or "the feet hang" in why for _, _, why in judged)
 
 
 def _upturned_stool() -> RailObject:
