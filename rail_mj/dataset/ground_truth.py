@@ -145,6 +145,7 @@ CLASS_SPECS: dict[str, ClassSpec] = {
         _spec("armchair", "seat", {"chair", "stool"}, (0.77, 0.9), (0.99, 1.26)),
         _spec("bar_chair", "seat", {"chair", "stool"}, (0.92, 1.16), (0.55, 0.76)),
         _spec("shell_chair", "seat", {"chair", "stool"}, (0.68, 0.9), (0.68, 0.77)),
+        _spec("lounge_chair", "seat", {"chair", "stool"}, (0.48, 0.98), (0.85, 1.32)),
         _spec("stool", "seat", {"chair", "stool"}, (0.43, 0.5), (0.3, 0.53)),
         _spec("ottoman", "seat", {"chair", "stool"}, (0.4, 0.46), (0.41, 0.6)),
         _spec("sofa", "seat", {"bench"}, (0.77, 0.9), (1.48, 2.37)),
@@ -268,6 +269,13 @@ CROSS_REASONS: dict[tuple[str, str], str] = {
     ("shell_chair", "trash_bin"): "false: the shell is cut below the cushion at the front: items and droplets run off "
     "the front, there is no basin.",
     ("shell_chair", "basket"): "false: no basin (cut open at the front), and its 0.68-0.77 m exceed a basket's 60 cm.",
+    ("lounge_chair", "chair"): "true: a seat 0.5-0.6 m square reclined 10-20 deg, its front edge 0.37-0.42 m up (a "
+    "chair's seat height, under the knees), and a back at 100-125 deg to it: a person sits in it reclined, the trunk "
+    "on the back, as in an easy chair.",
+    ("lounge_chair", "stool"): "true: the sitting body stays on the seat; a stool needs no backrest (as chair -> "
+    "stool).",
+    ("lounge_chair", "bench"): "false: one seat, 0.5-0.6 m wide, narrower than a bench's 0.9 m.",
+    ("lounge_chair", "table"): "false: no level top; the seat is reclined and 0.37-0.42 m up, below the table range.",
     ("stool", "chair"): "true: a seat 0.43-0.5 m high and 0.3-0.38 m across; a chair needs no backrest (as the core "
     "chairs without one).",
     ("stool", "stool"): "true: a backless seat 0.43-0.5 m high and 0.3-0.38 m across on splayed legs.",

@@ -383,8 +383,15 @@ WORLD_TOPS = {"desk", "console", "carton"}
 OPEN_FRONT = {"cubby", "wall_shelf_box"}
 
 
+def _reclined_area(mesh: trimesh.Trimesh, lo_deg: float, hi_deg: float, top: float) -> float:
+    """Area of the upward faces tilted ``lo_deg``-``hi_deg`` from level no higher than ``top`` (a reclined seat)."""
+    tilt = np.degrees(np.arccos(np.clip(mesh.face_normals[:, 2], -1.0, 1.0)))
+    keep = (tilt >= lo_deg) & (tilt <= hi_deg) & (mesh.triangles_center[:, 2] <= top)
+    return float(mesh.area_faces[keep].sum())
+
+
 def test_every_world_class_is_checked_by_the_pose_test():
-    checked = WORLD_VESSELS | set(WORLD_SEATS) | WORLD_TOPS | OPEN_FRONT | {"plate_real", "riser"}
+    checked = WORLD_VESSELS | set(WORLD_SEATS) | WORLD_TOPS | OPEN_FRONT | {"plate_real", "riser", "lounge_chair"}
     assert checked == set(WORLD_CLASSES)
 
 
@@ -406,6 +413,10 @@ def test_world_nominal_up_puts_the_opening_or_surface_on_top(world):
         elif name in WORLD_SEATS:
             (lo, hi), area = WORLD_SEATS[name]
             assert _level_area(mesh, lo, hi) >= area, (name, _level_area(mesh, lo, hi))
+        elif name == "lounge_chair":
+            # a seat reclined 10-20 deg under the seat's front height, and a back leaning 20-55 deg from vertical
+            assert _reclined_area(mesh, 9.5, 20.5, 0.43) >= 0.2, _reclined_area(mesh, 9.5, 20.5, 0.43)
+            assert _reclined_area(mesh, 34.5, 70.5, h) >= 0.2, _reclined_area(mesh, 34.5, 70.5, h)
         elif name in WORLD_TOPS:
             z, nz = _down_ray(mesh, mesh.bounds[:, :2].mean(axis=0))
             assert len(z) and z[0] > h - 1e-3 and nz[0] > 0.99, (name, z, h)
@@ -432,7 +443,7 @@ def test_world_ground_truth_follows_the_definitions():
     assert ground_truth("desk", "table") and ground_truth("console", "table")
     assert not ground_truth("cubby", "basket") and ground_truth("cubby", "cupboard")
     assert not any(ground_truth(c, a) for c in ("carton", "ladle", "ashtray", "riser") for a in AFFORDANCES)
-    for chair in ("armchair", "bar_chair", "shell_chair", "stool", "ottoman"):
+    for chair in ("armchair", "bar_chair", "shell_chair", "lounge_chair", "stool", "ottoman"):
         assert ground_truth(chair, "chair") and ground_truth(chair, "stool"), chair
     # every world class has a reason for each of its true cells
     for spec in CLASS_SPECS.values():

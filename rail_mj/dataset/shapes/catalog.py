@@ -49,7 +49,7 @@ from rail_mj.dataset.shapes.world import (
     scoop,
     wall_shelf_box,
 )
-from rail_mj.dataset.shapes.world_seats import armchair, bar_chair, ottoman, shell_chair, sofa, stool
+from rail_mj.dataset.shapes.world_seats import armchair, bar_chair, lounge_chair, ottoman, shell_chair, sofa, stool
 
 __all__ = ["GENERATORS"]
 
@@ -81,6 +81,7 @@ GENERATORS: dict[str, Callable[[np.random.Generator], Built]] = {
     "armchair": armchair,
     "bar_chair": bar_chair,
     "shell_chair": shell_chair,
+    "lounge_chair": lounge_chair,
     "stool": stool,
     "ottoman": ottoman,
     "sofa": sofa,

@@ -1,6 +1,6 @@
 """The world family's builders: the shapes real meshes have and the core family lacks.
 
-The seats (armchairs, bar chairs, shell chairs, stools, ottomans and sofas) are
+The seats (armchairs, bar chairs, shell chairs, lounge chairs, stools, ottomans and sofas) are
 :mod:`rail_mj.dataset.shapes.world_seats`'. Here: bowls of real proportions, long-handled pans and
 pots, scoops, goblets and plates on a foot ring; open-front boxes; beds, desks and consoles; near misses (ladles,
 ashtrays, risers, cartons). Each takes a seeded ``numpy.random.Generator`` and returns a

@@ -1,4 +1,5 @@
-"""The world family's seats: armchairs, sofas and ottomans (upholstered), bar chairs, shell chairs and stools.
+"""The world family's seats: armchairs, sofas and ottomans (upholstered), bar chairs, shell chairs, lounge chairs and
+stools.
 
 Each takes a seeded ``numpy.random.Generator`` and returns a :class:`~rail_mj.dataset.shapes.parts.Built` in its
 build frame (see :mod:`rail_mj.dataset.shapes`).
@@ -24,7 +25,7 @@ from rail_mj.dataset.shapes.parts import (
     _union,
 )
 
-__all__ = ["armchair", "sofa", "ottoman", "bar_chair", "shell_chair", "stool"]
+__all__ = ["armchair", "sofa", "ottoman", "bar_chair", "shell_chair", "lounge_chair", "stool"]
 
 
 def _upholstered(rng: np.random.Generator, seats: int) -> tuple[list[trimesh.Trimesh], str, float, float]:
@@ -157,6 +158,49 @@ def shell_chair(rng: np.random.Generator) -> Built:
     desc = (f"shell lounge chair on a pedestal, shell Ø {_cm(2 * R)}, seat cushion Ø {_cm(2 * r_seat)} at {_cm(s)}, "
             f"{base}")
     return Built(_union(parts), desc)
+
+
+def _turned(part: trimesh.Trimesh, deg: float, pivot: tuple[float, float, float]) -> trimesh.Trimesh:
+    """``part`` turned about an x axis through ``pivot`` by ``deg`` (positive: its +y end up)."""
+    part.apply_transform(trimesh.transformations.rotation_matrix(np.radians(deg), (1.0, 0.0, 0.0), pivot))
+    return part
+
+
+def lounge_chair(rng: np.random.Generator) -> Built:
+    """A lounge chair facing -y: its seat reclined 10-20° (front edge up), its back 100-125° to the seat, on four legs,
+    arms on half of them."""
+    f = _u(rng, 0.37, 0.42)  # the seat's front edge, where the knees rest: a chair's seat height (0.36-0.57 m)
+    w, d, ts = _u(rng, 0.5, 0.6), _u(rng, 0.5, 0.58), _u(rng, 0.05, 0.09)
+    recline, back_deg = _u(rng, 10.0, 20.0), _u(rng, 100.0, 125.0)
+    length, tb = _u(rng, 0.5, 0.65), _u(rng, 0.05, 0.09)
+    r = np.radians(recline)
+    lean = np.radians(back_deg - 90.0 + recline)  # the back's lean from vertical
+    seat = _turned(_box((-w / 2, -d / 2, f - ts), (w / 2, d / 2, f)), -recline, (0.0, -d / 2, f))
+    y_r, z_r = -d / 2 + d * np.cos(r), f - d * np.sin(r)  # the seat's rear top edge
+    back = _box((-w / 2, -0.01, -ts), (w / 2, tb - 0.01, length))
+    back.apply_transform(trimesh.transformations.rotation_matrix(-lean, (1.0, 0.0, 0.0)))
+    back.apply_translation((0.0, y_r, z_r))
+    parts = [seat, back]
+    # front legs under the seat's front, rear legs under the back two thirds of the way up: a reclined sitter's
+    # trunk and head lean that far back, and the chair must not tip under them
+    y_f, z_f = -d / 2 + 0.05, f - ts - 0.05 * np.sin(r)
+    y_b, z_b = y_r + 2 * length / 3 * np.sin(lean), z_r + 2 * length / 3 * np.cos(lean) - tb
+    for sx in (-1, 1):
+        x = sx * (w / 2 - 0.025)
+        parts += [_box((x - 0.02, y_f - 0.02, 0.0), (x + 0.02, y_f + 0.02, z_f + 0.01)),
+                  _box((x - 0.02, y_b - 0.02, 0.0), (x + 0.02, y_b + 0.02, z_b)),
+                  _box((x - 0.015, y_f, 0.04), (x + 0.015, y_b, 0.07))]  # a side rail: a sled frame
+    arms = bool(rng.random() < 0.5)
+    if arms:
+        ha = _u(rng, 0.18, 0.24)
+        for sx in (-1, 1):
+            x = sx * (w / 2 + 0.035)
+            parts += [_box((x - 0.03, y_f - 0.02, f + ha - 0.04), (x + 0.03, y_r, f + ha)),
+                      _box((x - 0.02, y_f - 0.02, 0.0), (x + 0.02, y_f + 0.02, f + ha - 0.03))]
+    desc = (f"lounge chair, seat {_cm(w)} x {_cm(d)} with its front edge at {_cm(f)}, reclined {recline:.0f} deg, "
+            f"back {_cm(length)} at {back_deg:.0f} deg to the seat ({np.degrees(lean):.0f} deg from vertical), four "
+            f"legs on a sled frame{', arms ' + _cm(ha) + ' over the seat front' if arms else ''}")
+    return Built(_on_floor(_union(parts)), desc)
 
 
 def stool(rng: np.random.Generator) -> Built:
