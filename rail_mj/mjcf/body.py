@@ -27,8 +27,8 @@ from rail_mj.core.errors import ConfigError
 from rail_mj.mjcf.surface import OwnSurface
 
 __all__ = ["Posture", "POSTURES", "SEGMENTS", "SEGMENT_AXES", "FEET", "THIGHS", "SIT_KNEE", "TOE_REACH", "SAG_DEG",
-           "TRUNK_THIGH_DEG", "REACH_PROBES", "BEARING_PROBES", "BodySize", "body_size", "body_fragment", "toes_reach",
-           "seat_under", "sit_bones", "back_reach"]
+           "EASY_SEAT_DEG", "TRUNK_THIGH_DEG", "REACH_PROBES", "BEARING_PROBES", "BodySize", "body_size",
+           "body_fragment", "toes_reach", "seat_under", "sit_bones", "back_reach"]
 
 Posture = Literal["sit", "lie"]
 POSTURES: tuple[str, ...] = ("sit", "lie")
@@ -303,23 +303,15 @@ def toes_reach(m: mujoco.MjModel, data: mujoco.MjData, foot: int, geoms: np.ndar
     return False
 
 
-def _ray_normal(m: mujoco.MjModel, data: mujoco.MjData, g: int, pnt: np.ndarray, vec: np.ndarray
-                ) -> tuple[float, np.ndarray]:
-    """(distance along the unit ``vec`` from ``pnt`` to geom ``g``, -1 when the ray misses it; the surface's unit
-    normal where it meets it)."""
+def _ray(m: mujoco.MjModel, data: mujoco.MjData, g: int, pnt: np.ndarray, vec: np.ndarray) -> tuple[float, float]:
+    """(distance along the unit ``vec`` from ``pnt`` to geom ``g``, -1 when the ray misses it; the vertical part of
+    the surface's normal where it meets it)."""
     normal = np.zeros(3)
     if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
         distance = mujoco.mj_rayMesh(m, data, g, pnt, vec, normal)
     else:
         distance = mujoco.mju_rayGeom(data.geom_xpos[g], data.geom_xmat[g], m.geom_size[g], pnt, vec,
                                       int(m.geom_type[g]), normal)
-    return distance, normal
-
-
-def _ray(m: mujoco.MjModel, data: mujoco.MjData, g: int, pnt: np.ndarray, vec: np.ndarray) -> tuple[float, float]:
-    """(distance along the unit ``vec`` from ``pnt`` to geom ``g``, -1 when the ray misses it; the vertical part of
-    the surface's normal where it meets it)."""
-    distance, normal = _ray_normal(m, data, g, pnt, vec)
     return distance, float(normal[2])
 
 

@@ -100,6 +100,7 @@ _BESIDE = (("_beside_front", 1.0), ("_beside_back", -1.0))
 _ASIDE = (("_aside_front", 1.0), ("_aside_back", -1.0))
 _ASIDE_HEADINGS = ("left", "right")
 
+
 def seat_height(segments: dict[str, SegmentState], thigh_radius: float) -> float:
     """The seat height (m) a sitting body found: the thighs' undersides at the hips, or, leaning back
     (:func:`leans_back`), at the knees. A seat's height is its front edge's, under the knees (the popliteal height,
