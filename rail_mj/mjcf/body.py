@@ -415,7 +415,6 @@ def back_reach(m: mujoco.MjModel, data: mujoco.MjData, torso: int, geoms: np.nda
     give = _SIT_TISSUE * radius
     frame, lumbar = data.xmat[torso].reshape(3, 3), data.xpos[torso]
     hips, pelvis_frame = data.xpos[pelvis], data.xmat[pelvis].reshape(3, 3)
-    across = pelvis_frame[:, 1]
     # a thigh's z axis runs from the knee to the hip: its distal direction is -z
     opened = max(math.degrees(math.acos(float(np.clip(-(data.xmat[t].reshape(3, 3)[:, 2] @ frame[:, 2]), -1.0, 1.0))))
                  for t in thighs)
@@ -430,6 +429,11 @@ def back_reach(m: mujoco.MjModel, data: mujoco.MjData, torso: int, geoms: np.nda
     if seat < 0.0:
         return False
     slope = math.tan(math.radians(EASY_SEAT_DEG))
+    # opening the hips turns the trunk back about the hip axis, the pelvis's y: in the pelvis's frame a turn about y
+    # by -phi (its top towards -x). Per recline: the trunk's axis, its front, and the lumbar joint from the hips
+    local = pelvis_frame.T @ np.column_stack([frame[:, 2], frame[:, 0], lumbar - hips])
+    reclined = [pelvis_frame @ np.column_stack([_rot_y(v, -phi) for v in local.T])
+                for phi in np.arange(0.0, swing + 1e-9, _RECLINE_STEP)]
     for shift in np.arange(0.0, seat_depth + 1e-9, _SHIFT_STEP):
         moved = hips + shift * backward
         if shift > 0.0:
@@ -437,13 +441,8 @@ def back_reach(m: mujoco.MjModel, data: mujoco.MjData, torso: int, geoms: np.nda
             under, normal = _object_ray(m, data, moved, down, pelvis, objects)
             if not (0.0 <= under <= seat + shift * slope + give and normal[2] >= _BEARING_COS):
                 return False
-        for phi in np.radians(np.arange(0.0, swing + 1e-9, _RECLINE_STEP)):
-            # opening the hips turns the trunk back about the hip axis (the pelvis's y, to the body's left): its top
-            # towards -x; Rodrigues' rotation by -phi about it
-            turn = (math.cos(phi) * np.eye(3) - math.sin(phi) * np.cross(np.eye(3), across)
-                    + (1 - math.cos(phi)) * np.outer(across, across))
-            axis, ahead = turn @ frame[:, 2], turn @ frame[:, 0]
-            base = moved + turn @ (lumbar - hips)
+        for axis, ahead, to_lumbar in (r.T for r in reclined):
+            base = moved + to_lumbar
             for height in _BACK_HEIGHTS:
                 distance, normal = _object_ray(m, data, base + height * length * axis, -ahead, torso, objects)
                 if 0.0 <= distance <= depth + give and normal @ ahead >= _BEARING_COS:
