@@ -349,7 +349,8 @@ def sit_bones(m: mujoco.MjModel, data: mujoco.MjData, pelvis: int, geoms: np.nda
               own: OwnSurface | None = None) -> bool:
     """Whether the object bears both sitting bones of a pelvis (body id ``pelvis``) that touches it: straight below
     each, at the hip joints' line or a thigh's radius ahead of or behind it (the loaded tissue under a sit bone), a
-    face within 45° of level no lower than the buttocks less the tissue's give (:data:`_SIT_TISSUE`): a face of the
+    face within 45° of level no lower than the buttocks, as low as the pelvis box reaches, less the tissue's give
+    (:data:`_SIT_TISSUE`): a face of the
     object's ``own`` surface, or of one of ``geoms`` (its hulls, on which the body rests) with, given ``own``, that
     surface within a buttock's depth under it (:data:`_FLESH_CONFORMS`). A seat pan, a shell (whose curve the hulls
     may split, none of them level under a bone), a bench's slats bear them; an upturned stool's leg ends, a pouf's
@@ -360,9 +361,14 @@ def sit_bones(m: mujoco.MjModel, data: mujoco.MjData, pelvis: int, geoms: np.nda
     radius = float(m.geom_size[thigh_geom][0])
     frame = data.xmat[pelvis].reshape(3, 3)
     down = np.array([0.0, 0.0, -1.0])
+    # the buttocks reach as low as the pelvis box's lowest edge: a thigh's radius under the hips when level; rolled
+    # back (a reclined seat) the box rests on its rear edge, 10 cm behind the hips, where a buttock is round, and holds
+    # the hips up by that edge's drop, which a round buttock would sink back into the seat
+    box = data.geom_xpos[pelvis_geom][2] - np.abs(data.geom_xmat[pelvis_geom][6:9]) @ m.geom_size[pelvis_geom]
+    reach = float(data.xpos[pelvis][2] - box) + _SIT_TISSUE * radius
 
     def bears(distance: float, normal_z: float) -> bool:
-        return 0.0 <= distance <= (1 + _SIT_TISSUE) * radius and normal_z >= _BEARING_COS
+        return 0.0 <= distance <= reach and normal_z >= _BEARING_COS
 
     def borne(point: np.ndarray) -> bool:
         surface = None if own is None else own.ray(point, down)
