@@ -34,6 +34,7 @@ from rail_mj.mjcf.scene import (
     agent_body_name,
     agent_prefix,
     check_fragment,
+    geom_bottom,
     hull_geom_name,
     parse_untrusted_xml,
 )
@@ -58,6 +59,7 @@ __all__ = [
     "agent_prefix",
     "build_scene",
     "check_fragment",
+    "geom_bottom",
     "hull_geom_name",
     "OWNER_GROUND",
     "OWNER_OBJECT",

@@ -24,6 +24,7 @@ import mujoco
 import numpy as np
 
 from rail_mj.core.errors import ConfigError
+from rail_mj.mjcf.scene import geom_bottom
 from rail_mj.mjcf.surface import OwnSurface
 
 __all__ = ["Posture", "POSTURES", "SEGMENTS", "SEGMENT_AXES", "FEET", "THIGHS", "SIT_KNEE", "TOE_REACH", "SAG_DEG",
@@ -350,12 +351,11 @@ def sit_bones(m: mujoco.MjModel, data: mujoco.MjData, pelvis: int, geoms: np.nda
     """Whether the object bears both sitting bones of a pelvis (body id ``pelvis``) that touches it: straight below
     each, at the hip joints' line or a thigh's radius ahead of or behind it (the loaded tissue under a sit bone), a
     face within 45° of level no lower than the buttocks, as low as the pelvis box reaches, less the tissue's give
-    (:data:`_SIT_TISSUE`): a face of the
-    object's ``own`` surface, or of one of ``geoms`` (its hulls, on which the body rests) with, given ``own``, that
-    surface within a buttock's depth under it (:data:`_FLESH_CONFORMS`). A seat pan, a shell (whose curve the hulls
-    may split, none of them level under a bone), a bench's slats bear them; an upturned stool's leg ends, a pouf's
-    feet, a rail or an edge under the hips, or a hull spanning the gap between two rails do not. ``data`` holds the
-    world's kinematics (``mj_kinematics``)."""
+    (:data:`_SIT_TISSUE`): a face of the object's ``own`` surface, or of one of ``geoms`` (its hulls, on which the
+    body rests) with, given ``own``, that surface within a buttock's depth under it (:data:`_FLESH_CONFORMS`). A seat
+    pan, a shell (whose curve the hulls may split, none of them level under a bone), a bench's slats bear them; an
+    upturned stool's leg ends, a pouf's feet, a rail or an edge under the hips, or a hull spanning the gap between two
+    rails do not. ``data`` holds the world's kinematics (``mj_kinematics``)."""
     pelvis_geom, thigh_geom = int(m.body_geomadr[pelvis]), int(m.body_geomadr[pelvis + SEGMENTS.index(THIGHS[0])])
     half = _SIT_BONES * float(m.geom_size[pelvis_geom][1])  # the pelvis box's half breadth is the hips'
     radius = float(m.geom_size[thigh_geom][0])
@@ -364,8 +364,7 @@ def sit_bones(m: mujoco.MjModel, data: mujoco.MjData, pelvis: int, geoms: np.nda
     # the buttocks reach as low as the pelvis box's lowest edge: a thigh's radius under the hips when level; rolled
     # back (a reclined seat) the box rests on its rear edge, 10 cm behind the hips, where a buttock is round, and holds
     # the hips up by that edge's drop, which a round buttock would sink back into the seat
-    box = data.geom_xpos[pelvis_geom][2] - np.abs(data.geom_xmat[pelvis_geom][6:9]) @ m.geom_size[pelvis_geom]
-    reach = float(data.xpos[pelvis][2] - box) + _SIT_TISSUE * radius
+    reach = float(data.xpos[pelvis][2]) - geom_bottom(m, data, pelvis_geom) + _SIT_TISSUE * radius
 
     def bears(distance: float, normal_z: float) -> bool:
         return 0.0 <= distance <= reach and normal_z >= _BEARING_COS

@@ -32,6 +32,7 @@ __all__ = [
     "agent_prefix",
     "agent_body_name",
     "hull_geom_name",
+    "geom_bottom",
 ]
 
 GROUND_GEOM = "ground"
@@ -246,3 +247,9 @@ def hull_geom_name(i: int) -> str:
     """Name of the object's i-th hull geom (and its mesh asset)."""
     return f"{OBJECT_BODY}/hull{i}"
 
+
+def geom_bottom(model: mujoco.MjModel, data: mujoco.MjData, g: int) -> float:
+    """The height (m) of the lowest point of geom ``g``'s bounding box as it lies in ``data`` (kinematics done): a
+    box geom's lowest corner."""
+    rot_z = data.geom_xmat[g].reshape(3, 3)[2]
+    return float(data.geom_xpos[g, 2] - np.abs(rot_z) @ model.geom_aabb[g, 3:] + rot_z @ model.geom_aabb[g, :3])

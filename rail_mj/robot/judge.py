@@ -27,7 +27,7 @@ import numpy as np
 from scipy.spatial import ConvexHull
 
 from rail_mj.core.errors import ConfigError
-from rail_mj.mjcf import OWNER_GROUND, OWNER_OBJECT
+from rail_mj.mjcf import OWNER_GROUND, OWNER_OBJECT, geom_bottom
 
 __all__ = ["WINDOW", "REST_SPEED", "MAX_TIP", "MIN_RETAINED", "Support", "EndState", "Judgement", "judge", "footprint",
            "observe"]
@@ -160,8 +160,7 @@ def observe(model: mujoco.MjModel, data: mujoco.MjData, *, item_body: int, objec
     rot = data.xmat[object_body].reshape(3, 3)
     world = np.vstack([np.asarray(h, dtype=float) @ rot.T + data.xpos[object_body] for h in object_hulls])
     item_geoms = np.flatnonzero(model.body_rootid[model.geom_bodyid] == item_body)
-    bottom = min(float(data.geom_xpos[g, 2] - np.abs(data.geom_xmat[g].reshape(3, 3)[2]) @ model.geom_aabb[g, 3:]
-                       + data.geom_xmat[g].reshape(3, 3)[2] @ model.geom_aabb[g, :3]) for g in item_geoms)
+    bottom = min(geom_bottom(model, data, int(g)) for g in item_geoms)
     touch_obj = touch_table = False
     for c in data.contact[: data.ncon]:
         g1, g2 = int(c.geom[0]), int(c.geom[1])
