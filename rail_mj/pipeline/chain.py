@@ -226,7 +226,8 @@ class Pipeline:
         row = rules_row(profile.affordance, profile.scale)
         result = self._result(obj, poses, affordance, profile, row)
         result.timings = timings
-        design = design_factors(obj, cast(Sequence[StablePose], poses), lambda: self._shapes(obj, poses).came_in)
+        design = design_factors(obj, cast(Sequence[StablePose], poses), lambda: self._shapes(obj, poses).came_in,
+                                lambda i: self._shapes(obj, poses).pose(i))
         gate = self._prior_gate(obj, poses, profile, row, result, design)
         if gate is None:
             return result, None
