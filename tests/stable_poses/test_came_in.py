@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from rail_mj.core.types import RailObject
+from rail_mj.core.profile import PoseShape
+from rail_mj.core.types import RailObject, StablePose
 from rail_mj.mesh import object_from_mesh
 from rail_mj.pipeline.chain import Pipeline, classify
 from rail_mj.pipeline.config import RunConfig
@@ -38,6 +39,9 @@ def _open_front_box() -> RailObject:
         b.apply_translation(centre)
         parts.append(b)
     return object_from_mesh(trimesh.boolean.union(parts, engine="manifold"), name="cubby")
+
+
+_BOX = object_from_mesh(trimesh.creation.box(extents=[0.3, 0.2, 0.1]), name="box")
 
 
 def _turned_over(obj: RailObject) -> RailObject:
@@ -84,6 +88,24 @@ def test_an_object_whose_up_is_unknown_was_made_for_no_pose_for_certain() -> Non
     assert PLACED < np.mean(f) < 1.0
     one = design_factors(cubby, poses[:1], lambda: pytest.fail("unused"), lambda i: pytest.fail("unused"))
     assert one == [None]  # one stable pose: it is made to stand in it
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_an_unknown_up_never_makes_a_use_of_one_pose_of_several_certain(seed: int) -> None:
+    """With two stable poses or more the factor is at most 5/6, or 11/12 where a pose is turned over: a use the
+    physics alone accepts stays below the calibration's top bin (0.9-1.0) unless a pose is turned over."""
+    rng = np.random.default_rng(seed)
+    for _ in range(200):
+        n = int(rng.integers(2, 8))
+        poses = [StablePose(pos=np.zeros(3), quat=np.array([1.0, 0, 0, 0]), probability=float(p),
+                            half_extents=np.ones(3)) for p in rng.dirichlet(np.full(n, rng.uniform(0.05, 3.0)))]
+        turned = rng.random(n) < 0.3
+        shape = [PoseShape(open_faces=["bottom"] if t else ["top"], cavity=0.2, as_it_came=None) for t in turned]
+        arbitrary = dataclasses.replace(_BOX, oriented=False)
+        factors = design_factors(arbitrary, poses, lambda: pytest.fail("unused"), lambda i: shape[i])
+        factor = factors[0][1] if factors[0] is not None else 1.0
+        assert len({f for f in factors}) == 1  # one factor for every pose: the physics orders them
+        assert PLACED < factor <= (11 / 12 if turned.any() else 5 / 6) + 1e-12
 
 
 def test_an_object_that_came_turned_over_was_stored_so_or_stands_as_made() -> None:
