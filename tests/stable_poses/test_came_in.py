@@ -86,7 +86,7 @@ def test_an_object_whose_up_is_unknown_was_made_for_no_pose_for_certain() -> Non
          for d in range(len(poses))]
     assert all(x is not None and "its up unknown" in x[0] and x[1] == pytest.approx(np.mean(f)) for x in factors)
     assert PLACED < np.mean(f) < 1.0
-    one = design_factors(cubby, poses[:1], lambda: pytest.fail("unused"), lambda i: pytest.fail("unused"))
+    one = design_factors(cubby, list(poses)[:1], lambda: pytest.fail("unused"), lambda i: pytest.fail("unused"))
     assert one == [None]  # one stable pose: it is made to stand in it
 
 
@@ -102,7 +102,7 @@ def test_an_unknown_up_never_makes_a_use_of_one_pose_of_several_certain(seed: in
         turned = rng.random(n) < 0.3
         shape = [PoseShape(open_faces=["bottom"] if t else ["top"], cavity=0.2, as_it_came=None) for t in turned]
         arbitrary = dataclasses.replace(_BOX, oriented=False)
-        factors = design_factors(arbitrary, poses, lambda: pytest.fail("unused"), lambda i: shape[i])
+        factors = design_factors(arbitrary, poses, lambda: pytest.fail("unused"), lambda i, shape=shape: shape[i])
         factor = factors[0][1] if factors[0] is not None else 1.0
         assert len({f for f in factors}) == 1  # one factor for every pose: the physics orders them
         assert PLACED < factor <= (11 / 12 if turned.any() else 5 / 6) + 1e-12
