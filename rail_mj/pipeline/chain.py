@@ -44,7 +44,7 @@ from rail_mj.pipeline.tasks import ObjectTask
 from rail_mj.pipeline.verdicts import candidate_slots, judge, most_probable, next_worlds, pose_prior, undecided
 from rail_mj.scoring import ScoringFunction, compile_scoring
 from rail_mj.stable_poses import find_stable_poses, pose_from_up
-from rail_mj.stable_poses.came_in import design_factors
+from rail_mj.stable_poses.came_in import common_factor, design_factors
 from rail_mj.stable_poses.shape import ObjectShapes
 
 __all__ = ["Pipeline", "classify", "define_uses", "definition_counter", "provider_for", "as_placed_pose",
@@ -238,7 +238,7 @@ class Pipeline:
         else:
             result.analyzer_reasons = ([f"pose {v.pose_index}: {v.reason}" for v in stage7.poses] + skipped
                                        + [stage7.reason])
-        self._pick(result, profile, evidence, stage7)
+        self._pick(result, profile, evidence, stage7, common_factor(design))
         return result, evidence
 
     def _result(self, obj: RailObject, poses: StablePoses, affordance: str, profile: ImaginationProfile,
@@ -411,14 +411,16 @@ class Pipeline:
         timings["perturbed_worlds_cpu"] = timings.get("perturbed_worlds_cpu", 0.0) + time.process_time() - cpu
 
     def _pick(self, result: AffordanceResult, profile: ImaginationProfile, evidence: ImaginedWorlds,
-              stage7: FunctionalPoseVerdict | None) -> None:
-        """The use's probability (its likeliest pose's) and, when functional, its functional pose and best plan."""
-        best = most_probable(result.pose_verdicts, evidence.poses, None if stage7 is None else stage7.best_pose)
+              stage7: FunctionalPoseVerdict | None, common: float = 1.0) -> None:
+        """The use's probability (its likeliest pose's) and, when functional, its functional pose and best plan
+        (``common``: the factor every pose carries alike, :func:`most_probable`)."""
+        best = most_probable(result.pose_verdicts, evidence.poses, None if stage7 is None else stage7.best_pose,
+                             common)
         if best is None:
             return
         result.probability = max(v.probability for v in result.pose_verdicts)
         result.prior = best.prior_factors
-        if best.probability < FUNCTIONAL or best.best_plan is None:
+        if result.probability < FUNCTIONAL or best.best_plan is None:
             return
         plan_idx = result.plans.index(best.best_plan)
         b = evidence.nominal_rollout(best.index, plan_idx)

@@ -251,15 +251,18 @@ def _unit(x: float) -> float:
 
 
 def most_probable(verdicts: Sequence[PoseProbability], poses: Sequence[StablePose],
-                  stage7_best: int | None) -> PoseProbability | None:
+                  stage7_best: int | None, common: float = 1.0) -> PoseProbability | None:
     """The most probable pose. A pose's physics counts successes in W worlds, so it tells probabilities apart only
     by more than one world's worth, prior x 1/W: a pose within that of the most probable one (and functional, as it
-    is) ties with it. Ties: stage 7's pick, the more probable, more successful worlds, the more probable stable
+    is) ties with it. ``common`` is a factor every pose's prior carries alike (an object of unknown up's,
+    :func:`rail_mj.stable_poses.came_in.common_factor`): it says nothing of which pose, so a tied pose is functional
+    with it taken out. Ties: stage 7's pick, the more probable, more successful worlds, the more probable stable
     pose."""
     if not verdicts:
         return None
     top = max(verdicts, key=lambda v: v.probability)
     step = top.prior / max(top.imagined, 1)  # one world of the top pose's
-    tied = [v for v in verdicts if v.probability >= max(top.probability - step, FUNCTIONAL) - 1e-9] or [top]
+    floor = FUNCTIONAL * min(1.0, max(common, 0.0))
+    tied = [v for v in verdicts if v.probability >= max(top.probability - step, floor) - 1e-9] or [top]
     return max(tied, key=lambda v: (v.index == stage7_best, v.probability, v.successes,
                                     float(poses[v.index].probability)))

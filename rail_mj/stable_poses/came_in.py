@@ -47,7 +47,7 @@ from rail_mj.core.types import RailObject, StablePose
 from rail_mj.stable_poses.shape import AS_IT_CAME_DEG, tilt_from_came
 
 __all__ = ["PLACED", "STORED_TURNED", "came_in_pose", "made_to_stand", "turned_over", "made_for_other",
-           "design_factors"]
+           "design_factors", "common_factor"]
 
 #: The odds that an object came at rest as it was made to stand rather than as it fell: even, for want of
 #: evidence either way.
@@ -128,3 +128,13 @@ def design_factors(obj: RailObject, poses: Sequence[StablePose], came_shape: Cal
         other = (f"made to stand this way, having come in pose {came} (drops end there {p:.0%} of the time)",
                  made_for_other(p, False))
     return [None if i == came else other for i in range(len(poses))]
+
+
+def common_factor(design: Sequence[tuple[str, float] | None]) -> float:
+    """The factor every pose of ``design`` (:func:`design_factors`) carries alike: an object of unknown up's; 1 where
+    the poses' factors differ or there are none. It tells nothing of which pose is the functional one."""
+    values = {None if d is None else d[1] for d in design}
+    if len(values) != 1:
+        return 1.0
+    value = values.pop()
+    return 1.0 if value is None else float(value)

@@ -302,6 +302,26 @@ def test_poses_one_world_apart_tie_and_stage_7s_pick_breaks_the_tie():
     assert most_probable(below, stable, stage7_best=1).index == 0  # type: ignore[arg-type]
 
 
+def test_a_factor_every_pose_carries_moves_no_pose_out_of_a_tie():
+    """An object of unknown up carries one factor on every pose (0.64 for an armchair): upright, seated in 3 of 5
+    worlds, is one world from its back's 4 of 5, and stays stage 7's pick, though 0.6 x 0.64 is under 0.5."""
+    from types import SimpleNamespace
+
+    f = 0.64
+
+    def pose(i: int, successes: int) -> PoseProbability:
+        return PoseProbability(index=i, prior=f, physics=successes / 5, probability=f * successes / 5,
+                               best_plan="facing_front" if successes else None, successes=successes, worlds=5,
+                               imagined=5)
+
+    stable = [SimpleNamespace(probability=p) for p in (0.5, 0.5)]
+    verdicts = [pose(0, 4), pose(1, 3)]
+    assert most_probable(verdicts, stable, stage7_best=1, common=f).index == 1  # type: ignore[arg-type]
+    assert most_probable(verdicts, stable, stage7_best=1).index == 0  # type: ignore[arg-type]
+    two_apart = [pose(0, 5), pose(1, 3)]
+    assert most_probable(two_apart, stable, stage7_best=1, common=f).index == 0  # type: ignore[arg-type]
+
+
 def test_a_world_with_a_resized_body_judges_it_by_the_row_scaled_for_that_body():
     """The seat rules read the body's own size (its toe reach, its hips over the seat): a world whose body is 10%
     larger is judged for that body, as a doll's chair is for a doll. A cup's rules read no agent size."""

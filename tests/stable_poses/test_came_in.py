@@ -20,6 +20,7 @@ from rail_mj.stable_poses.came_in import (
     PLACED,
     STORED_TURNED,
     came_in_pose,
+    common_factor,
     design_factors,
     made_for_other,
     made_to_stand,
@@ -69,6 +70,7 @@ def test_the_pose_it_came_in_carries_no_factor_and_every_other_one() -> None:
     assert factors[came] is None
     others = [f for i, f in enumerate(factors) if i != came]
     assert others and all(f is not None and f[1] == made_to_stand(poses[came].probability) for f in others)
+    assert common_factor(factors) == 1.0  # the pose it came in carries none: the factors tell poses apart
 
 
 def test_an_object_whose_up_is_unknown_was_made_for_no_pose_for_certain() -> None:
@@ -105,6 +107,7 @@ def test_an_unknown_up_never_makes_a_use_of_one_pose_of_several_certain(seed: in
         factors = design_factors(arbitrary, poses, lambda: pytest.fail("unused"), lambda i, shape=shape: shape[i])
         factor = factors[0][1] if factors[0] is not None else 1.0
         assert len({f for f in factors}) == 1  # one factor for every pose: the physics orders them
+        assert common_factor(factors) == factor
         assert PLACED < factor <= (11 / 12 if turned.any() else 5 / 6) + 1e-12
 
 
