@@ -226,8 +226,8 @@ class Pipeline:
         row = rules_row(profile.affordance, profile.scale)
         result = self._result(obj, poses, affordance, profile, row)
         result.timings = timings
-        design = design_factors(obj, cast(Sequence[StablePose], poses), lambda: self._shapes(obj, poses).came_in,
-                                lambda i: self._shapes(obj, poses).pose(i))
+        shapes = self._shapes(obj, poses)  # measures nothing until a shape is asked for
+        design = design_factors(obj, cast(Sequence[StablePose], poses), lambda: shapes.came_in, shapes.pose)
         gate = self._prior_gate(obj, poses, profile, row, result, design)
         if gate is None:
             return result, None
