@@ -150,7 +150,8 @@ class SegmentState(ProfileModel):
     touching_object: bool = Field(description="the segment touches the object")
     on_ground: bool = Field(description="the segment touches the ground")
     reaches_object: bool = Field(default=False, description="touching nothing, the segment reaches the object: a "
-                                                            "foot by bending the knee on to its limit (a rung), a "
+                                                            "foot by bending the knee on to its limit (a rung, or "
+                                                            "the floor past the seat's front), a "
                                                             "thigh over a seat pan it rose off (a low seat), a "
                                                             "torso reclining onto a back; for a pelvis touching it: "
                                                             "the object bears both sitting bones")

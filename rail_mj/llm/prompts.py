@@ -65,8 +65,9 @@ PROMPT_VERSION: dict[str, str] = {
     "scoring": "3",
     # 3: the poses carry their basin's length; 5: each pose's shape, the object's as it came, the drop frequency;
     # 6: every field of the request named with its meaning; 7: pictures of the poses, as_it_came null for an object
-    # that came in an arbitrary orientation; 8: a torso's reaches_object (reclining onto a back) in the glossary
-    "functional_pose": "8",
+    # that came in an arbitrary orientation; 8: a torso's reaches_object (reclining onto a back) in the glossary;
+    # 9: a foot's reaches_object counts the floor its knee bends down to
+    "functional_pose": "9",
     # 2: the owner the object's name gives (a doll's chair)
     "request_parser": "2",
 }

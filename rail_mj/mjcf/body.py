@@ -274,10 +274,11 @@ def body_fragment(posture: Posture, scale: float = 1.0, name: str = "pelvis") ->
 
 
 def toes_reach(m: mujoco.MjModel, data: mujoco.MjData, foot: int, geoms: np.ndarray) -> bool:
-    """Whether a hanging foot (body id ``foot``, its parent the shank) can rest on one of ``geoms``: the knee bent on
-    from where it rests towards its flexion limit (AAOS), the sole and the relaxed toes (:data:`TOE_REACH`), swept
-    along the shank's line, meet a face of it a foot can stand on before the shank itself meets the object (the
-    seat's front stops the knee there). A sitter high above the floor puts the feet on a rung or a ring so;
+    """Whether a hanging foot (body id ``foot``, its parent the shank) can rest on one of ``geoms`` or on the floor:
+    the knee bent on from where it rests towards its flexion limit (AAOS), the sole and the relaxed toes
+    (:data:`TOE_REACH`), swept along the shank's line, meet a face of it a foot can stand on, or the floor (z = 0),
+    before the shank itself meets the object (the seat's front stops the knee there). A sitter high above the floor
+    puts the feet on a rung or a ring so, and one whose knees a reclined seat raises lets the shanks down to the floor;
     ``data`` holds the world's kinematics (``mj_kinematics``)."""
     shank = int(m.body_parentid[foot])
     joint, geom, sole = int(m.body_jntadr[shank]), int(m.body_geomadr[shank]), int(m.body_geomadr[foot])
@@ -287,19 +288,20 @@ def toes_reach(m: mujoco.MjModel, data: mujoco.MjData, foot: int, geoms: np.ndar
     knee, frame = data.xpos[shank], data.xmat[shank].reshape(3, 3)
     near = [int(g) for g in geoms
             if np.linalg.norm(data.geom_xpos[g] - knee) <= reach + float(m.geom_rbound[g])]
-    if not near:
+    if not near and knee[2] > reach:
         return False
     swing = float(m.jnt_range[joint][1] - data.qpos[m.jnt_qposadr[joint]])
     for phi in np.arange(0.0, max(swing, 0.0) + 1e-9, math.radians(_SWING_STEP)):
         # knee flexion turns the shank back, about its +y: its distal axis (0, 0, -1) goes to (-sin, 0, -cos)
         ray = frame @ np.array([-math.sin(phi), 0.0, -math.cos(phi)])
+        floor = knee[2] / -ray[2] if ray[2] < 0.0 else math.inf  # along the ray to the floor
         hits = [hit for g in near if (hit := _ray(m, data, g, knee, ray))[0] >= 0.0]
-        if not hits:
-            continue
-        distance, normal_z = min(hits)
-        if distance < shin:
+        distance, normal_z = min(hits) if hits else (math.inf, 0.0)
+        if distance < min(shin, floor):
             return False
-        if distance <= reach and normal_z >= _BEARING_COS:
+        if distance <= min(reach, floor) and normal_z >= _BEARING_COS:
+            return True
+        if floor <= reach and floor <= distance:
             return True
     return False
 

@@ -75,11 +75,12 @@ _TORSO_DEG = TRUNK_THIGH_DEG - 90
 _PELVIS_DEG = 45
 #: The pelvis resting within this of upright (deg) with its torso leaning on a back: an easy chair's seat
 #: (EASY_SEAT_DEG: Grandjean's easy chairs tilt back 14-24°, their back bearing the reclined trunk; steeper, the
-#: sitter slides or lies), and the pelvis rolled back on it by the hips' give under the reclined trunk's weight
-#: (SAG_DEG, the posture spring's sag: on lounge chairs reclined 10-15° the body's pelvis lies 2-7° past its thighs).
-#: Without a back, LEVEL_DEG (15°), the level every kind's resting agent keeps (a work chair's seat tilts 0-10°,
-#: ISO 9241-5).
-_RECLINED_PAN_DEG = EASY_SEAT_DEG + SAG_DEG
+#: sitter slides or lies), or as far as the thighs it sits with rise where the feet hold the knees above a low reclined
+#: seat (the thighs themselves within _THIGH_DEG of level), and the pelvis rolled back on it by the hips' give under
+#: the reclined trunk's weight (SAG_DEG, the posture spring's sag: on lounge chairs reclined 10-19° the body's pelvis
+#: lies 2-10° past its thighs). Without a back, LEVEL_DEG (15°), the level every kind's resting agent keeps (a work
+#: chair's seat tilts 0-10°, ISO 9241-5).
+_RECLINED_PAN_DEG = EASY_SEAT_DEG
 #: The shanks, whose origins are the knees.
 _SHANKS = ("shank_l", "shank_r")
 #: Of the body, only these may touch the ground: a sitter's feet stand on the floor.
@@ -190,8 +191,8 @@ class Seat(Kind):
                                                 or seg[f].reaches_object)]
             if dangling:
                 return False, (f"{who}the feet hang {seg[dangling[0]].height:.2f} m up, touching nothing (a sitter's "
-                               f"toes reach the floor from {reach:.2f} m) and finding no rung as the knees bend: a "
-                               "seat too high for the feet")
+                               f"toes reach the floor from {reach:.2f} m) and finding no rung or floor as the knees "
+                               "bend: a seat too high for the feet")
         torso = all(leans_back(seg) for seg in bodies)
         return True, (f"the body sits {bodies[0][ROOT].height:.2f} m up, thighs level, torso upright"
                       + (", leaning on a back" if torso else ""))
@@ -221,7 +222,7 @@ class Seat(Kind):
             grounded = [name for name, s in seg.items() if s.on_ground and name not in _ON_FLOOR]
             if grounded:
                 return f"{who}the {grounded[0]} touches the ground: the body fell"
-            pan = _RECLINED_PAN_DEG if leans_back(seg) else LEVEL_DEG
+            pan = max(_RECLINED_PAN_DEG, knees_raised(seg)) + SAG_DEG if leans_back(seg) else LEVEL_DEG
             why = (upright(pelvis, pan) or level(seg, LEGS, _THIGH_DEG)
                    or upright(seg["torso"], _TORSO_DEG + knees_raised(seg)))
             if why:

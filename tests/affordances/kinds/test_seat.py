@@ -37,12 +37,12 @@ def _pose(index: int, probability: float, h: list[float], plans: tuple[str, ...]
 
 
 def _sits(plan: str, h: list[float], hips: float, *, agent: int = 0, torso_on: bool = False,
-          feet: str = "ground", thighs: str = "seat", pelvis_deg: float = 0.0,
+          feet: str = "ground", thighs: str = "seat", pelvis_deg: float = 0.0, knees_deg: float = 10.0,
           bones: bool = True) -> list[SegmentState]:
     """The sitting body's segments, its hip joints ``hips`` m up on the object, thighs level, torso upright (on the
     object when ``torso_on``); its feet on the ``ground``, on the ``object`` (a rung), hanging where a ``rung`` is
     within their reach as the knees bend, or hanging in the ``air``; ``thighs`` level on the ``seat``, or with the knees
-    10° above the hips, ``over`` a seat pan or ``off`` the object (nothing under them); the pelvis tilted back
+    ``knees_deg`` above the hips, ``over`` a seat pan or ``off`` the object (nothing under them); the pelvis tilted back
     ``pelvis_deg``; the object under both sitting bones unless not ``bones``."""
     seg = [SegmentState(agent=agent, name="pelvis", height=hips, up=float(np.cos(np.radians(pelvis_deg))),
                         touching_object=True, on_ground=False, reaches_object=bones),
@@ -51,7 +51,7 @@ def _sits(plan: str, h: list[float], hips: float, *, agent: int = 0, torso_on: b
            SegmentState(agent=agent, name="head", height=hips + 0.5, up=0.96, touching_object=False, on_ground=False)]
     for side in ("l", "r"):
         seg += [SegmentState(agent=agent, name=f"thigh_{side}", height=hips,
-                             up=0.0 if thighs == "seat" else -np.sin(np.radians(10)),
+                             up=0.0 if thighs == "seat" else -np.sin(np.radians(knees_deg)),
                              touching_object=thighs == "seat", on_ground=False, reaches_object=thighs == "over"),
                 SegmentState(agent=agent, name=f"shank_{side}", height=hips, up=1.0, touching_object=False,
                              on_ground=False),
@@ -230,6 +230,20 @@ def test_a_pelvis_tilted_back_past_a_work_seats_tilt_sits_only_against_a_back():
     for deg, back in ((20, False), (36, True)):
         verdict = _verdict("chair", _seated(0, 0.5, seat, SITS, 0.42 + up, pelvis_deg=deg, torso_on=back))
         assert verdict.best_pose is None and "the pelvis leans" in verdict.poses[0].reason
+
+
+def test_a_pelvis_leans_back_with_the_thighs_a_low_reclined_seat_raises():
+    """On a lounge chair's low reclined seat the feet hold the knees 26° above the hips: the pelvis sits 35° back
+    against the back, within the hips' give of the thighs; 37° back on the same thighs, it has rolled past that give.
+    On thighs risen 10°, 35° is past an easy chair's seat and the give."""
+    seat = [0.25, 0.25, 0.25]
+    up = body_size().thigh_radius
+    assert _verdict("chair", _seated(0, 0.5, seat, SITS, 0.36 + up, pelvis_deg=35, torso_on=True, thighs="over",
+                                     knees_deg=26)).best_pose == 0
+    for deg, knees in ((37, 26), (35, 10)):
+        verdict = _verdict("chair", _seated(0, 0.5, seat, SITS, 0.36 + up, pelvis_deg=deg, torso_on=True,
+                                            thighs="over", knees_deg=knees))
+        assert verdict.best_pose is None and "the pelvis leans" in verdict.poses[0].reason, (deg, knees)
 
 
 def test_the_seat_kind_needs_its_body():
