@@ -57,7 +57,8 @@ PROMPT_VERSION: dict[str, str] = {
     # 3 (all stages 2-6): the task of no obb_dims and its example; the agent's size and mass bounds stated
     "agent_model": "3",
     "agent_configuration": "3",
-    "motion_planner": "3",
+    # 4 (stage 4): at most sixteen plans in its answer's schema (a seat's hips at three places along each heading)
+    "motion_planner": "4",
     # 3: a via-pose may be anchored at the pose's opening; 4: the start check's cube stated; 5: the boxes checked
     # for a task of no obb_dims
     "trajectory": "5",

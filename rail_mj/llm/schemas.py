@@ -141,9 +141,10 @@ class PlannerRequest(ProfileModel):
 
 
 class MotionPlans(ProfileModel):
-    """Output of stage 4: at least five plans from different directions."""
+    """Output of stage 4: at least five plans from different directions, at most sixteen (a seat for one: four
+    headings, the hips at three places along each, and four put down to either side)."""
 
-    plans: list[MotionPlan] = Field(min_length=5, max_length=12)
+    plans: list[MotionPlan] = Field(min_length=5, max_length=16)
 
 
 class TrajectoryRequest(ProfileModel):

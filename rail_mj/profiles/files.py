@@ -36,8 +36,8 @@ SCORING = "scoring.py"
 SIDECAR = "rail_mj.json"
 PAPER_FILES = (ANALYSIS, AGENT, ARRANGEMENT, PLAN, AGENTS_TRAJ, EVALUATION)
 
-#: A profile's plans (stage 4's answer: at least five directions, at most twelve) and via-points per plan.
-MIN_PLANS, MAX_PLANS = 5, 12
+#: A profile's plans (stage 4's answer: at least five directions, at most sixteen) and via-points per plan.
+MIN_PLANS, MAX_PLANS = 5, 16
 MIN_POINTS, MAX_POINTS = 2, 8
 _MAX_FILE_BYTES = 1 << 20  # a profile file is a few KB; refuse to read anything absurd
 _START, _END = "<start of analysis>", "<end of analysis>"

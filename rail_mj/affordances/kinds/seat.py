@@ -85,9 +85,12 @@ _RECLINED_PAN_DEG = EASY_SEAT_DEG
 _SHANKS = ("shank_l", "shank_r")
 #: Of the body, only these may touch the ground: a sitter's feet stand on the floor.
 _ON_FLOOR = ("shank_l", "foot_l", "shank_r", "foot_r")
-#: Where the hip joints are put down along the heading (units of h): the box's centre, and a quarter of the way to
-#: its back (a sitter sits back towards a backrest; half-way, a seat 0.45 m deep puts the back inside the sitter).
-_PLACES = (("", 0.0), ("_back", -0.25))
+#: Where the hip joints are put down along the heading (units of h): the box's centre, a quarter of the way to its
+#: back (a sitter sits back towards a backrest; half-way, a seat 0.45 m deep puts the back inside the sitter), and a
+#: quarter of the way to its front: where a chair's back, rear legs or fittings reach behind the seat, the box's
+#: centre lies at the back's face and the buttocks, 10 cm behind the hips, land on the back (FurnitureBench's chair:
+#: its centre 2.5 cm before the back, the body pushed off the seat's front edge).
+_PLACES = (("", 0.0), ("_back", -0.25), ("_front", 0.25))
 #: A seat for more: the body faces across the object's length (task-frame x, its longer side) and sits at two places
 #: side by side along it, half a shoulder breadth (Winter Fig. 4.1, 0.259 H) to either side of the centre: two
 #: sitters shoulder to shoulder.
@@ -122,7 +125,8 @@ class Seat(Kind):
                          f"anthropometry, 1.75 m and 75 kg for a person) with hips at 90° and knees at {SIT_KNEE:g}°, "
                          "its joints held by posture springs.")
     interaction_description = ("The sitting body is lowered straight down onto the object facing each way, with its "
-                               "hips over the object's centre and a quarter of the way to its back; it is released at "
+                               "hips over the object's centre and a quarter of the way to its back and to its front; "
+                               "it is released at "
                                "the first contact and left to settle. On a seat for more, it is lowered at two "
                                "places side by side along its length, half a shoulder breadth either side of the "
                                "centre.")
@@ -147,7 +151,8 @@ class Seat(Kind):
 
     def plans(self, shape: AgentShape) -> list[MotionPlan]:
         where = {0.0: "over the object's centre",
-                 -0.25: "a quarter of the way to the object's back (as seen facing that way)"}
+                 -0.25: "a quarter of the way to the object's back (as seen facing that way)",
+                 0.25: "a quarter of the way to the object's front (as seen facing that way)"}
 
         def shifted(name: str, shift: float) -> str:
             """Where a plan's hips are shifted along the object's length, in words."""

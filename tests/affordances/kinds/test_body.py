@@ -62,6 +62,24 @@ def _chair(seat: float = 0.45) -> RailObject:
                                     *_legs(0.2, 0.2, seat - 0.03)])
 
 
+def _chair_reaching_behind() -> RailObject:
+    """A chair like FurnitureBench's: a seat 0.35 m deep before its back, 0.45 m up, and rear legs splayed 0.3 m
+    behind the back: the box's centre lies 2.5 cm before the back's face."""
+    return _object("chair_behind", [([-0.225, -0.225, 0.42], [0.155, 0.225, 0.45]),
+                                    ([-0.225, -0.225, 0.45], [-0.195, 0.225, 0.85]),
+                                    *[([sx - 0.02, sy * 0.2 - 0.02, 0.0], [sx + 0.02, sy * 0.2 + 0.02, 0.42])
+                                      for sx in (-0.2, 0.13) for sy in (-1, 1)],
+                                    *[([-0.495, sy * 0.2 - 0.02, 0.0], [-0.2, sy * 0.2 + 0.02, 0.04])
+                                      for sy in (-1, 1)]])
+
+
+def test_the_body_sits_a_quarter_forward_in_a_chair_whose_legs_reach_behind_its_back():
+    """Put down over the box's centre, the buttocks land on the back and the body is pushed off the seat (the
+    pelvis does not rest on it); a quarter of the way to the front it sits."""
+    sat = [c.plan for c, ok, _ in _judged(_chair_reaching_behind(), "chair") if ok]
+    assert any(plan.endswith("_front") for plan in sat), sat
+
+
 def _stool() -> RailObject:
     """A backless stool, a 0.35 m square seat 0.46 m high."""
     return _object("stool", [([-0.175, -0.175, 0.43], [0.175, 0.175, 0.46]), *_legs(0.15, 0.15, 0.43)])
