@@ -268,7 +268,7 @@ def test_kinds_name_the_plans_their_pose_rules_read_whatever_they_scored():
     assert evidence("cup") == {"above", "above_front", "above_back", "above_left", "above_right"}
     assert evidence("table") == set()
     assert evidence("chair") == set()
-    assert len(evidence("bench")) == 8  # two places side by side x two headings x two depths
+    assert len(evidence("bench")) == 12  # two places side by side x two headings x three depths
     assert evidence("plate") == {"above"}
     assert evidence("bed") == set()
 
