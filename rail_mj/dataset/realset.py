@@ -32,6 +32,7 @@ CLI::
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 import posixpath
 import shlex
@@ -54,7 +55,7 @@ from rail_mj.core.geometry import rotation_to_z
 from rail_mj.core.paths import cache_dir
 from rail_mj.core.runfiles import fsync_dir, publish, staging_dir, write_synced
 from rail_mj.dataset.labels import LABELS_FILE, LabelRecord
-from rail_mj.urdf.assembly import assemble_urdf
+from rail_mj.urdf.assembly import assemble_urdf, mesh_from_bytes
 
 __all__ = [
     "REAL_DATA_ENV",
@@ -162,7 +163,7 @@ _FB = "furniture_bench/assets/furniture/mesh/chair/"
 #: FurnitureBench's chair in its seat's frame (furniture_bench/furniture/chair.py, ``assembled_rel_poses``: the
 #: first pose listed for each part; the second leg and nut take the other): the front legs under the seat's front,
 #: the back (with the rear legs) through its rear, the nuts behind it. The seat's up is -y: the legs stand at +y.
-_FB_HALF_TURN = 1.5707963267948966
+_FB_HALF_TURN = math.pi / 2
 _FB_POSES = ((0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
              (-0.03375, 0.045, -0.01875, 0.0, _FB_HALF_TURN, 0.0), (0.03375, 0.045, -0.01875, 0.0, _FB_HALF_TURN, 0.0),
              (0.0, -0.0325, 0.05025, 0.0, 0.0, 0.0),
@@ -436,15 +437,6 @@ def _mesh_bytes(entry: RealMesh, archive: zipfile.ZipFile) -> bytes:
     return trimesh.exchange.obj.export_obj(mesh, include_normals=False, include_texture=False).encode()
 
 
-def _rotation(rx: float, ry: float, rz: float) -> np.ndarray:
-    """Rz @ Ry @ Rx, the rotation FurnitureBench's ``get_mat`` makes of (x, y, z) angles."""
-    cx, sx, cy, sy, cz, sz = np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry), np.cos(rz), np.sin(rz)
-    turn_x = np.array([[1.0, 0.0, 0.0], [0.0, cx, -sx], [0.0, sx, cx]])
-    turn_y = np.array([[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]])
-    turn_z = np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]])
-    return turn_z @ turn_y @ turn_x
-
-
 def _assembly_bytes(entry: RealMesh, archive: zipfile.ZipFile) -> bytes:
     """An assembly row's parts placed at its ``poses`` and turned so its ``assembly_up`` is +z, as OBJ text."""
     if len(entry.parts) != len(entry.poses) or not entry.parts:
@@ -453,12 +445,10 @@ def _assembly_bytes(entry: RealMesh, archive: zipfile.ZipFile) -> bytes:
     turn = trimesh.transformations.quaternion_matrix(rotation_to_z(np.asarray(entry.assembly_up, dtype=float)))
     meshes = []
     for (member, sha256), (x, y, z, rx, ry, rz) in zip(entry.parts, entry.poses, strict=True):
-        part = trimesh.load(trimesh.util.wrap_as_stream(read_member(archive, member, sha256)),
-                            file_type=posixpath.splitext(member)[1][1:], force="mesh")
-        if not isinstance(part, trimesh.Trimesh) or len(part.faces) == 0:
-            raise DatasetError(f"{entry.name}: {member} holds no triangles")
-        place = np.eye(4)
-        place[:3, :3], place[:3, 3] = _rotation(rx, ry, rz), (x, y, z)
+        part = mesh_from_bytes(read_member(archive, member, sha256), posixpath.splitext(member)[1],
+                               f"{entry.name}: {member}")
+        place = trimesh.transformations.euler_matrix(rx, ry, rz, axes="sxyz")  # Rz @ Ry @ Rx, as get_mat's
+        place[:3, 3] = (x, y, z)
         part.apply_transform(turn @ place)
         meshes.append(part)
     mesh = trimesh.util.concatenate(meshes)

@@ -17,7 +17,7 @@ import trimesh
 
 from rail_mj.core.errors import DatasetError
 
-__all__ = ["assemble_urdf"]
+__all__ = ["assemble_urdf", "mesh_from_bytes"]
 
 
 def _floats(text: str | None, n: int, default: float, where: str) -> np.ndarray:
@@ -42,7 +42,9 @@ def _origin(element: ET.Element | None, where: str) -> np.ndarray:
     return matrix
 
 
-def _load_bytes(data: bytes, suffix: str, where: str) -> trimesh.Trimesh:
+def mesh_from_bytes(data: bytes, suffix: str, where: str) -> trimesh.Trimesh:
+    """A mesh file's bytes as one mesh (a scene's geometry concatenated); DatasetError naming ``where`` when they are
+    unreadable or hold no triangles."""
     try:
         loaded = trimesh.load(io.BytesIO(data), file_type=suffix.lstrip("."), process=False)
     except Exception as exc:  # trimesh's loaders raise many unrelated types on bad input
@@ -62,8 +64,8 @@ def _geometry(geom: ET.Element, base: str, read: Callable[[str], bytes], where: 
         filename = kind.get("filename", "")
         if "://" in filename or filename.startswith("/") or not filename:
             raise DatasetError(f"{where}: mesh filename {filename!r} must be a path relative to the URDF")
-        mesh = _load_bytes(read(posixpath.normpath(posixpath.join(base, filename))), posixpath.splitext(filename)[1],
-                           f"{where} {filename}")
+        mesh = mesh_from_bytes(read(posixpath.normpath(posixpath.join(base, filename))),
+                               posixpath.splitext(filename)[1], f"{where} {filename}")
         mesh.apply_scale(_floats(kind.get("scale"), 3, 1.0, f"{where} mesh scale"))
         return mesh
     if kind.tag == "box":
