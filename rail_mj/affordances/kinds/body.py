@@ -67,10 +67,15 @@ def level(segments: dict[str, SegmentState], names: Sequence[str], max_deg: floa
     return ""
 
 
+def tilt(segment: SegmentState) -> float:
+    """How far (deg) ``segment``'s long axis leans from upright."""
+    return math.degrees(math.acos(segment.up))
+
+
 def upright(segment: SegmentState, max_deg: float) -> str:
     """Why ``segment`` is more than ``max_deg`` from upright; "" when it is not."""
-    tilt = math.degrees(math.acos(segment.up))
-    return f"the {segment.name} leans {tilt:.0f} deg from upright" if tilt > max_deg else ""
+    lean = tilt(segment)
+    return f"the {segment.name} leans {lean:.0f} deg from upright" if lean > max_deg else ""
 
 
 def leans_back(segments: dict[str, SegmentState]) -> bool:

@@ -1,12 +1,13 @@
 """``seat``: an articulated human body, hips at 90° and knees at 105°, lowered onto the object facing each way.
 
 Success: the body comes to rest carried by the object: its pelvis level, or tilted back with an easy chair's seat
-against its back, on the object with a seat under both sitting bones, and with its thighs (a seat pan bears the
-thighs, or lies under them where the feet lift the knees off a low seat; an edge or a rail bears the pelvis alone)
-at seat height, its thighs near level, its torso upright or leaning on a back, its feet on the floor or on the
-object, or within a relaxed toe's reach of the floor or of a rung as the knees bend (a bar stool's sitter), nothing
-but its shanks and feet on the ground, and the object not tipped. A seat for more than one (a bench) seats the
-body at two places side by side along its length, half a shoulder breadth either side of its centre.
+(or no further than its trunk) against its back, on the object with a seat under both sitting bones, and with its
+thighs (a seat pan bears the thighs, or lies under them where the feet lift the knees off a low seat; an edge or a
+rail bears the pelvis alone) at seat height, its thighs near level, its torso upright or leaning on a back, its feet
+on the floor or on the object, or within a relaxed toe's reach of the floor or of a rung as the knees bend (a bar
+stool's sitter), nothing but its shanks and feet on the ground, and the object not tipped. A seat for more than one
+(a bench) seats the body at two places side by side along its length, half a shoulder breadth either side of its
+centre.
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ from rail_mj.affordances.kinds.body import (
     knees_raised,
     leans_back,
     level,
+    tilt,
     upright,
 )
 from rail_mj.affordances.row import Affordance, KindParams
@@ -78,8 +80,12 @@ _PELVIS_DEG = 45
 #: sitter slides or lies), or as far as the thighs it sits with rise where the feet hold the knees above a low reclined
 #: seat (the thighs themselves within _THIGH_DEG of level), and the pelvis rolled back on it by the hips' give under
 #: the reclined trunk's weight (SAG_DEG, the posture spring's sag: on lounge chairs reclined 10-19° the body's pelvis
-#: lies 2-10° past its thighs). Without a back, LEVEL_DEG (15°), the level every kind's resting agent keeps (a work
-#: chair's seat tilts 0-10°, ISO 9241-5).
+#: lies 2-10° past its thighs), or as far as the trunk it carries leans on the back: in reclined sitting the lumbar
+#: spine flattens or flexes, it does not arch back, so the pelvis rolls back no further than the trunk (the torso's
+#: own limit, Keegan's 135° trunk-thigh angle, keeps the hips from opening into lying). The spring's sag bounds a
+#: joint under its own segment's weight, not under a back's push on the trunk: in a lounge chair whose back leans
+#: 45-55° the pelvis rolls 10-11° past the thighs. Without a back, LEVEL_DEG (15°), the level every kind's resting
+#: agent keeps (a work chair's seat tilts 0-10°, ISO 9241-5).
 _RECLINED_PAN_DEG = EASY_SEAT_DEG
 #: The shanks, whose origins are the knees.
 _SHANKS = ("shank_l", "shank_r")
@@ -227,7 +233,8 @@ class Seat(Kind):
             grounded = [name for name, s in seg.items() if s.on_ground and name not in _ON_FLOOR]
             if grounded:
                 return f"{who}the {grounded[0]} touches the ground: the body fell"
-            pan = max(_RECLINED_PAN_DEG, knees_raised(seg)) + SAG_DEG if leans_back(seg) else LEVEL_DEG
+            pan = (max(_RECLINED_PAN_DEG + SAG_DEG, knees_raised(seg) + SAG_DEG, tilt(seg["torso"]))
+                   if leans_back(seg) else LEVEL_DEG)
             why = (upright(pelvis, pan) or level(seg, LEGS, _THIGH_DEG)
                    or upright(seg["torso"], _TORSO_DEG + knees_raised(seg)))
             if why:

@@ -38,16 +38,16 @@ def _pose(index: int, probability: float, h: list[float], plans: tuple[str, ...]
 
 def _sits(plan: str, h: list[float], hips: float, *, agent: int = 0, torso_on: bool = False,
           feet: str = "ground", thighs: str = "seat", pelvis_deg: float = 0.0, knees_deg: float = 10.0,
-          bones: bool = True) -> list[SegmentState]:
+          bones: bool = True, torso_deg: float = 16.0) -> list[SegmentState]:
     """The sitting body's segments, its hip joints ``hips`` m up on the object, thighs level, torso upright (on the
     object when ``torso_on``); its feet on the ``ground``, on the ``object`` (a rung), hanging where a ``rung`` is
     within their reach as the knees bend, or hanging in the ``air``; ``thighs`` level on the ``seat``, or with the knees
     ``knees_deg`` above the hips, ``over`` a seat pan or ``off`` the object (nothing under them); the pelvis tilted back
-    ``pelvis_deg``; the object under both sitting bones unless not ``bones``."""
+    ``pelvis_deg`` and the torso ``torso_deg``; the object under both sitting bones unless not ``bones``."""
     seg = [SegmentState(agent=agent, name="pelvis", height=hips, up=float(np.cos(np.radians(pelvis_deg))),
                         touching_object=True, on_ground=False, reaches_object=bones),
-           SegmentState(agent=agent, name="torso", height=hips + 0.14, up=0.96, touching_object=torso_on,
-                        on_ground=False),
+           SegmentState(agent=agent, name="torso", height=hips + 0.14, up=float(np.cos(np.radians(torso_deg))),
+                        touching_object=torso_on, on_ground=False),
            SegmentState(agent=agent, name="head", height=hips + 0.5, up=0.96, touching_object=False, on_ground=False)]
     for side in ("l", "r"):
         seg += [SegmentState(agent=agent, name=f"thigh_{side}", height=hips,
@@ -250,3 +250,18 @@ def test_the_seat_kind_needs_its_body():
     """The box pelvis's candidates (no segments) are no evidence of sitting."""
     verdict = _verdict("chair", _pose(0, 0.2, ARMCHAIR, ("facing_front",), 0.45))
     assert verdict.best_pose is None and "articulated body" in verdict.poses[0].reason
+
+
+def test_a_pelvis_rolls_back_with_the_trunk_on_a_lounge_chairs_far_reclined_back():
+    """On a lounge chair whose back leans 55-65° the trunk on it rolls the pelvis 41° back, past the thighs' 30° rise
+    and the hips' give: the lumbar spine flattens, so the pelvis may lean as far as the trunk it carries. Rolled back
+    past a trunk leaning 30°, the spine would arch; a trunk at 76° on thighs risen 30° opens the hips past Keegan's
+    135°: lying."""
+    seat = [0.25, 0.25, 0.25]
+    up = body_size().thigh_radius
+    assert _verdict("chair", _seated(0, 0.5, seat, SITS, 0.36 + up, pelvis_deg=41, torso_on=True, thighs="over",
+                                     knees_deg=30, torso_deg=64)).best_pose == 0
+    for torso, why in ((30, "the pelvis leans"), (76, "the torso leans")):
+        verdict = _verdict("chair", _seated(0, 0.5, seat, SITS, 0.36 + up, pelvis_deg=41, torso_on=True,
+                                            thighs="over", knees_deg=30, torso_deg=torso))
+        assert verdict.best_pose is None and why in verdict.poses[0].reason, torso
