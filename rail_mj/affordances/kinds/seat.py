@@ -233,10 +233,11 @@ class Seat(Kind):
             grounded = [name for name, s in seg.items() if s.on_ground and name not in _ON_FLOOR]
             if grounded:
                 return f"{who}the {grounded[0]} touches the ground: the body fell"
-            pan = (max(_RECLINED_PAN_DEG + SAG_DEG, knees_raised(seg) + SAG_DEG, tilt(seg["torso"]))
-                   if leans_back(seg) else LEVEL_DEG)
+            raised = knees_raised(seg)
+            pan = (max(max(_RECLINED_PAN_DEG, raised) + SAG_DEG, tilt(seg["torso"])) if leans_back(seg)
+                   else LEVEL_DEG)
             why = (upright(pelvis, pan) or level(seg, LEGS, _THIGH_DEG)
-                   or upright(seg["torso"], _TORSO_DEG + knees_raised(seg)))
+                   or upright(seg["torso"], _TORSO_DEG + raised))
             if why:
                 return f"{who}{why}"
         return ""
