@@ -8,6 +8,7 @@ judges them, and :mod:`~rail_mj.mesh.object` builds a :class:`~rail_mj.core.type
 from rail_mj.mesh.decomposition import (
     DENSE_DECOMPOSITION,
     DENSE_FACES,
+    GUARD_DECOMPOSITION,
     MJX_MAX_HULL_VERTICES,
     DecompositionConfig,
     decompose,
@@ -32,6 +33,7 @@ __all__ = [
     "MAX_FILE_BYTES",
     "DENSE_FACES",
     "DENSE_DECOMPOSITION",
+    "GUARD_DECOMPOSITION",
     "MAX_EXCESS",
     "MAX_MISSING",
     "DecompositionConfig",

@@ -2,7 +2,7 @@
 
 Every object's hulls pass the quality guard (:func:`hull_quality`: volume ratio, cavities kept open,
 surface covered); hulls from :func:`~rail_mj.mesh.decomposition.decomposition_for`'s faster settings
-that fail it are made again with the defaults.
+that fail it are made again with the defaults (:data:`~rail_mj.mesh.decomposition.GUARD_DECOMPOSITION`).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import trimesh
 from scipy.spatial import ConvexHull
 
 from rail_mj.core.errors import DecompositionTimeout
-from rail_mj.mesh.decomposition import DecompositionConfig, decompose, decomposition_for
+from rail_mj.mesh.decomposition import GUARD_DECOMPOSITION, DecompositionConfig, decompose, decomposition_for
 
 __all__ = ["MAX_EXCESS", "MAX_MISSING", "HullQuality", "hull_quality"]
 
@@ -194,7 +194,9 @@ def _guarded_hulls(
 
     Hulls made with :func:`decomposition_for`'s faster settings that fail the guard (more than
     :data:`MAX_EXCESS` excess or :data:`MAX_MISSING` missing, :class:`HullQuality`) are made again
-    with the defaults, and the better set is kept; hulls that still fail are noted.
+    with the defaults on at most :data:`~rail_mj.mesh.decomposition.DENSE_FACES` faces
+    (:data:`~rail_mj.mesh.decomposition.GUARD_DECOMPOSITION`), and the better set is kept; hulls that still fail are
+    noted.
     """
     config = decomposition or decomposition_for(mesh)
     hulls = decompose(mesh, config)
@@ -202,15 +204,15 @@ def _guarded_hulls(
     notes = []
     if _guard_score(quality) > 1.0 and decomposition is None and config != DecompositionConfig():
         try:
-            again = decompose(mesh, DecompositionConfig())
+            again = decompose(mesh, GUARD_DECOMPOSITION)
         except DecompositionTimeout as late:  # the faster settings' hulls are kept, with why
             notes.append(f"hulls not made again with the default settings: {late}")
         else:
             again_quality = hull_quality(mesh, again)
             if _guard_score(again_quality) < _guard_score(quality):
                 notes.append(
-                    f"hulls made again with the default settings: the faster ones' excess {quality.excess:.2f}, "
-                    f"missing {quality.missing:.2f}"
+                    f"hulls made again with the default settings on at most {GUARD_DECOMPOSITION.max_faces:,} faces: "
+                    f"the faster ones' excess {quality.excess:.2f}, missing {quality.missing:.2f}"
                 )
                 hulls, quality = again, again_quality
     if _guard_score(quality) > 1.0:

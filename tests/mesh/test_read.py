@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import warnings
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -18,6 +19,7 @@ from rail_mj.mesh import (
     DEFAULT_DENSITY,
     DENSE_DECOMPOSITION,
     DENSE_FACES,
+    GUARD_DECOMPOSITION,
     MAX_EXCESS,
     SUPPORTED_EXTENSIONS,
     DecompositionConfig,
@@ -689,7 +691,27 @@ def test_guard_redoes_failing_fast_hulls_with_the_defaults(
     assert thresholds == [DENSE_DECOMPOSITION.threshold, DecompositionConfig().threshold]
     assert len(obj.hulls) == len(cup_object.hulls)
     (note,) = mesh_notes(obj.mesh)
-    assert note.startswith("hulls made again with the default settings: the faster ones' excess 0.6")
+    assert note.startswith("hulls made again with the default settings on at most 5,000 faces: the faster ones' "
+                           "excess 0.6")
+
+
+def test_the_guard_redoes_a_dense_mesh_with_the_defaults_on_the_dense_limits_faces(monkeypatch) -> None:
+    # the defaults on a scan's whole face budget took up to twice as long for hulls no better
+    calls = []
+
+    def fake_decompose(mesh, config):
+        calls.append(config)
+        return (np.asarray(mesh.vertices),)
+
+    monkeypatch.setattr(mesh_quality, "decompose", fake_decompose)
+    monkeypatch.setattr(mesh_quality, "hull_quality", lambda mesh, hulls: SimpleNamespace(
+        excess=0.6 if len(calls) == 1 else 0.1, missing=0.0))
+    monkeypatch.setattr(mesh_quality, "_guard_score", lambda quality: quality.excess / 0.25)
+    mesh = repair_mesh(trimesh.creation.icosphere(subdivisions=4))  # 5,120 faces: dense
+    hulls, notes = mesh_quality._guarded_hulls(mesh, None)
+    assert calls == [DENSE_DECOMPOSITION, GUARD_DECOMPOSITION]
+    assert GUARD_DECOMPOSITION == DecompositionConfig(max_faces=DENSE_FACES)
+    assert notes and notes[0].startswith("hulls made again with the default settings on at most 5,000 faces")
 
 
 def test_guard_notes_hulls_that_fail_it(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
