@@ -368,7 +368,7 @@ def decomposition_for(mesh: trimesh.Trimesh) -> DecompositionConfig:
     of the cavities (excess +0.03-0.07); CoACD's ``resolution`` at 250 changed neither time nor
     hulls. CoACD scales every mesh to a unit box, so an object's size in metres changes neither.
     The quality guard of :func:`object_from_mesh` redoes hulls from these settings with the
-    defaults where they fail it.
+    defaults, on at most :data:`DENSE_FACES` faces (:data:`GUARD_DECOMPOSITION`), where they fail it.
     """
     return DecompositionConfig() if len(mesh.faces) <= DENSE_FACES else DENSE_DECOMPOSITION
 
