@@ -706,7 +706,6 @@ def test_the_guard_redoes_a_dense_mesh_with_the_defaults_on_the_dense_limits_fac
     monkeypatch.setattr(mesh_quality, "decompose", fake_decompose)
     monkeypatch.setattr(mesh_quality, "hull_quality", lambda mesh, hulls: SimpleNamespace(
         excess=0.6 if len(calls) == 1 else 0.1, missing=0.0))
-    monkeypatch.setattr(mesh_quality, "_guard_score", lambda quality: quality.excess / MAX_EXCESS)
     mesh = repair_mesh(trimesh.creation.icosphere(subdivisions=4))  # 5,120 faces: dense
     _, notes = mesh_quality._guarded_hulls(mesh, None)
     assert calls == [DENSE_DECOMPOSITION, GUARD_DECOMPOSITION]
