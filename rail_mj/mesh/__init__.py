@@ -1,4 +1,4 @@
-"""Meshes: read, repair, decompose into convex hulls (CoACD in a child process), hull quality, the object.
+"""Meshes: read, repair, decompose into convex hulls (CoACD in child processes), hull quality, the object.
 
 :mod:`~rail_mj.mesh.read` reads mesh files, :mod:`~rail_mj.mesh.repair` cleans, decimates and checks
 meshes, :mod:`~rail_mj.mesh.decomposition` makes and caches convex hulls, :mod:`~rail_mj.mesh.quality`

@@ -1,4 +1,4 @@
-"""Convex decomposition: CoACD settings, its runs in a child process with their limits, the hulls and their cache.
+"""Convex decomposition: CoACD settings, its runs in child processes with their limits, the hulls and their cache.
 
 A mesh of separate bodies is decomposed body by body; meshes over :data:`DENSE_FACES` faces get
 faster CoACD settings (:func:`decomposition_for`). Hulls are cached under ``cache_dir("hulls")``,
@@ -10,12 +10,7 @@ from __future__ import annotations
 import hashlib
 import io
 import json
-import math
-import signal
-import subprocess
-import sys
 import zipfile
-from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
@@ -24,9 +19,10 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from scipy.spatial import ConvexHull, QhullError
 
 from rail_mj.core.config import config_error
-from rail_mj.core.errors import DecompositionError, DecompositionTimeout
+from rail_mj.core.errors import DecompositionError
 from rail_mj.core.paths import cache_dir
 from rail_mj.core.runfiles import atomic_write_bytes
+from rail_mj.mesh.coacd_run import CoacdCrash, coacd_child
 from rail_mj.mesh.repair import _body_labels, _decimate
 
 __all__ = [
@@ -167,48 +163,6 @@ def _preprocess_mode(mesh: trimesh.Trimesh, config: DecompositionConfig) -> str:
     return "off" if mesh.is_volume else "on"
 
 
-_WALL_PER_CPU = 4.0
-_WALL_SLACK_S = 10.0
-
-
-class _CoacdCrash(Exception):
-    """The CoACD child process died (a signal, not a Python error)."""
-
-
-def _coacd_child(vertices: np.ndarray, faces: np.ndarray, options: dict, time_limit_s: float) -> list[np.ndarray]:
-    """One CoACD run in a child process (:mod:`rail_mj.mesh.coacd_child`): its hulls' vertices.
-
-    The child may use ``time_limit_s`` seconds of CPU (a limit that holds however loaded the machine is),
-    and :data:`_WALL_PER_CPU` times that plus :data:`_WALL_SLACK_S` of wall time, in case it stalls without
-    spending CPU (CoACD's threads on a loaded machine take longer on the wall than on the CPU).
-    """
-    payload = io.BytesIO()
-    np.savez(payload, vertices=vertices, faces=faces, options=json.dumps(options),
-             cpu_limit_s=max(1, math.ceil(time_limit_s)))
-    wall_s = _WALL_PER_CPU * time_limit_s + _WALL_SLACK_S
-
-    def late(what: str) -> DecompositionTimeout:
-        return DecompositionTimeout(
-            f"CoACD did not finish within {what} on this mesh ({len(faces):,} faces); a mesh of many loose "
-            "pieces or a triangle soup does this: repair or simplify it, or raise DecompositionConfig.time_limit_s"
-        )
-
-    try:
-        proc = subprocess.run([sys.executable, str(Path(__file__).with_name("coacd_child.py"))],
-                              input=payload.getvalue(), capture_output=True, check=False, timeout=wall_s)
-    except subprocess.TimeoutExpired:
-        raise late(f"{wall_s:g} s of wall time") from None
-    if proc.returncode == -signal.SIGXCPU:
-        raise late(f"{time_limit_s:g} s of CPU")
-    if proc.returncode < 0:
-        raise _CoacdCrash(f"killed by signal {-proc.returncode}")
-    if proc.returncode != 0:
-        why = proc.stderr.decode(errors="replace").strip().splitlines()
-        raise DecompositionError(f"CoACD failed ({why[-1] if why else f'exit status {proc.returncode}'})")
-    with np.load(io.BytesIO(proc.stdout)) as data:
-        return [np.asarray(data[f"arr_{i}"], dtype=np.float64) for i in range(len(data.files))]
-
-
 def _run_coacd(mesh: trimesh.Trimesh, config: DecompositionConfig) -> list[np.ndarray]:
     options = dict(
         threshold=config.threshold,
@@ -225,14 +179,14 @@ def _run_coacd(mesh: trimesh.Trimesh, config: DecompositionConfig) -> list[np.nd
     )
     vertices, faces = np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int32)
     try:
-        return _coacd_child(vertices, faces, options, config.time_limit_s)
-    except _CoacdCrash as crash:
+        return coacd_child(vertices, faces, options, config.time_limit_s)
+    except CoacdCrash as crash:
         if options["preprocess_mode"] == "on":
             raise DecompositionError(f"CoACD crashed on this mesh ({crash}); repair or simplify the mesh") from None
         # the crashes seen come from CoACD's cutting of the mesh as given; its own remeshing avoids them
         try:
-            return _coacd_child(vertices, faces, {**options, "preprocess_mode": "on"}, config.time_limit_s)
-        except _CoacdCrash as again:
+            return coacd_child(vertices, faces, {**options, "preprocess_mode": "on"}, config.time_limit_s)
+        except CoacdCrash as again:
             raise DecompositionError(f"CoACD crashed on this mesh ({crash}), and again with its own remeshing "
                                      f"({again}); repair or simplify the mesh") from None
 
