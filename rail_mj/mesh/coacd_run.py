@@ -95,9 +95,11 @@ def _close_idle() -> None:
 
 
 def _wait(fd: int, deadline: float, write: bool) -> None:
-    left = deadline - time.monotonic()
-    ready = select.select([], [fd], [], max(left, 0.0))[1] if write else select.select([fd], [], [], max(left, 0.0))[0]
-    if not ready:
+    """Until ``fd`` can be written (or read, or has closed); TimeoutError past ``deadline``. poll, not select: a
+    process with over 1,024 open files gives select descriptors it cannot take."""
+    poller = select.poll()
+    poller.register(fd, select.POLLOUT if write else select.POLLIN)
+    if not poller.poll(max(0.0, deadline - time.monotonic()) * 1000.0):
         raise TimeoutError
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import os
+import resource
 import signal
 from collections.abc import Iterator
 from typing import Any
@@ -132,3 +133,18 @@ def test_a_forked_copy_of_the_process_starts_servers_of_its_own(own_servers) -> 
     os.waitpid(pid, 0)
     assert said == b"ok"
     assert own_servers == [server] and server.poll() is None
+
+
+def test_a_caller_with_over_1024_open_files_is_served(own_servers) -> None:
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    if hard != resource.RLIM_INFINITY and hard < 1200:
+        pytest.skip(f"this machine allows {hard} open files")
+    resource.setrlimit(resource.RLIMIT_NOFILE, (max(soft, 1200), hard))
+    files = [os.open(os.devnull, os.O_RDONLY) for _ in range(1100)]  # the server's pipes get numbers past 1,024
+    try:
+        vertices, faces = arrays(small_cup())
+        assert len(coacd_run.coacd_child(vertices, faces, OPTIONS, 60.0)) > 1
+    finally:
+        for fd in files:
+            os.close(fd)
+        resource.setrlimit(resource.RLIMIT_NOFILE, (soft, hard))
