@@ -9,8 +9,8 @@ imports numpy and coacd only, not rail_mj.
 The parent sends requests on the server's stdin and reads answers on its stdout, each a frame (an 8-byte
 little-endian length, then that many bytes). A request is an ``.npz`` of the mesh, the options and a CPU-time
 limit, which the run's child sets on itself (RLIMIT_CPU). An answer is a JSON header line (the child's exit
-status, or the signal that killed it) followed by what the child wrote: the hulls as an ``.npz``, or a Python
-error's one line (exit status 1). The server ends when its stdin closes.
+status, or the signal that killed it, and its CPU seconds) followed by what the child wrote: the hulls as an
+``.npz``, or a Python error's one line (exit status 1). The server ends when its stdin closes.
 """
 
 from __future__ import annotations
@@ -84,9 +84,11 @@ def main() -> int:
         os.close(write_end)
         with os.fdopen(read_end, "rb") as answer:
             body = answer.read()  # to the end: the child has exited or closed it
-        _, wait_status = os.waitpid(pid, 0)
-        header = ({"signal": os.WTERMSIG(wait_status)} if os.WIFSIGNALED(wait_status)
-                  else {"exit": os.waitstatus_to_exitcode(wait_status)})
+        _, wait_status, usage = os.wait4(pid, 0)
+        header: dict[str, float] = ({"signal": os.WTERMSIG(wait_status)} if os.WIFSIGNALED(wait_status)
+                                    else {"exit": os.waitstatus_to_exitcode(wait_status)})
+        # the child is this server's to reap, so its CPU reaches the parent only in words
+        header["cpu_s"] = usage.ru_utime + usage.ru_stime
         write_frame(stdout, json.dumps(header).encode() + b"\n" + body)
     return 0
 

@@ -27,7 +27,7 @@ import numpy as np
 
 from rail_mj.core.errors import DecompositionError, DecompositionTimeout
 
-__all__ = ["CoacdCrash", "coacd_child"]
+__all__ = ["CoacdCrash", "coacd_child", "cpu_seconds"]
 
 _WALL_PER_CPU = 4.0
 _WALL_SLACK_S = 10.0
@@ -43,11 +43,22 @@ _idle: list[subprocess.Popen] = []
 _idle_lock = threading.Lock()
 
 
+#: CPU seconds of the runs this process's servers have answered for
+_spent = [0.0]
+
+
+def cpu_seconds() -> float:
+    """CPU seconds of every CoACD run this process has had answered. A run's child is its server's to reap, so its
+    CPU is not in this process's ``RUSAGE_CHILDREN`` until the server ends (at exit, or killed after a stall)."""
+    return _spent[0]
+
+
 def _forget_servers() -> None:
     """A forked copy of this process starts servers of its own: two processes writing to one server's stdin would
     interleave their frames."""
     global _idle_lock
     _idle.clear()
+    _spent[0] = 0.0  # like getrusage, a fork counts from nothing
     _idle_lock = threading.Lock()
 
 
@@ -162,10 +173,11 @@ def coacd_child(vertices: np.ndarray, faces: np.ndarray, options: dict, time_lim
         _discard(server)
         code = server.returncode
         raise CoacdCrash(f"killed by signal {-code}" if code < 0 else f"its server ended with exit status {code}")
-    with _idle_lock:
-        _idle.append(server)
     header, _, body = answer.partition(b"\n")
     status = json.loads(header)
+    with _idle_lock:
+        _idle.append(server)
+        _spent[0] += float(status.get("cpu_s", 0.0))
     if status.get("signal") == signal.SIGXCPU:
         raise late(f"{time_limit_s:g} s of CPU")
     if "signal" in status:

@@ -59,6 +59,14 @@ def test_a_run_gives_coacds_own_hulls_and_its_server_serves_the_next(own_servers
         np.testing.assert_array_equal(b, c)
 
 
+def test_the_runs_cpu_is_counted_though_their_server_reaps_them(own_servers) -> None:
+    vertices, faces = arrays(small_cup())
+    before = coacd_run.cpu_seconds()
+    coacd_run.coacd_child(vertices, faces, {**OPTIONS, "preprocess_mode": "on"}, 60.0)  # remeshing: ~1 s of CPU
+    assert coacd_run.cpu_seconds() - before > 0.1  # CoACD's own seconds, from the server's reaping
+    assert len(own_servers) == 1  # and the server lives on, so RUSAGE_CHILDREN has none of them yet
+
+
 def test_a_python_error_in_the_run_is_named_and_the_server_lives_on(own_servers) -> None:
     vertices, faces = arrays(small_cup())
     with pytest.raises(DecompositionError, match=r"CoACD failed \(TypeError: .*'no_such_option'"):
