@@ -124,6 +124,9 @@ def measure(item: Item) -> dict:
     from rail_mj.mesh import coacd_run, decomposition, hull_quality, load_object, mesh_notes, object_from_mesh
 
     seen: dict[str, float] = {"coacd_s": 0.0, "coacd_cpu_s": 0.0, "coacd_faces": 0}
+
+    def spent() -> float:  # this process's, its finished children's, and its CoACD runs' (the servers reap those)
+        return cpu_seconds() + coacd_run.cpu_seconds()
     run_coacd = decomposition._run_coacd
 
     def timed_coacd(mesh, config):
@@ -136,16 +139,16 @@ def measure(item: Item) -> dict:
             seen["coacd_faces"] = len(mesh.faces)
 
     decomposition._run_coacd = timed_coacd
-    t, cpu = time.perf_counter(), cpu_seconds() + coacd_run.cpu_seconds()
+    t, cpu = time.perf_counter(), spent()
     if item.path is None:
         raw = GENERATED[item.name][0]()
         faces_in = len(raw.faces)
         obj = object_from_mesh(raw, name=item.name)
     else:
         faces_in = len(trimesh.load(item.path, force="mesh", process=False).faces)
-        t, cpu = time.perf_counter(), cpu_seconds() + coacd_run.cpu_seconds()
+        t, cpu = time.perf_counter(), spent()
         obj = load_object(item.path, units=item.units, up=item.up, name=item.name)  # type: ignore[arg-type]
-    load_s, cpu_s = time.perf_counter() - t, cpu_seconds() + coacd_run.cpu_seconds() - cpu
+    load_s, cpu_s = time.perf_counter() - t, spent() - cpu
     decomposition._run_coacd = run_coacd
     t = time.perf_counter()
     quality = hull_quality(obj.mesh, obj.hulls)

@@ -44,21 +44,21 @@ _idle_lock = threading.Lock()
 
 
 #: CPU seconds of the runs this process's servers have answered for
-_spent = [0.0]
+_spent = 0.0
 
 
 def cpu_seconds() -> float:
     """CPU seconds of every CoACD run this process has had answered. A run's child is its server's to reap, so its
     CPU is not in this process's ``RUSAGE_CHILDREN`` until the server ends (at exit, or killed after a stall)."""
-    return _spent[0]
+    return _spent
 
 
 def _forget_servers() -> None:
     """A forked copy of this process starts servers of its own: two processes writing to one server's stdin would
     interleave their frames."""
-    global _idle_lock
+    global _idle_lock, _spent
     _idle.clear()
-    _spent[0] = 0.0  # like getrusage, a fork counts from nothing
+    _spent = 0.0  # like getrusage, a fork counts from nothing
     _idle_lock = threading.Lock()
 
 
@@ -149,6 +149,7 @@ def coacd_child(vertices: np.ndarray, faces: np.ndarray, options: dict, time_lim
     and :data:`_WALL_PER_CPU` times that plus :data:`_WALL_SLACK_S` of wall time, in case it stalls without
     spending CPU (CoACD's threads on a loaded machine take longer on the wall than on the CPU).
     """
+    global _spent
     payload = io.BytesIO()
     np.savez(payload, vertices=vertices, faces=faces, options=json.dumps(options),
              cpu_limit_s=max(1, math.ceil(time_limit_s)))
@@ -177,7 +178,7 @@ def coacd_child(vertices: np.ndarray, faces: np.ndarray, options: dict, time_lim
     status = json.loads(header)
     with _idle_lock:
         _idle.append(server)
-        _spent[0] += float(status.get("cpu_s", 0.0))
+        _spent += float(status.get("cpu_s", 0.0))
     if status.get("signal") == signal.SIGXCPU:
         raise late(f"{time_limit_s:g} s of CPU")
     if "signal" in status:
