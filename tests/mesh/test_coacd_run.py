@@ -13,6 +13,7 @@ import coacd
 import numpy as np
 import pytest
 import trimesh
+from meshes import small_cup  # tests/helpers
 
 import rail_mj.mesh.coacd_run as coacd_run
 from rail_mj.core.errors import ConfigError, DecompositionError, DecompositionTimeout
@@ -23,12 +24,6 @@ from rail_mj.mesh.decomposition import _run_coacd
 OPTIONS: dict[str, Any] = dict(threshold=0.05, max_convex_hull=8, preprocess_mode="off", preprocess_resolution=30,
                                resolution=500, mcts_nodes=10, mcts_iterations=10, mcts_max_depth=2, decimate=True,
                                max_ch_vertex=32, seed=0)
-
-
-def small_cup() -> trimesh.Trimesh:
-    """A watertight 6 cm x 8 cm cup (open top, 5 mm bottom), 96 faces."""
-    profile = np.array([[0, 0], [0.03, 0], [0.03, 0.08], [0.026, 0.08], [0.026, 0.005], [0, 0.005]])
-    return trimesh.creation.revolve(profile, sections=12)
 
 
 def arrays(mesh: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray]:

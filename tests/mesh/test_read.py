@@ -9,6 +9,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 import trimesh
+from meshes import small_cup  # tests/helpers
 
 import rail_mj.mesh.coacd_run as coacd_run
 import rail_mj.mesh.decomposition as mesh_decomposition
@@ -49,12 +50,6 @@ TINY = DecompositionConfig(
     mcts_iterations=8,
     mcts_max_depth=2,
 )
-
-
-def small_cup() -> trimesh.Trimesh:
-    """A watertight 6 cm x 8 cm cup (open top, 5 mm bottom), 96 faces."""
-    profile = np.array([[0, 0], [0.03, 0], [0.03, 0.08], [0.026, 0.08], [0.026, 0.005], [0, 0.005]])
-    return trimesh.creation.revolve(profile, sections=12)
 
 
 pytestmark = pytest.mark.usefixtures("shared_cache")
